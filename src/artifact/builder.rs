@@ -1,0 +1,190 @@
+//! Builds an artifact in a temporary folder beside its destination and moves it into
+//! place only when complete, so a crash never leaves a half-written artifact.
+
+use std::path::{Path, PathBuf};
+
+use super::manifest::{FileEntry, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest};
+use crate::error::{Error, Result};
+use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
+
+pub struct ArtifactBuilder {
+    destination: PathBuf,
+    staging: tempfile::TempDir,
+    files: Vec<(String, String)>,
+    started: std::time::Instant,
+}
+
+impl ArtifactBuilder {
+    pub fn new(destination: &Path) -> Result<Self> {
+        let parent = match destination.parent() {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => PathBuf::from("."),
+        };
+        if destination.file_name().is_none() {
+            return Err(Error::Usage(format!(
+                "{} cannot be an artifact folder",
+                destination.display()
+            )));
+        }
+        if destination.is_file() {
+            return Err(Error::Usage(format!(
+                "{} is a file, not an artifact folder",
+                destination.display()
+            )));
+        }
+        std::fs::create_dir_all(&parent)
+            .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
+        let staging = tempfile::Builder::new()
+            .prefix(".imitate-staging-")
+            .tempdir_in(&parent)
+            .map_err(|e| {
+                Error::io(
+                    format!("creating a staging folder in {}", parent.display()),
+                    e,
+                )
+            })?;
+        Ok(ArtifactBuilder {
+            destination: destination.to_path_buf(),
+            staging,
+            files: Vec::new(),
+            started: std::time::Instant::now(),
+        })
+    }
+
+    /// Where to write the file `relative` (with '/' separators), recorded with its role.
+    pub fn file(&mut self, relative: &str, role: &str) -> Result<PathBuf> {
+        let path = self.staging.path().join(relative);
+        if let Some(dir) = path.parent() {
+            std::fs::create_dir_all(dir)
+                .map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
+        }
+        self.files.push((relative.to_string(), role.to_string()));
+        Ok(path)
+    }
+
+    /// Writes the manifest and `run.json`, then moves the folder into place.
+    pub fn commit(
+        self,
+        kind: &str,
+        name: &str,
+        lineage: Lineage,
+        metrics: serde_json::Value,
+    ) -> Result<Manifest> {
+        let mut files = Vec::with_capacity(self.files.len());
+        for (relative, role) in &self.files {
+            let (digest, size) = file_digest(&self.staging.path().join(relative))?;
+            files.push(FileEntry {
+                path: relative.clone(),
+                role: role.clone(),
+                size,
+                digest,
+            });
+        }
+        files.sort_by(|a, b| a.path.cmp(&b.path));
+        let manifest = Manifest {
+            kind: kind.into(),
+            name: name.into(),
+            schema: format!("imitate.{kind}"),
+            schema_version: "1.0.0".into(),
+            digest: artifact_digest(&files),
+            files,
+            lineage,
+            metrics,
+        };
+        write_bytes_atomic(
+            &self.staging.path().join(MANIFEST),
+            &to_json_bytes(&manifest),
+        )?;
+        let run = serde_json::json!({
+            "finished_unix_s": std::time::SystemTime::now()
+                .duration_since(std::time::UNIX_EPOCH)
+                .map(|d| d.as_secs())
+                .unwrap_or(0),
+            "duration_s": self.started.elapsed().as_secs_f64(),
+            "threads": rayon::current_num_threads(),
+        });
+        write_bytes_atomic(&self.staging.path().join(RUN_INFO), &to_json_bytes(&run))?;
+        install(self.staging, &self.destination)?;
+        Ok(manifest)
+    }
+}
+
+/// Replaces `destination` with the staged folder: the old version is moved aside,
+/// the new one renamed in, then the old one removed.
+fn install(staging: tempfile::TempDir, destination: &Path) -> Result<()> {
+    let staged = staging.keep();
+    crate::io::fs::set_public_permissions(&staged, 0o755)?;
+    let parent = staged
+        .parent()
+        .expect("staging folders live in a parent")
+        .to_path_buf();
+    let rename = |from: &Path, to: &Path| {
+        std::fs::rename(from, to)
+            .map_err(|e| Error::io(format!("moving {} to {}", from.display(), to.display()), e))
+    };
+    let result = if destination.exists() {
+        let retired = tempfile::Builder::new()
+            .prefix(".imitate-retired-")
+            .tempdir_in(&parent)
+            .map_err(|e| Error::io(format!("creating a folder in {}", parent.display()), e))?
+            .keep();
+        rename(destination, &retired.join("old"))
+            .and_then(|_| rename(&staged, destination))
+            .map(|_| {
+                let _ = std::fs::remove_dir_all(&retired);
+            })
+    } else {
+        rename(&staged, destination)
+    };
+    if result.is_err() {
+        let _ = std::fs::remove_dir_all(&staged);
+    }
+    result
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lineage() -> Lineage {
+        Lineage::new("test", 1, serde_json::json!({"a": 1}), vec![])
+    }
+
+    #[test]
+    fn commits_replace_atomically_and_digests_are_stable() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("art");
+        let build = |content: &[u8]| {
+            let mut b = ArtifactBuilder::new(&dest).unwrap();
+            let p = b.file("sub/x.txt", "data").unwrap();
+            std::fs::write(p, content).unwrap();
+            b.commit("thing", "t", lineage(), serde_json::json!({}))
+                .unwrap()
+        };
+        let first = build(b"one");
+        let again = build(b"one");
+        assert_eq!(first.digest, again.digest);
+        let other = build(b"two");
+        assert_ne!(first.digest, other.digest);
+        assert_eq!(std::fs::read(dest.join("sub/x.txt")).unwrap(), b"two");
+        let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(leftovers, vec![std::ffi::OsString::from("art")]);
+        let read = super::super::read_manifest(&dest, "thing").unwrap();
+        assert_eq!(read, other);
+        assert!(super::super::read_manifest(&dest, "costmap").is_err());
+    }
+
+    #[test]
+    fn a_dropped_builder_leaves_nothing() {
+        let dir = tempfile::tempdir().unwrap();
+        let dest = dir.path().join("art");
+        {
+            let mut b = ArtifactBuilder::new(&dest).unwrap();
+            std::fs::write(b.file("x", "data").unwrap(), b"x").unwrap();
+        }
+        assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 0);
+    }
+}

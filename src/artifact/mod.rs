@@ -1,0 +1,13 @@
+//! Versioned artifacts: folders with a `manifest.json` that names every file with its
+//! role and digest, the artifact's own digest and its lineage. Volatile facts (time,
+//! duration, threads) go to `run.json`, which is neither listed nor hashed, so that
+//! identical inputs give a byte-identical artifact.
+
+mod builder;
+mod manifest;
+
+pub use builder::ArtifactBuilder;
+pub use manifest::{
+    FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, digest_input, read_manifest,
+    stage_key,
+};

@@ -1,0 +1,68 @@
+//! One error type for the library, sorted by who can fix the problem: the user
+//! (bad input or usage, exit code 2) or the run itself (exit code 1).
+
+use std::path::{Path, PathBuf};
+
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file the user gave is missing, unreadable or not what it should be.
+    #[error("{}: {message}", path.display())]
+    Input { path: PathBuf, message: String },
+    /// Parameters or command-line arguments that cannot work together.
+    #[error("{0}")]
+    Usage(String),
+    /// The run failed for a reason that is not the input's fault (disk full, ...).
+    #[error("{context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// A computation could not produce a result (e.g. no path between two cells).
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl Error {
+    pub fn input(path: impl AsRef<Path>, message: impl Into<String>) -> Self {
+        Error::Input {
+            path: path.as_ref().to_path_buf(),
+            message: message.into(),
+        }
+    }
+
+    pub fn io(context: impl Into<String>, source: std::io::Error) -> Self {
+        Error::Io {
+            context: context.into(),
+            source,
+        }
+    }
+
+    /// Exit code of the command line: 2 for what the user must fix, 1 otherwise.
+    pub fn exit_code(&self) -> i32 {
+        match self {
+            Error::Input { .. } | Error::Usage(_) => 2,
+            Error::Io { .. } | Error::Failed(_) => 1,
+        }
+    }
+}
+
+/// Reads a whole file, turning "not found" and friends into an input error naming the file.
+pub fn read_input(path: &Path) -> Result<Vec<u8>> {
+    std::fs::read(path).map_err(|e| Error::input(path, describe_io(&e)))
+}
+
+/// Opens a file for reading with an input error naming the file on failure.
+pub fn open_input(path: &Path) -> Result<std::fs::File> {
+    std::fs::File::open(path).map_err(|e| Error::input(path, describe_io(&e)))
+}
+
+fn describe_io(e: &std::io::Error) -> String {
+    match e.kind() {
+        std::io::ErrorKind::NotFound => "no such file or directory".to_string(),
+        std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
+        _ => e.to_string(),
+    }
+}

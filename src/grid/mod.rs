@@ -1,0 +1,236 @@
+//! Georeferenced rasters and paths on them. Depends on nothing else of ours.
+//!
+//! Conventions (the same as ROS `nav_msgs/OccupancyGrid`): cell (row 0, col 0) is the
+//! south-west corner of the map, columns grow with +x (east) and rows with +y (north);
+//! `origin` is the world position of that cell's outer corner, `resolution` the cell
+//! size in metres. Data are stored row by row.
+
+mod demo;
+mod map;
+mod path;
+
+pub use demo::{Demonstration, Pose};
+
+pub use map::{Layer, Map};
+pub use path::{CellPath, PathError, is_connected8, rasterize};
+
+use serde::{Deserialize, Serialize};
+
+/// Where a raster lies in the world.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GeoRef {
+    pub width: u32,
+    pub height: u32,
+    /// Cell size in metres.
+    pub resolution: f64,
+    /// World (x, y) of the outer corner of cell (0, 0).
+    pub origin: [f64; 2],
+    /// The coordinate frame the origin is given in (e.g. "map").
+    pub frame: String,
+}
+
+impl GeoRef {
+    pub fn cell_count(&self) -> usize {
+        self.width as usize * self.height as usize
+    }
+
+    pub fn contains(&self, cell: Cell) -> bool {
+        cell.row < self.height && cell.col < self.width
+    }
+
+    pub fn index(&self, cell: Cell) -> usize {
+        cell.row as usize * self.width as usize + cell.col as usize
+    }
+
+    pub fn cell_at(&self, index: usize) -> Cell {
+        let width = self.width as usize;
+        Cell::new((index / width) as u32, (index % width) as u32)
+    }
+
+    /// The cell containing world point (x, y), or `None` off the map.
+    pub fn cell_of(&self, x: f64, y: f64) -> Option<Cell> {
+        let col = ((x - self.origin[0]) / self.resolution).floor();
+        let row = ((y - self.origin[1]) / self.resolution).floor();
+        let inside =
+            col >= 0.0 && row >= 0.0 && col < f64::from(self.width) && row < f64::from(self.height);
+        inside.then(|| Cell::new(row as u32, col as u32))
+    }
+
+    /// World (x, y) of a cell's centre.
+    pub fn center_of(&self, cell: Cell) -> (f64, f64) {
+        (
+            self.origin[0] + (f64::from(cell.col) + 0.5) * self.resolution,
+            self.origin[1] + (f64::from(cell.row) + 0.5) * self.resolution,
+        )
+    }
+
+    /// The world rectangle the map covers: (min x, min y, max x, max y).
+    pub fn bounds(&self) -> [f64; 4] {
+        [
+            self.origin[0],
+            self.origin[1],
+            self.origin[0] + f64::from(self.width) * self.resolution,
+            self.origin[1] + f64::from(self.height) * self.resolution,
+        ]
+    }
+
+    /// Checks the numbers describe a usable raster.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.width == 0 || self.height == 0 {
+            return Err(format!("empty raster ({}x{})", self.width, self.height));
+        }
+        if !(self.resolution.is_finite() && self.resolution > 0.0) {
+            return Err(format!("resolution must be > 0, got {}", self.resolution));
+        }
+        if !self.origin.iter().all(|v| v.is_finite()) {
+            return Err(format!("origin must be finite, got {:?}", self.origin));
+        }
+        Ok(())
+    }
+}
+
+/// A cell of a raster, by row (north) and column (east).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+pub struct Cell {
+    pub row: u32,
+    pub col: u32,
+}
+
+impl Cell {
+    pub const fn new(row: u32, col: u32) -> Self {
+        Cell { row, col }
+    }
+
+    /// Chebyshev distance: the number of 8-neighbour steps between two cells.
+    pub fn chebyshev(self, other: Cell) -> u32 {
+        self.row
+            .abs_diff(other.row)
+            .max(self.col.abs_diff(other.col))
+    }
+
+    pub fn distance_squared(self, other: Cell) -> u64 {
+        let dr = u64::from(self.row.abs_diff(other.row));
+        let dc = u64::from(self.col.abs_diff(other.col));
+        dr * dr + dc * dc
+    }
+}
+
+impl std::fmt::Display for Cell {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "(row {}, col {})", self.row, self.col)
+    }
+}
+
+/// A raster of values with its georeference.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Grid<T> {
+    pub geo: GeoRef,
+    pub data: Vec<T>,
+}
+
+impl<T: Copy> Grid<T> {
+    pub fn filled(geo: GeoRef, value: T) -> Self {
+        let data = vec![value; geo.cell_count()];
+        Grid { geo, data }
+    }
+
+    /// Wraps `data` (row by row), which must hold exactly one value per cell.
+    pub fn from_vec(geo: GeoRef, data: Vec<T>) -> Self {
+        assert_eq!(
+            data.len(),
+            geo.cell_count(),
+            "grid data does not match its size"
+        );
+        Grid { geo, data }
+    }
+
+    pub fn width(&self) -> u32 {
+        self.geo.width
+    }
+
+    pub fn height(&self) -> u32 {
+        self.geo.height
+    }
+
+    pub fn get(&self, cell: Cell) -> T {
+        self.data[self.geo.index(cell)]
+    }
+
+    pub fn set(&mut self, cell: Cell, value: T) {
+        let i = self.geo.index(cell);
+        self.data[i] = value;
+    }
+}
+
+/// A dense per-cell feature stack: `dim` values per cell, cell after cell, so that
+/// evaluating a cost function touches one contiguous slice per cell.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeatureStack {
+    pub geo: GeoRef,
+    pub names: Vec<String>,
+    pub data: Vec<f32>,
+}
+
+impl FeatureStack {
+    pub fn dim(&self) -> usize {
+        self.names.len()
+    }
+
+    /// The feature vector of the cell with row-major index `index`.
+    pub fn at(&self, index: usize) -> &[f32] {
+        let d = self.dim();
+        &self.data[index * d..(index + 1) * d]
+    }
+
+    pub fn cell(&self, cell: Cell) -> &[f32] {
+        self.at(self.geo.index(cell))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn geo() -> GeoRef {
+        GeoRef {
+            width: 4,
+            height: 3,
+            resolution: 0.5,
+            origin: [10.0, -2.0],
+            frame: "map".into(),
+        }
+    }
+
+    #[test]
+    fn world_and_cell_coordinates_agree() {
+        let g = geo();
+        let c = Cell::new(2, 3);
+        let (x, y) = g.center_of(c);
+        assert_eq!((x, y), (11.75, -0.75));
+        assert_eq!(g.cell_of(x, y), Some(c));
+        assert_eq!(g.cell_of(10.0, -2.0), Some(Cell::new(0, 0)));
+        assert_eq!(g.cell_of(12.0, -2.0), None, "the east edge is outside");
+        assert_eq!(g.cell_of(9.99, -1.0), None);
+        assert_eq!(g.cell_of(f64::NAN, 0.0), None);
+    }
+
+    #[test]
+    fn index_round_trips() {
+        let g = geo();
+        for i in 0..g.cell_count() {
+            assert_eq!(g.index(g.cell_at(i)), i);
+        }
+    }
+
+    #[test]
+    fn validate_rejects_degenerate_rasters() {
+        let mut g = geo();
+        assert!(g.validate().is_ok());
+        g.resolution = 0.0;
+        assert!(g.validate().is_err());
+        g = geo();
+        g.width = 0;
+        assert!(g.validate().is_err());
+    }
+}

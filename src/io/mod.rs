@@ -1,0 +1,5 @@
+//! Reading and writing files: Parquet tables, PNG images, atomic writes.
+
+pub mod fs;
+pub mod png;
+pub mod tables;

@@ -1,0 +1,12 @@
+//! Inverse optimal control: learning cost functions under which demonstrations are optimal.
+
+mod learch;
+mod metrics;
+mod model;
+
+pub use learch::{
+    Example, LearchConfig, RoundMetrics, StepSchedule, TrainedLearch, evaluate as learch_evaluate,
+    train,
+};
+pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
+pub use model::{LogLinearCost, WeakLearner};

@@ -1,0 +1,110 @@
+//! `features`: a dataset's maps in, one feature stack per map out.
+
+use std::path::PathBuf;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::{Stage, StageReport, resolved};
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
+use crate::error::{Error, Result};
+use crate::features::{FeatureSpec, compute};
+use crate::io::tables::{read_map, write_features};
+
+pub const KIND: &str = "features";
+const VERSION: u32 = 1;
+
+fn default_bias() -> bool {
+    true
+}
+
+/// Parameters of `imitate features` and of `uses: features`.
+#[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FeaturesParams {
+    /// The dataset folder written by `ingest`.
+    #[arg(long, value_name = "DIR")]
+    pub dataset: PathBuf,
+    /// The features folder to write.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Layers to use, in order (repeat the flag); default: every layer of each map.
+    #[arg(long = "layer", value_name = "NAME")]
+    #[serde(default)]
+    pub layers: Option<Vec<String>>,
+    /// Leave out the constant bias feature.
+    #[arg(long = "no-bias", action = clap::ArgAction::SetFalse)]
+    #[serde(default = "default_bias")]
+    pub bias: bool,
+}
+
+impl Stage for FeaturesParams {
+    fn kind(&self) -> &'static str {
+        KIND
+    }
+
+    fn deps(&self) -> Vec<PathBuf> {
+        vec![self.dataset.clone()]
+    }
+
+    fn out(&self) -> PathBuf {
+        self.out.clone()
+    }
+
+    fn run(&self) -> Result<StageReport> {
+        let dataset = read_manifest(&self.dataset, "dataset")?;
+        let spec = FeatureSpec {
+            layers: self.layers.clone(),
+            bias: self.bias,
+        };
+        let map_files: Vec<PathBuf> = dataset
+            .files_with_role("map")
+            .map(|f| self.dataset.join(&f.path))
+            .collect();
+        let stacks = map_files
+            .par_iter()
+            .map(|path| {
+                let map = read_map(path)?;
+                let stack = compute(&map, &spec).map_err(|e| Error::input(path, e))?;
+                Ok((map.name, stack))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let mut out = ArtifactBuilder::new(&self.out)?;
+        let spec_json = serde_json::to_value(&spec).expect("the spec serialises");
+        for (name, stack) in &stacks {
+            write_features(
+                &out.file(&format!("features/{name}.parquet"), "features")?,
+                name,
+                stack,
+                &spec_json,
+            )?;
+        }
+        let names = stacks
+            .first()
+            .map(|(_, s)| s.names.clone())
+            .unwrap_or_default();
+        let metrics = serde_json::json!({ "maps": stacks.len(), "features": names });
+        let lineage = Lineage::new(
+            KIND,
+            VERSION,
+            resolved(self),
+            vec![digest_input(&self.dataset)?],
+        );
+        let name = self
+            .out
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let manifest = out.commit("features", &name, lineage, metrics)?;
+        Ok(StageReport {
+            output: self.out.clone(),
+            digest: manifest.digest,
+            summary: format!(
+                "{} maps x {} features ({})",
+                stacks.len(),
+                names.len(),
+                names.join(", ")
+            ),
+        })
+    }
+}

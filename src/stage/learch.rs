@@ -1,0 +1,394 @@
+//! `learch`: a dataset's demonstrations and their maps' features in, a costmap
+//! artifact out: the learned cost function, the evaluated costmap of every map,
+//! previews, and metrics on held-out demonstrations.
+
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+use rand::SeedableRng;
+use rand::seq::SliceRandom;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+use super::{Stage, StageReport, resolved};
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
+use crate::error::{Error, Result};
+use crate::grid::{FeatureStack, Grid};
+use crate::io::fs::{to_json_bytes, write_bytes_atomic};
+use crate::io::png::write_png;
+use crate::io::tables::{read_costmap, read_features, read_paths, write_costmap};
+use crate::ioc::{self, Example, ExampleEvaluation, LearchConfig, StepSchedule};
+use crate::report::{Preview, render_preview};
+
+pub const KIND: &str = "learch";
+const VERSION: u32 = 1;
+
+mod defaults {
+    pub fn rounds() -> usize {
+        30
+    }
+    pub fn step_size() -> f64 {
+        1.0
+    }
+    pub fn schedule() -> crate::ioc::StepSchedule {
+        crate::ioc::StepSchedule::InverseSqrt
+    }
+    pub fn ridge_lambda() -> f64 {
+        1e-3
+    }
+    pub fn loss() -> f64 {
+        0.1
+    }
+    pub fn holdout() -> f64 {
+        0.25
+    }
+    pub fn preview_scale() -> u32 {
+        4
+    }
+}
+
+/// Parameters of `imitate learch` and of `uses: learch`.
+#[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LearchParams {
+    /// The dataset folder written by `ingest`.
+    #[arg(long, value_name = "DIR")]
+    pub dataset: PathBuf,
+    /// The features folder written by `features`.
+    #[arg(long, value_name = "DIR")]
+    pub features: PathBuf,
+    /// The costmap artifact folder to write.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Boosting rounds T.
+    #[arg(long, default_value_t = defaults::rounds())]
+    #[serde(default = "defaults::rounds")]
+    pub rounds: usize,
+    /// Step size α (the first round's, under inverse-sqrt).
+    #[arg(long, default_value_t = defaults::step_size())]
+    #[serde(default = "defaults::step_size")]
+    pub step_size: f64,
+    #[arg(long, value_enum, default_value_t = defaults::schedule())]
+    #[serde(default = "defaults::schedule")]
+    pub schedule: StepSchedule,
+    /// Ridge penalty of the linear weak learner (standardised features).
+    #[arg(long, default_value_t = defaults::ridge_lambda())]
+    #[serde(default = "defaults::ridge_lambda")]
+    pub ridge_lambda: f64,
+    /// Hamming loss augmentation: cells off a demonstration are made this fraction
+    /// cheaper while training; 0 turns it off.
+    #[arg(long, default_value_t = defaults::loss())]
+    #[serde(default = "defaults::loss")]
+    pub loss: f64,
+    /// Fraction of demonstrations held out for validation.
+    #[arg(long, default_value_t = defaults::holdout())]
+    #[serde(default = "defaults::holdout")]
+    pub holdout: f64,
+    /// Seed of the hold-out split.
+    #[arg(long, default_value_t = 0)]
+    #[serde(default)]
+    pub seed: u64,
+    /// Reference costmaps (`costmap/1` tables, matched to maps by name) to score plans
+    /// against, e.g. a synthetic world's true costs. Evaluation only.
+    #[arg(long = "reference", value_name = "FILE")]
+    #[serde(default)]
+    pub references: Vec<PathBuf>,
+    /// Pixels per cell in the previews.
+    #[arg(long, default_value_t = defaults::preview_scale())]
+    #[serde(default = "defaults::preview_scale")]
+    pub preview_scale: u32,
+}
+
+impl LearchParams {
+    fn validate(&self) -> Result<()> {
+        let bad = |what: &str| Err(Error::Usage(format!("learch: {what}")));
+        if self.rounds == 0 {
+            return bad("rounds must be at least 1");
+        }
+        if !(self.step_size.is_finite() && self.step_size > 0.0) {
+            return bad("step_size must be a positive number");
+        }
+        if !(self.ridge_lambda.is_finite() && self.ridge_lambda >= 0.0) {
+            return bad("ridge_lambda must be >= 0");
+        }
+        if !(0.0..1.0).contains(&self.loss) {
+            return bad("loss must be in [0, 1)");
+        }
+        if !(0.0..1.0).contains(&self.holdout) {
+            return bad("holdout must be in [0, 1)");
+        }
+        if !(1..=64).contains(&self.preview_scale) {
+            return bad("preview_scale must be in 1..=64");
+        }
+        Ok(())
+    }
+}
+
+/// Splits examples into training and held-out sets with a seeded shuffle.
+fn split(examples: Vec<Example>, fraction: f64, seed: u64) -> (Vec<Example>, Vec<Example>) {
+    let n = examples.len();
+    let held = if n < 2 {
+        0
+    } else {
+        ((n as f64 * fraction).round() as usize).min(n - 1)
+    };
+    let mut order: Vec<usize> = (0..n).collect();
+    order.shuffle(&mut ChaCha8Rng::seed_from_u64(seed));
+    let holdout_set: std::collections::BTreeSet<usize> = order[..held].iter().copied().collect();
+    let (mut training, mut holdout) = (Vec::new(), Vec::new());
+    for (i, ex) in examples.into_iter().enumerate() {
+        if holdout_set.contains(&i) {
+            holdout.push(ex)
+        } else {
+            training.push(ex)
+        }
+    }
+    (training, holdout)
+}
+
+impl Stage for LearchParams {
+    fn kind(&self) -> &'static str {
+        KIND
+    }
+
+    fn deps(&self) -> Vec<PathBuf> {
+        let mut deps = vec![self.dataset.clone(), self.features.clone()];
+        deps.extend(self.references.iter().cloned());
+        deps
+    }
+
+    fn out(&self) -> PathBuf {
+        self.out.clone()
+    }
+
+    fn run(&self) -> Result<StageReport> {
+        self.validate()?;
+        let dataset = read_manifest(&self.dataset, "dataset")?;
+        let features = read_manifest(&self.features, "features")?;
+        let mut map_names = Vec::new();
+        let mut stacks: Vec<FeatureStack> = Vec::new();
+        for f in features.files_with_role("features") {
+            let (name, stack, _) = read_features(&self.features.join(&f.path))?;
+            map_names.push(name);
+            stacks.push(stack);
+        }
+        let references = self.load_references(&map_names, &stacks)?;
+        let paths_file = dataset
+            .files_with_role("paths")
+            .next()
+            .map(|f| self.dataset.join(&f.path))
+            .ok_or_else(|| Error::input(&self.dataset, "dataset lists no 'paths' file"))?;
+        let mut examples = Vec::new();
+        for p in read_paths(&paths_file)? {
+            let map = map_names.iter().position(|n| *n == p.map).ok_or_else(|| {
+                Error::input(
+                    &self.features,
+                    format!(
+                        "has no features for map '{}' of episode '{}'",
+                        p.map, p.episode
+                    ),
+                )
+            })?;
+            let geo = &stacks[map].geo;
+            if let Some(cell) = p.cells.iter().find(|c| !geo.contains(**c)) {
+                return Err(Error::input(
+                    &paths_file,
+                    format!(
+                        "episode '{}': cell {cell} is off map '{}'",
+                        p.episode, p.map
+                    ),
+                ));
+            }
+            examples.push(Example {
+                id: p.episode,
+                map,
+                path: p.cells,
+            });
+        }
+        if examples.is_empty() {
+            return Err(Error::input(
+                &paths_file,
+                "holds no demonstrations to learn from",
+            ));
+        }
+        let (training, holdout) = split(examples, self.holdout, self.seed);
+        let config = LearchConfig {
+            rounds: self.rounds,
+            step_size: self.step_size,
+            schedule: self.schedule,
+            ridge_lambda: self.ridge_lambda,
+            loss: self.loss,
+        };
+        let progress =
+            indicatif::ProgressBar::new(self.rounds as u64).with_message("learch rounds");
+        let trained = ioc::train(
+            &stacks,
+            &map_names,
+            &training,
+            &holdout,
+            references.as_deref(),
+            &config,
+            |m| {
+                tracing::debug!(round = m.round, loss = m.training_loss, "learch round");
+                progress.inc(1);
+            },
+        )
+        .map_err(Error::Failed)?;
+        progress.finish_and_clear();
+
+        let model = &trained.model;
+        let all: Vec<Example> = training.iter().chain(&holdout).cloned().collect();
+        let evaluations =
+            ioc::learch_evaluate(model, &stacks, &map_names, &all, references.as_deref())
+                .map_err(Error::Failed)?;
+        let (train_eval, holdout_eval) = evaluations.split_at(training.len());
+
+        let mut out = ArtifactBuilder::new(&self.out)?;
+        let model_json = serde_json::json!({ "kind": "learch", "feature_spec": features.metrics, "cost": model });
+        write_bytes_atomic(
+            &out.file("model.json", "model")?,
+            &to_json_bytes(&model_json),
+        )?;
+        for (m, stack) in stacks.iter().enumerate() {
+            let costs = model.costmap(stack);
+            let name = &map_names[m];
+            write_costmap(
+                &out.file(&format!("costmaps/{name}.parquet"), "costmap")?,
+                name,
+                &costs,
+            )?;
+            let on_map = |e: &&ExampleEvaluation| e.map == *name;
+            let preview = Preview {
+                costs: &costs,
+                demonstrations: all
+                    .iter()
+                    .filter(|e| e.map == m)
+                    .map(|e| e.path.as_slice())
+                    .collect(),
+                plans: evaluations
+                    .iter()
+                    .filter(on_map)
+                    .map(|e| e.planned.as_slice())
+                    .collect(),
+            };
+            let picture = render_preview(&preview, self.preview_scale);
+            write_png(
+                &out.file(&format!("previews/{name}.png"), "preview")?,
+                &picture,
+            )?;
+        }
+        let holdout_summary = ioc::summarize(holdout_eval);
+        let training_summary = ioc::summarize(train_eval);
+        let metrics = serde_json::json!({
+            "schema": "imitate.learch-metrics/1",
+            "rounds": trained.rounds,
+            "training": { "summary": training_summary, "examples": train_eval },
+            "holdout": { "summary": holdout_summary, "examples": holdout_eval },
+        });
+        write_bytes_atomic(
+            &out.file("metrics.json", "metrics")?,
+            &to_json_bytes(&metrics),
+        )?;
+        let final_loss = trained.rounds.last().map(|r| r.training_loss);
+        let summary_metrics = serde_json::json!({
+            "rounds": self.rounds,
+            "training_examples": training.len(),
+            "holdout_examples": holdout.len(),
+            "final_training_loss": final_loss,
+            "holdout": holdout_summary,
+        });
+        let inputs = self
+            .deps()
+            .iter()
+            .map(|p| digest_input(p))
+            .collect::<Result<Vec<_>>>()?;
+        let name = self
+            .out
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let manifest = out.commit(
+            "costmap",
+            &name,
+            Lineage::new(KIND, VERSION, resolved(self), inputs),
+            summary_metrics,
+        )?;
+        let mut summary = format!(
+            "{} rounds, {} training / {} held-out demonstrations; held-out: {:.1}% of planned cells within {} cells",
+            self.rounds,
+            training.len(),
+            holdout.len(),
+            100.0 * holdout_summary.within_radius,
+            ioc::AGREEMENT_RADIUS,
+        );
+        if let Some(ratio) = holdout_summary.mean_reference_cost_ratio {
+            summary.push_str(&format!(", reference cost ratio {ratio:.3}"));
+        }
+        Ok(StageReport {
+            output: self.out.clone(),
+            digest: manifest.digest,
+            summary,
+        })
+    }
+}
+
+impl LearchParams {
+    /// Loads the reference costmaps, one per map, or `None` when none were given.
+    fn load_references(
+        &self,
+        map_names: &[String],
+        stacks: &[FeatureStack],
+    ) -> Result<Option<Vec<Grid<f32>>>> {
+        if self.references.is_empty() {
+            return Ok(None);
+        }
+        let mut by_name = BTreeMap::new();
+        for path in &self.references {
+            let (name, grid) = read_costmap(path)?;
+            by_name.insert(name, (path, grid));
+        }
+        map_names
+            .iter()
+            .zip(stacks)
+            .map(|(name, stack)| {
+                let (path, grid) = by_name.remove(name).ok_or_else(|| {
+                    Error::Usage(format!(
+                        "learch: no reference costmap for map '{name}' among the references given"
+                    ))
+                })?;
+                if grid.geo != stack.geo {
+                    return Err(Error::input(
+                        path,
+                        format!("does not have the georeference of map '{name}'"),
+                    ));
+                }
+                Ok(grid)
+            })
+            .collect::<Result<Vec<_>>>()
+            .map(Some)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn split_is_seeded_and_keeps_a_training_set() {
+        let ex = |i: usize| Example {
+            id: format!("e{i}"),
+            map: 0,
+            path: vec![],
+        };
+        let (t1, h1) = split((0..10).map(ex).collect(), 0.3, 4);
+        let (t2, h2) = split((0..10).map(ex).collect(), 0.3, 4);
+        assert_eq!((t1.len(), h1.len()), (7, 3));
+        assert_eq!(
+            h1.iter().map(|e| &e.id).collect::<Vec<_>>(),
+            h2.iter().map(|e| &e.id).collect::<Vec<_>>()
+        );
+        assert_eq!(t1.len(), t2.len());
+        let (t, h) = split((0..1).map(ex).collect(), 0.9, 0);
+        assert_eq!((t.len(), h.len()), (1, 0));
+    }
+}

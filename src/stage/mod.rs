@@ -1,0 +1,75 @@
+//! Stages: pure functions from typed on-disk inputs and parameters to typed on-disk
+//! outputs. Each is reachable as a CLI subcommand and as a `uses:` entry of a pipeline,
+//! with the same parameter struct. The runner knows stages only through `Stage` and
+//! `build`; stages never know the runner.
+
+pub mod features;
+pub mod ingest;
+pub mod learch;
+
+use std::path::PathBuf;
+
+use serde::Serialize;
+use serde::de::DeserializeOwned;
+
+use crate::error::{Error, Result};
+
+/// What a finished stage tells its caller.
+#[derive(Debug, Clone, Serialize)]
+pub struct StageReport {
+    pub output: PathBuf,
+    pub digest: String,
+    /// One line for people: what was made.
+    pub summary: String,
+}
+
+pub trait Stage {
+    fn kind(&self) -> &'static str;
+    /// Files and artifact folders the stage reads.
+    fn deps(&self) -> Vec<PathBuf>;
+    /// The artifact folder the stage writes.
+    fn out(&self) -> PathBuf;
+    fn run(&self) -> Result<StageReport>;
+}
+
+type Constructor = fn(serde_json::Value) -> Result<Box<dyn Stage>>;
+
+/// Every stage kind a pipeline can `use`.
+const REGISTRY: &[(&str, Constructor)] = &[
+    (ingest::KIND, |p| {
+        Ok(Box::new(parse::<ingest::IngestParams>(ingest::KIND, p)?))
+    }),
+    (features::KIND, |p| {
+        Ok(Box::new(parse::<features::FeaturesParams>(
+            features::KIND,
+            p,
+        )?))
+    }),
+    (learch::KIND, |p| {
+        Ok(Box::new(parse::<learch::LearchParams>(learch::KIND, p)?))
+    }),
+];
+
+pub fn kinds() -> impl Iterator<Item = &'static str> {
+    REGISTRY.iter().map(|(kind, _)| *kind)
+}
+
+/// Makes a stage of `kind` from its `with:` parameters.
+pub fn build(kind: &str, params: serde_json::Value) -> Result<Box<dyn Stage>> {
+    let (_, constructor) = REGISTRY.iter().find(|(k, _)| *k == kind).ok_or_else(|| {
+        Error::Usage(format!(
+            "unknown stage kind '{kind}' (known: {})",
+            kinds().collect::<Vec<_>>().join(", ")
+        ))
+    })?;
+    constructor(params)
+}
+
+fn parse<T: DeserializeOwned>(kind: &str, params: serde_json::Value) -> Result<T> {
+    serde_json::from_value(params).map_err(|e| Error::Usage(format!("'{kind}' parameters: {e}")))
+}
+
+/// Resolved parameters as recorded in lineage.
+fn resolved<T: Serialize>(params: &T) -> serde_json::Value {
+    serde_json::to_value(params).expect("parameters serialise")
+}
