@@ -102,8 +102,7 @@ pub fn train(
             names, bad.names
         ));
     }
-    let (center, scale) = standardization(stacks);
-    let mut model = LogLinearCost::zero(names, center, scale);
+    let mut model = LogLinearCost::zero(names, feature_scales(stacks));
     let mut rounds = Vec::with_capacity(config.rounds);
     for t in 0..config.rounds {
         let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
@@ -135,6 +134,7 @@ pub fn train(
             disagreeing_cells: gradients.iter().map(|g| g.disagreeing_cells).sum(),
             holdout: holdout_agreement,
         };
+        tracing::debug!(round = t + 1, weights = ?model.raw_weights, "learch model");
         on_round(&metrics);
         rounds.push(metrics);
     }
@@ -215,7 +215,7 @@ fn example_gradient(
             continue;
         }
         disagreeing_cells += 1;
-        model.standardize(stack.at(i), &mut x);
+        model.scaled(stack.at(i), &mut x);
         data.add(
             &x,
             difference.signum() as f64,
@@ -229,9 +229,10 @@ fn example_gradient(
     })
 }
 
-/// Per-feature mean and standard deviation over all cells of all maps; constant
-/// features (such as the bias) are left as they are.
-fn standardization(stacks: &[FeatureStack]) -> (Vec<f64>, Vec<f64>) {
+/// Per-feature standard deviation over all cells of all maps, so that the ridge
+/// penalty treats features in metres and in [0, 1] alike; constant features (such as
+/// the bias) keep scale 1.
+fn feature_scales(stacks: &[FeatureStack]) -> Vec<f64> {
     let dim = stacks[0].dim();
     let mut sum = vec![0.0f64; dim];
     let mut sum_sq = vec![0.0f64; dim];
@@ -247,15 +248,158 @@ fn standardization(stacks: &[FeatureStack]) -> (Vec<f64>, Vec<f64>) {
         count += stack.geo.cell_count();
     }
     let n = count.max(1) as f64;
-    let mut center = vec![0.0; dim];
-    let mut scale = vec![1.0; dim];
-    for j in 0..dim {
-        let mean = sum[j] / n;
-        let var = (sum_sq[j] / n - mean * mean).max(0.0);
-        if var.sqrt() > 1e-9 * mean.abs().max(1.0) {
-            center[j] = mean;
-            scale[j] = var.sqrt();
+    (0..dim)
+        .map(|j| {
+            let mean = sum[j] / n;
+            let sd = (sum_sq[j] / n - mean * mean).max(0.0).sqrt();
+            if sd > 1e-9 * mean.abs().max(1.0) {
+                sd
+            } else {
+                1.0
+            }
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::{FeatureSpec, compute};
+    use crate::grid::rasterize;
+    use crate::sim::{WorldConfig, generate_world};
+
+    /// A small synthetic world: (stacks, map names, examples, true costs).
+    fn small_world() -> (Vec<FeatureStack>, Vec<String>, Vec<Example>, Vec<Grid<f32>>) {
+        let config = WorldConfig {
+            seed: 11,
+            maps: 4,
+            width: 48,
+            height: 48,
+            demonstrations_per_map: 12,
+            ..WorldConfig::default()
+        };
+        let world = generate_world(&config).unwrap();
+        let spec = FeatureSpec {
+            layers: None,
+            bias: true,
+        };
+        let stacks: Vec<FeatureStack> = world
+            .maps
+            .iter()
+            .map(|m| compute(m, &spec).unwrap())
+            .collect();
+        let names: Vec<String> = world.maps.iter().map(|m| m.name.clone()).collect();
+        let examples = world
+            .demonstrations
+            .iter()
+            .map(|d| {
+                let map = names.iter().position(|n| *n == d.map).unwrap();
+                let path = rasterize(&world.maps[map].geo, &d.xy()).unwrap();
+                Example {
+                    id: d.episode.clone(),
+                    map,
+                    path,
+                }
+            })
+            .collect();
+        (stacks, names, examples, world.truth)
+    }
+
+    fn config() -> LearchConfig {
+        LearchConfig {
+            rounds: 40,
+            step_size: 1.0,
+            schedule: StepSchedule::InverseSqrt,
+            ridge_lambda: 1e-3,
+            loss: 0.3,
         }
     }
-    (center, scale)
+
+    #[test]
+    fn learns_costs_whose_plans_match_held_out_demonstrations() {
+        let (stacks, names, examples, truth) = small_world();
+        // Every fourth demonstration is held out.
+        let (mut training, mut holdout) = (Vec::new(), Vec::new());
+        for (i, example) in examples.into_iter().enumerate() {
+            if i % 4 == 0 {
+                holdout.push(example)
+            } else {
+                training.push(example)
+            }
+        }
+        let trained = train(
+            &stacks,
+            &names,
+            &training,
+            &holdout,
+            Some(&truth),
+            &config(),
+            |_| {},
+        )
+        .unwrap();
+        let first = trained.rounds.first().unwrap();
+        let last = trained.rounds.last().unwrap();
+        assert!(
+            last.training_loss < first.training_loss,
+            "{first:?} -> {last:?}"
+        );
+        let agreement = last.holdout.clone().unwrap();
+        assert_eq!(agreement.examples, holdout.len());
+        assert!(agreement.within_radius >= 0.9, "{agreement:?}");
+        assert!(
+            agreement.mean_reference_cost_ratio.unwrap() <= 1.05,
+            "{agreement:?}"
+        );
+        // Water is costly and roads are cheap in the true cost; the learned one agrees.
+        let weight = |name: &str| {
+            let j = trained
+                .model
+                .feature_names
+                .iter()
+                .position(|n| n == name)
+                .unwrap();
+            trained.model.raw_weights[j]
+        };
+        assert!(weight("water") > 0.0 && weight("road") < 0.0 && weight("vegetation") > 0.0);
+    }
+
+    #[test]
+    fn the_model_does_not_depend_on_the_thread_count() {
+        let (stacks, names, examples, _) = small_world();
+        let config = LearchConfig {
+            rounds: 5,
+            ..config()
+        };
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| {
+                train(&stacks, &names, &examples, &[], None, &config, |_| {})
+                    .unwrap()
+                    .model
+            })
+        };
+        assert_eq!(run(1), run(2));
+        assert_eq!(run(2), run(3));
+    }
+
+    #[test]
+    fn unreachable_goals_are_reported() {
+        let (mut stacks, names, examples, _) = small_world();
+        let example = examples[0].clone();
+        // Wall off the goal: non-finite features make every neighbour's cost infinite.
+        let goal = *example.path.last().unwrap();
+        let geo = stacks[example.map].geo.clone();
+        for i in 0..geo.cell_count() {
+            let cell = geo.cell_at(i);
+            if cell.chebyshev(goal) == 1 {
+                let dim = stacks[example.map].dim();
+                stacks[example.map].data[i * dim..(i + 1) * dim].fill(f32::INFINITY);
+            }
+        }
+        let err = train(&stacks, &names, &[example], &[], None, &config(), |_| {}).unwrap_err();
+        assert!(err.contains("no path"), "{err}");
+    }
 }

@@ -15,58 +15,54 @@ pub struct WeakLearner {
     pub weights: Vec<f64>,
 }
 
-/// s(f) = Σ_t α_t h_t((f − center) / scale), kept both as the list of learners (what
-/// LEARCH produced) and collapsed into one affine function of the raw features (what is
-/// evaluated).
+/// s(f) = Σ_t α_t h_t(f / scale), kept both as the list of learners (what LEARCH
+/// produced) and collapsed into one function of the raw features (what is evaluated).
+///
+/// Features are scaled but not centred: a round whose data hold a feature at zero then
+/// leaves that feature's weight alone, where centring would make it collinear with the
+/// bias and let the ridge penalty move it at random.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LogLinearCost {
     pub feature_names: Vec<String>,
-    pub center: Vec<f64>,
     pub scale: Vec<f64>,
     pub learners: Vec<WeakLearner>,
-    /// s(f) = offset + Σ_j raw_weights[j] · f_j
+    /// s(f) = Σ_j raw_weights[j] · f_j
     pub raw_weights: Vec<f64>,
-    pub offset: f64,
 }
 
 impl LogLinearCost {
-    /// The zero log-cost (cost 1 everywhere) over standardised features.
-    pub fn zero(feature_names: Vec<String>, center: Vec<f64>, scale: Vec<f64>) -> Self {
+    /// The zero log-cost (cost 1 everywhere) over scaled features.
+    pub fn zero(feature_names: Vec<String>, scale: Vec<f64>) -> Self {
         let dim = feature_names.len();
         LogLinearCost {
             feature_names,
-            center,
             scale,
             learners: Vec::new(),
             raw_weights: vec![0.0; dim],
-            offset: 0.0,
         }
     }
 
-    /// Appends α h (h's weights on standardised features) and refolds the raw form.
+    /// Appends α h (h's weights on scaled features) and refolds the raw form.
     pub fn push(&mut self, learner: WeakLearner) {
         for j in 0..self.raw_weights.len() {
-            let w = learner.step * learner.weights[j] / self.scale[j];
-            self.raw_weights[j] += w;
-            self.offset -= w * self.center[j];
+            self.raw_weights[j] += learner.step * learner.weights[j] / self.scale[j];
         }
         self.learners.push(learner);
     }
 
-    /// Standardises a raw feature vector the way the weak learners see it.
-    pub fn standardize(&self, raw: &[f32], out: &mut [f64]) {
+    /// Scales a raw feature vector the way the weak learners see it.
+    pub fn scaled(&self, raw: &[f32], out: &mut [f64]) {
         for j in 0..raw.len() {
-            out[j] = (f64::from(raw[j]) - self.center[j]) / self.scale[j];
+            out[j] = f64::from(raw[j]) / self.scale[j];
         }
     }
 
     pub fn log_cost(&self, raw: &[f32]) -> f64 {
-        let s: f64 = self.offset
-            + raw
-                .iter()
-                .zip(&self.raw_weights)
-                .map(|(&f, &w)| f64::from(f) * w)
-                .sum::<f64>();
+        let s: f64 = raw
+            .iter()
+            .zip(&self.raw_weights)
+            .map(|(&f, &w)| f64::from(f) * w)
+            .sum::<f64>();
         s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT)
     }
 
@@ -85,11 +81,7 @@ mod tests {
 
     #[test]
     fn collapsed_form_equals_sum_of_learners() {
-        let mut model = LogLinearCost::zero(
-            vec!["a".into(), "b".into()],
-            vec![1.0, -2.0],
-            vec![2.0, 0.5],
-        );
+        let mut model = LogLinearCost::zero(vec!["a".into(), "b".into()], vec![2.0, 0.5]);
         model.push(WeakLearner {
             kind: "ridge".into(),
             step: 0.5,
@@ -102,7 +94,7 @@ mod tests {
         });
         let raw = [3.0f32, 1.0];
         let mut z = [0.0; 2];
-        model.standardize(&raw, &mut z);
+        model.scaled(&raw, &mut z);
         let by_learners: f64 = model
             .learners
             .iter()

@@ -83,7 +83,7 @@ pub fn solve_spd(a: &[f64], b: &[f64], dim: usize) -> Option<Vec<f64>> {
                 sum -= l[i * dim + k] * l[j * dim + k];
             }
             if i == j {
-                if !(sum > 0.0) {
+                if sum.is_nan() || sum <= 0.0 {
                     return None;
                 }
                 l[i * dim + i] = sum.sqrt();

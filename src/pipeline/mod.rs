@@ -15,8 +15,8 @@ use crate::stage::{self, StageReport};
 pub fn load(path: &Path) -> Result<PipelineSpec> {
     let bytes = read_input(path)?;
     let text = String::from_utf8(bytes).map_err(|_| Error::input(path, "is not UTF-8 text"))?;
-    let spec: PipelineSpec =
-        serde_saphyr::from_str(&text).map_err(|e| Error::input(path, e.to_string()))?;
+    let spec: PipelineSpec = serde_saphyr::from_str(&text)
+        .map_err(|e| Error::input(path, e.to_string().trim_start_matches("error: ")))?;
     if spec.schema != 1 {
         return Err(Error::input(
             path,

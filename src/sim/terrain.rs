@@ -27,11 +27,11 @@ impl Default for WorldConfig {
     fn default() -> Self {
         WorldConfig {
             seed: 7,
-            maps: 3,
+            maps: 4,
             width: 64,
             height: 64,
             resolution: 1.0,
-            demonstrations_per_map: 10,
+            demonstrations_per_map: 16,
             pose_every: 1,
         }
     }
@@ -49,7 +49,7 @@ impl Default for TrueCost {
         TrueCost {
             offset: 0.0,
             weights: vec![
-                ("elevation".into(), 0.04),
+                ("elevation".into(), 0.02),
                 ("vegetation".into(), 2.0),
                 ("water".into(), 3.5),
                 ("road".into(), -1.2),

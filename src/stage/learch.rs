@@ -25,7 +25,7 @@ const VERSION: u32 = 1;
 
 mod defaults {
     pub fn rounds() -> usize {
-        30
+        40
     }
     pub fn step_size() -> f64 {
         1.0
@@ -37,7 +37,7 @@ mod defaults {
         1e-3
     }
     pub fn loss() -> f64 {
-        0.1
+        0.3
     }
     pub fn holdout() -> f64 {
         0.25
@@ -167,10 +167,15 @@ impl Stage for LearchParams {
         let features = read_manifest(&self.features, "features")?;
         let mut map_names = Vec::new();
         let mut stacks: Vec<FeatureStack> = Vec::new();
+        let mut feature_spec = serde_json::Value::Null;
         for f in features.files_with_role("features") {
-            let (name, stack, _) = read_features(&self.features.join(&f.path))?;
+            let (name, stack, spec) = read_features(&self.features.join(&f.path))?;
             map_names.push(name);
             stacks.push(stack);
+            feature_spec = spec;
+        }
+        if stacks.is_empty() {
+            return Err(Error::input(&self.features, "lists no feature stacks"));
         }
         let references = self.load_references(&map_names, &stacks)?;
         let paths_file = dataset
@@ -244,7 +249,7 @@ impl Stage for LearchParams {
         let (train_eval, holdout_eval) = evaluations.split_at(training.len());
 
         let mut out = ArtifactBuilder::new(&self.out)?;
-        let model_json = serde_json::json!({ "kind": "learch", "feature_spec": features.metrics, "cost": model });
+        let model_json = serde_json::json!({ "kind": "learch", "feature_spec": feature_spec, "feature_names": model.feature_names, "cost": model });
         write_bytes_atomic(
             &out.file("model.json", "model")?,
             &to_json_bytes(&model_json),

@@ -1,0 +1,71 @@
+//! Helpers for the CLI tests: run the real binary as a user would.
+
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Runs `imitate ARGS` in `dir` with extra environment variables.
+pub fn imitate_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
+    let mut command = Command::new(env!("CARGO_BIN_EXE_imitate"));
+    command.current_dir(dir).args(args).env_remove("RUST_LOG");
+    for (k, v) in env {
+        command.env(k, v);
+    }
+    command.output().expect("the imitate binary runs")
+}
+
+pub fn imitate(dir: &Path, args: &[&str]) -> Output {
+    imitate_env(dir, args, &[])
+}
+
+pub fn stdout(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stdout).into_owned()
+}
+
+pub fn stderr(output: &Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Asserts a run ended as a user error: exit code 2, a message naming `needles`, no panic.
+pub fn assert_input_error(output: &Output, needles: &[&str]) {
+    let err = stderr(output);
+    assert_eq!(output.status.code(), Some(2), "stderr: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for needle in needles {
+        assert!(err.contains(needle), "expected {needle:?} in: {err}");
+    }
+}
+
+pub fn copy_dir(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_dir(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), target).unwrap();
+        }
+    }
+}
+
+/// A fresh workspace holding the quickstart pipeline and its test data.
+pub fn quickstart_workspace() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(
+        &repo().join("testdata/world"),
+        &dir.path().join("testdata/world"),
+    );
+    std::fs::create_dir_all(dir.path().join("pipelines")).unwrap();
+    std::fs::copy(
+        repo().join("pipelines/quickstart.yaml"),
+        dir.path().join("pipelines/quickstart.yaml"),
+    )
+    .unwrap();
+    dir
+}
