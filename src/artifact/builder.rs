@@ -62,14 +62,19 @@ impl ArtifactBuilder {
         Ok(path)
     }
 
-    /// Writes the manifest and `run.json`, then moves the folder into place.
+    /// Writes the manifest and `run.json`, then moves the folder into place. The
+    /// artifact is named after its folder.
     pub fn commit(
         self,
         kind: &str,
-        name: &str,
         lineage: Lineage,
         metrics: serde_json::Value,
     ) -> Result<Manifest> {
+        let name = self
+            .destination
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
         let mut files = Vec::with_capacity(self.files.len());
         for (relative, role) in &self.files {
             let (digest, size) = file_digest(&self.staging.path().join(relative))?;
@@ -83,7 +88,7 @@ impl ArtifactBuilder {
         files.sort_by(|a, b| a.path.cmp(&b.path));
         let manifest = Manifest {
             kind: kind.into(),
-            name: name.into(),
+            name,
             schema: format!("imitate.{kind}"),
             schema_version: "1.0.0".into(),
             digest: artifact_digest(&files),
@@ -158,8 +163,7 @@ mod tests {
             let mut b = ArtifactBuilder::new(&dest).unwrap();
             let p = b.file("sub/x.txt", "data").unwrap();
             std::fs::write(p, content).unwrap();
-            b.commit("thing", "t", lineage(), serde_json::json!({}))
-                .unwrap()
+            b.commit("thing", lineage(), serde_json::json!({})).unwrap()
         };
         let first = build(b"one");
         let again = build(b"one");

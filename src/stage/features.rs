@@ -5,8 +5,8 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, resolved};
-use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
+use super::{Stage, StageReport, commit_artifact};
+use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result};
 use crate::features::{FeatureSpec, compute};
 use crate::io::tables::{read_map, write_features};
@@ -84,27 +84,12 @@ impl Stage for FeaturesParams {
             .map(|(_, s)| s.names.clone())
             .unwrap_or_default();
         let metrics = serde_json::json!({ "maps": stacks.len(), "features": names });
-        let lineage = Lineage::new(
-            KIND,
-            VERSION,
-            resolved(self),
-            vec![digest_input(&self.dataset)?],
+        let summary = format!(
+            "{} maps x {} features ({})",
+            stacks.len(),
+            names.len(),
+            names.join(", ")
         );
-        let name = self
-            .out
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let manifest = out.commit("features", &name, lineage, metrics)?;
-        Ok(StageReport {
-            output: self.out.clone(),
-            digest: manifest.digest,
-            summary: format!(
-                "{} maps x {} features ({})",
-                stacks.len(),
-                names.len(),
-                names.join(", ")
-            ),
-        })
+        commit_artifact(self, VERSION, out, "features", metrics, summary)
     }
 }

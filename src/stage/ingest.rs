@@ -6,8 +6,8 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, resolved};
-use crate::artifact::{ArtifactBuilder, Lineage, digest_input};
+use super::{Stage, StageReport, commit_artifact};
+use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result};
 use crate::grid::{PathError, rasterize};
 use crate::io::tables::{
@@ -110,31 +110,12 @@ impl Stage for IngestParams {
             &demos,
         )?;
         write_paths(&out.file("paths.parquet", "paths")?, &paths)?;
-        let inputs = self
-            .deps()
-            .iter()
-            .map(|p| digest_input(p))
-            .collect::<Result<Vec<_>>>()?;
         let metrics = serde_json::json!({
             "maps": maps.len(),
             "demonstrations": demos.len(),
             "path_cells": paths.iter().map(|p| p.cells.len()).sum::<usize>(),
         });
-        let name = self
-            .out
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let manifest = out.commit(
-            "dataset",
-            &name,
-            Lineage::new(KIND, VERSION, resolved(self), inputs),
-            metrics,
-        )?;
-        Ok(StageReport {
-            output: self.out.clone(),
-            digest: manifest.digest,
-            summary: format!("{} maps, {} demonstrations", maps.len(), demos.len()),
-        })
+        let summary = format!("{} maps, {} demonstrations", maps.len(), demos.len());
+        commit_artifact(self, VERSION, out, "dataset", metrics, summary)
     }
 }

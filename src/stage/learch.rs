@@ -10,8 +10,8 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, resolved};
-use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
+use super::{Stage, StageReport, commit_artifact};
+use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result};
 use crate::grid::{FeatureStack, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
@@ -302,22 +302,6 @@ impl Stage for LearchParams {
             "final_training_loss": final_loss,
             "holdout": holdout_summary,
         });
-        let inputs = self
-            .deps()
-            .iter()
-            .map(|p| digest_input(p))
-            .collect::<Result<Vec<_>>>()?;
-        let name = self
-            .out
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        let manifest = out.commit(
-            "costmap",
-            &name,
-            Lineage::new(KIND, VERSION, resolved(self), inputs),
-            summary_metrics,
-        )?;
         let mut summary = format!(
             "{} rounds, {} training / {} held-out demonstrations; held-out: {:.1}% of planned cells within {} cells",
             self.rounds,
@@ -329,11 +313,7 @@ impl Stage for LearchParams {
         if let Some(ratio) = holdout_summary.mean_reference_cost_ratio {
             summary.push_str(&format!(", reference cost ratio {ratio:.3}"));
         }
-        Ok(StageReport {
-            output: self.out.clone(),
-            digest: manifest.digest,
-            summary,
-        })
+        commit_artifact(self, VERSION, out, "costmap", summary_metrics, summary)
     }
 }
 

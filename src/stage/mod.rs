@@ -12,6 +12,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input};
 use crate::error::{Error, Result};
 
 /// What a finished stage tells its caller.
@@ -72,4 +73,27 @@ fn parse<T: DeserializeOwned>(kind: &str, params: serde_json::Value) -> Result<T
 /// Resolved parameters as recorded in lineage.
 fn resolved<T: Serialize>(params: &T) -> serde_json::Value {
     serde_json::to_value(params).expect("parameters serialise")
+}
+
+/// Digests the stage's inputs, commits its artifact with lineage, and reports it.
+fn commit_artifact(
+    stage: &(impl Stage + Serialize),
+    version: u32,
+    out: ArtifactBuilder,
+    kind: &str,
+    metrics: serde_json::Value,
+    summary: String,
+) -> Result<StageReport> {
+    let inputs = stage
+        .deps()
+        .iter()
+        .map(|p| digest_input(p))
+        .collect::<Result<Vec<_>>>()?;
+    let lineage = Lineage::new(stage.kind(), version, resolved(stage), inputs);
+    let manifest = out.commit(kind, lineage, metrics)?;
+    Ok(StageReport {
+        output: stage.out(),
+        digest: manifest.digest,
+        summary,
+    })
 }
