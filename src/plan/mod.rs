@@ -1,5 +1,14 @@
 //! Planners on in-memory costmaps. They never touch files.
+//!
+//! Grid planning uses per-cell costs: the cost of a step between neighbouring cells is
+//! the step length (1 or √2 cells) times the mean of the two cells' costs, the usual
+//! discretisation of a line integral of cost. Cells whose cost is not a finite positive
+//! number are blocked.
 
-mod dijkstra;
+mod grid;
+mod queue;
 
-pub use dijkstra::{Route, edge_cost, path_cost, shortest_path};
+pub use grid::{
+    CostField, Connectivity, Moves, Route, astar, cost_to_go, dijkstra, edge_cost, path_cost,
+    shortest_path, visitation,
+};
