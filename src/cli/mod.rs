@@ -1,5 +1,6 @@
 //! The command line: one file per subcommand; `main.rs` only calls `run`.
 
+mod bench;
 mod testdata;
 
 use std::path::PathBuf;
@@ -42,6 +43,9 @@ pub enum Command {
     /// Generate synthetic test data.
     #[command(subcommand)]
     Testdata(testdata::TestdataCommand),
+    /// Measure the core algorithms.
+    #[command(subcommand)]
+    Bench(bench::BenchCommand),
 }
 
 /// Runs the parsed command; the caller maps the error to an exit code.
@@ -64,6 +68,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Features(params) => run_stage(&params),
         Command::Learch(params) => run_stage(&params),
         Command::Testdata(command) => testdata::run(command),
+        Command::Bench(command) => bench::run(command),
     }
 }
 

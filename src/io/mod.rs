@@ -1,5 +1,6 @@
 //! Reading and writing files: Parquet tables, PNG images, atomic writes.
 
 pub mod fs;
+pub mod movingai;
 pub mod png;
 pub mod tables;

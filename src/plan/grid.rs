@@ -1,7 +1,5 @@
 //! Dijkstra and A* on 4- or 8-connected grids.
 //!
-//! The costmap is copied once into a grid with a one-cell blocked border, so that the
-//! inner loop finds neighbours by adding fixed index offsets, with no bounds checks.
 //! Ties are broken by a fixed processing order, so plans are reproducible.
 
 use std::cmp::Reverse;
@@ -77,60 +75,183 @@ fn passable(cost: f32) -> bool {
     cost.is_finite() && cost > 0.0
 }
 
-/// One neighbour step: index offset in the padded grid, length, and the two orthogonal
-/// offsets a diagonal passes (equal to `offset` for orthogonal steps).
+/// Marks a settled node in `Node::link`; the other bits hold the parent's index.
+const CLOSED: u32 = 1 << 31;
+const NO_PARENT: u32 = CLOSED - 1;
+
+/// Everything a search reads and writes about one cell, side by side so that looking
+/// at a neighbour touches one cache line.
 #[derive(Clone, Copy)]
-struct Step {
-    offset: isize,
-    length: f64,
-    side_a: isize,
-    side_b: isize,
+struct Node {
+    /// Cost from the sources; ∞ until reached.
+    dist: f64,
+    /// Half the cell's cost (edge cost = length × (half_u + half_v)); ∞ when blocked.
+    /// Halving an f32 is exact.
+    half: f32,
+    /// Parent index (or `NO_PARENT`) plus the `CLOSED` bit.
+    link: u32,
 }
 
-/// The costmap with a blocked border, and everything the search loops need.
-struct Padded {
+/// A planner over one costmap. The costmap is copied once into a grid with a one-cell
+/// blocked border, so the inner loop finds neighbours by adding fixed offsets without
+/// bounds checks, and the planner's buffers are reused between queries: each query
+/// resets just the cells it reached, so it costs time in proportion to what it explores.
+pub struct GridPlanner {
+    geo: GeoRef,
     width: usize,
     height: usize,
-    /// Half of each cell's cost (edge cost = length × (half_u + half_v)); blocked = ∞.
-    half: Vec<f64>,
-    steps: Vec<Step>,
-    check_corners: bool,
+    nodes: Vec<Node>,
+    moves: Moves,
     min_cost: f64,
     max_cost: f64,
+    /// Cells reached by the current query, to reset before the next one.
+    touched: Vec<u32>,
 }
 
-impl Padded {
-    fn new(costs: &Grid<f32>, moves: Moves) -> Self {
+/// Where a search puts the neighbours whose cost went down.
+trait Frontier {
+    fn reached(&mut self, node: usize, cost: f64);
+}
+
+impl Frontier for MinQueue {
+    #[inline(always)]
+    fn reached(&mut self, node: usize, cost: f64) {
+        self.push(cost, node as u32);
+    }
+}
+
+/// A*'s open list: ordered by cost plus the octile (or Manhattan) distance to the goal
+/// times the cheapest cell cost, then by larger cost (deeper first), then by index.
+struct AstarOpen<const N: usize> {
+    heap: BinaryHeap<(Reverse<u64>, u64, Reverse<u32>)>,
+    row: u32,
+    goal_row: u32,
+    goal_col: u32,
+    min_cost: f64,
+}
+
+impl<const N: usize> AstarOpen<N> {
+    #[inline(always)]
+    fn heuristic(&self, node: usize) -> f64 {
+        let node = node as u32;
+        let dr = f64::from((node / self.row).abs_diff(self.goal_row));
+        let dc = f64::from((node % self.row).abs_diff(self.goal_col));
+        let steps = if N == 8 {
+            dr.max(dc) + (SQRT_2 - 1.0) * dr.min(dc)
+        } else {
+            dr + dc
+        };
+        steps * self.min_cost
+    }
+}
+
+impl<const N: usize> Frontier for AstarOpen<N> {
+    #[inline(always)]
+    fn reached(&mut self, node: usize, cost: f64) {
+        let f = cost + self.heuristic(node);
+        self.heap
+            .push((Reverse(f.to_bits()), cost.to_bits(), Reverse(node as u32)));
+    }
+}
+
+/// Relaxes the edges out of `u`, handing each neighbour whose cost went down to the
+/// frontier and recording first reaches in `touched`. Generic over the neighbourhood (N = 4 or 8)
+/// and the corner rule, and written out step by step, so that every combination
+/// compiles to straight-line code with constant offsets and lengths: this is where
+/// Dijkstra and A* spend their time.
+#[inline(always)]
+fn expand<const N: usize, const NO_CORNER_CUTTING: bool>(
+    nodes: &mut [Node],
+    row: usize,
+    u: usize,
+    frontier: &mut impl Frontier,
+    touched: &mut Vec<u32>,
+) {
+    let du = nodes[u].dist;
+    let hu = f64::from(nodes[u].half);
+    // A macro rather than a closure: it must inline into every call site.
+    macro_rules! relax {
+        ($v:expr, $length:expr) => {{
+            let v = $v;
+            let node = &mut nodes[v];
+            if node.half != f32::INFINITY {
+                let candidate = du + $length * (hu + f64::from(node.half));
+                if candidate < node.dist {
+                    if node.dist == f64::INFINITY {
+                        touched.push(v as u32);
+                    }
+                    node.dist = candidate;
+                    node.link = u as u32;
+                    frontier.reached(v, candidate);
+                }
+            }
+        }};
+    }
+    let (up, down) = (u - row, u + row);
+    relax!(up, 1.0);
+    relax!(u - 1, 1.0);
+    relax!(u + 1, 1.0);
+    relax!(down, 1.0);
+    if N == 8 {
+        let open = |nodes: &[Node], i: usize| nodes[i].half != f32::INFINITY;
+        for (corner, vertical, horizontal) in [
+            (up - 1, up, u - 1),
+            (up + 1, up, u + 1),
+            (down - 1, down, u - 1),
+            (down + 1, down, u + 1),
+        ] {
+            if !NO_CORNER_CUTTING || (open(nodes, vertical) && open(nodes, horizontal)) {
+                relax!(corner, SQRT_2);
+            }
+        }
+    }
+}
+
+/// Calls `$search::<N, NO_CORNER_CUTTING>` for the planner's moves.
+macro_rules! dispatch {
+    ($self:ident . $search:ident ( $($arg:expr),* )) => {
+        match ($self.moves.connectivity, $self.moves.corner_cutting) {
+            (Connectivity::Four, _) => $self.$search::<4, false>($($arg),*),
+            (Connectivity::Eight, true) => $self.$search::<8, false>($($arg),*),
+            (Connectivity::Eight, false) => $self.$search::<8, true>($($arg),*),
+        }
+    };
+}
+
+impl GridPlanner {
+    pub fn new(costs: &Grid<f32>, moves: Moves) -> Self {
         let (w, h) = (costs.geo.width as usize, costs.geo.height as usize);
         let pw = w + 2;
-        let mut half = vec![f64::INFINITY; pw * (h + 2)];
+        let n = pw * (h + 2);
+        assert!(n < NO_PARENT as usize, "grids up to 2^31 cells");
+        let blocked = Node {
+            dist: f64::INFINITY,
+            half: f32::INFINITY,
+            link: NO_PARENT,
+        };
+        let mut nodes = vec![blocked; n];
         let (mut min_cost, mut max_cost) = (f64::INFINITY, 0.0f64);
         for row in 0..h {
             let src = &costs.data[row * w..(row + 1) * w];
-            let dst = &mut half[(row + 1) * pw + 1..(row + 1) * pw + 1 + w];
+            let dst = &mut nodes[(row + 1) * pw + 1..(row + 1) * pw + 1 + w];
             for (d, &c) in dst.iter_mut().zip(src) {
                 if passable(c) {
-                    let c = f64::from(c);
-                    *d = 0.5 * c;
-                    min_cost = min_cost.min(c);
-                    max_cost = max_cost.max(c);
+                    d.half = 0.5 * c;
+                    min_cost = min_cost.min(f64::from(c));
+                    max_cost = max_cost.max(f64::from(c));
                 }
             }
         }
-        let p = pw as isize;
-        let mut steps = vec![
-            Step { offset: -p, length: 1.0, side_a: -p, side_b: -p },
-            Step { offset: -1, length: 1.0, side_a: -1, side_b: -1 },
-            Step { offset: 1, length: 1.0, side_a: 1, side_b: 1 },
-            Step { offset: p, length: 1.0, side_a: p, side_b: p },
-        ];
-        if moves.connectivity == Connectivity::Eight {
-            for (dr, dc) in [(-1, -1), (-1, 1), (1, -1), (1, 1)] {
-                steps.push(Step { offset: dr * p + dc, length: SQRT_2, side_a: dr * p, side_b: dc });
-            }
+        GridPlanner {
+            geo: costs.geo.clone(),
+            width: w,
+            height: h,
+            nodes,
+            moves,
+            min_cost,
+            max_cost,
+            touched: Vec::new(),
         }
-        let check_corners = !moves.corner_cutting && moves.connectivity == Connectivity::Eight;
-        Padded { width: w, height: h, half, steps, check_corners, min_cost, max_cost }
     }
 
     fn pad(&self, cell: Cell) -> usize {
@@ -145,209 +266,198 @@ impl Padded {
     fn open(&self, cell: Cell) -> bool {
         (cell.row as usize) < self.height
             && (cell.col as usize) < self.width
-            && self.half[self.pad(cell)].is_finite()
+            && self.nodes[self.pad(cell)].half.is_finite()
     }
 
     fn longest_step(&self) -> f64 {
-        if self.steps.len() == 8 { SQRT_2 } else { 1.0 }
-    }
-
-    /// Calls `relax(neighbour, edge cost)` for every allowed step out of `u`.
-    #[inline(always)]
-    fn for_each_step(&self, u: usize, mut relax: impl FnMut(usize, f64)) {
-        let hu = self.half[u];
-        for step in &self.steps {
-            let v = u.wrapping_add_signed(step.offset);
-            let hv = self.half[v];
-            if !hv.is_finite() {
-                continue;
-            }
-            if self.check_corners
-                && step.side_a != step.side_b
-                && !(self.half[u.wrapping_add_signed(step.side_a)].is_finite()
-                    && self.half[u.wrapping_add_signed(step.side_b)].is_finite())
-            {
-                continue;
-            }
-            relax(v, step.length * (hu + hv));
+        match self.moves.connectivity {
+            Connectivity::Four => 1.0,
+            Connectivity::Eight => SQRT_2,
         }
     }
 
-    fn path(&self, parent: &[u32], goal: usize) -> CellPath {
+    fn parent(&self, i: usize) -> Option<usize> {
+        let p = self.nodes[i].link & !CLOSED;
+        (p != NO_PARENT).then_some(p as usize)
+    }
+
+    fn path(&self, goal: usize) -> CellPath {
         let mut cells = vec![self.unpad(goal)];
         let mut i = goal;
-        while parent[i] != u32::MAX {
-            i = parent[i] as usize;
+        while let Some(p) = self.parent(i) {
+            i = p;
             cells.push(self.unpad(i));
         }
         cells.reverse();
         cells
     }
-}
 
-/// Result of a full Dijkstra: the cost of reaching every cell from the nearest source.
-#[derive(Debug, Clone)]
-pub struct CostField {
-    pub geo: GeoRef,
-    /// Row-major; ∞ where no source reaches.
-    pub cost: Vec<f64>,
-    /// Row-major index of each cell's predecessor; `u32::MAX` at sources and unreached cells.
-    parent: Vec<u32>,
-}
-
-impl CostField {
-    pub fn cost_at(&self, cell: Cell) -> f64 {
-        self.cost[self.geo.index(cell)]
+    /// Puts every cell the last query reached back to "unreached".
+    fn reset(&mut self) {
+        for &i in &self.touched {
+            let node = &mut self.nodes[i as usize];
+            node.dist = f64::INFINITY;
+            node.link = NO_PARENT;
+        }
+        self.touched.clear();
     }
 
-    /// The cheapest path from a source to `cell`, or `None` when unreached.
-    pub fn path_to(&self, cell: Cell) -> Option<CellPath> {
-        if !self.geo.contains(cell) || !self.cost_at(cell).is_finite() {
+    fn start(&mut self, i: usize) {
+        self.nodes[i].dist = 0.0;
+        self.nodes[i].link = NO_PARENT;
+        self.touched.push(i as u32);
+    }
+
+    /// Dijkstra from `sources` until `stop` is settled (or everything reachable is).
+    fn run_dijkstra<const N: usize, const NO_CORNER_CUTTING: bool>(
+        &mut self,
+        sources: &[usize],
+        stop: Option<usize>,
+    ) {
+        let mut queue = MinQueue::new(self.min_cost, self.longest_step() * self.max_cost);
+        for &i in sources {
+            if self.nodes[i].dist != 0.0 {
+                self.start(i);
+                queue.push(0.0, i as u32);
+            }
+        }
+        let row = self.width + 2;
+        let GridPlanner { nodes, touched, .. } = self;
+        while let Some(u) = queue.pop() {
+            let u = u as usize;
+            if nodes[u].link & CLOSED != 0 {
+                continue;
+            }
+            nodes[u].link |= CLOSED;
+            if Some(u) == stop {
+                break;
+            }
+            expand::<N, NO_CORNER_CUTTING>(nodes, row, u, &mut queue, touched);
+        }
+    }
+
+    fn run_astar<const N: usize, const NO_CORNER_CUTTING: bool>(&mut self, s: usize, g: usize) {
+        let row = self.width + 2;
+        let mut open = AstarOpen::<N> {
+            heap: BinaryHeap::new(),
+            row: row as u32,
+            goal_row: (g / row) as u32,
+            goal_col: (g % row) as u32,
+            min_cost: self.min_cost,
+        };
+        self.start(s);
+        open.reached(s, 0.0);
+        let GridPlanner { nodes, touched, .. } = self;
+        while let Some((_, _, Reverse(u))) = open.heap.pop() {
+            let u = u as usize;
+            if nodes[u].link & CLOSED != 0 {
+                continue;
+            }
+            nodes[u].link |= CLOSED;
+            if u == g {
+                break;
+            }
+            expand::<N, NO_CORNER_CUTTING>(nodes, row, u, &mut open, touched);
+        }
+    }
+
+    /// Full Dijkstra from one or more sources: the cost-to-go (cost-to-come) field and
+    /// the tree of cheapest paths. Blocked or off-grid sources are ignored.
+    pub fn into_cost_to_go(mut self, sources: &[Cell]) -> CostField {
+        let starts: Vec<usize> = sources
+            .iter()
+            .filter(|&&c| self.open(c))
+            .map(|&c| self.pad(c))
+            .collect();
+        dispatch!(self.run_dijkstra(&starts, None));
+        CostField { searched: self }
+    }
+
+    /// Dijkstra from `start`, stopping when `goal` is settled.
+    pub fn dijkstra(&mut self, start: Cell, goal: Cell) -> Option<Route> {
+        if !self.open(start) || !self.open(goal) {
             return None;
         }
-        let mut cells = vec![cell];
-        let mut i = self.geo.index(cell);
-        while self.parent[i] != u32::MAX {
-            i = self.parent[i] as usize;
-            cells.push(self.geo.cell_at(i));
-        }
-        cells.reverse();
-        Some(cells)
+        let (s, g) = (self.pad(start), self.pad(goal));
+        dispatch!(self.run_dijkstra(&[s], Some(g)));
+        self.finish(g)
     }
-}
 
-/// The search state of one Dijkstra run on the padded grid.
-struct Search {
-    dist: Vec<f64>,
-    parent: Vec<u32>,
-    settled: Vec<bool>,
-}
-
-/// Dijkstra from `sources` until `stop` is settled (or everything reachable is).
-fn run_dijkstra(grid: &Padded, sources: &[usize], stop: Option<usize>) -> Search {
-    let n = grid.half.len();
-    let mut s = Search { dist: vec![f64::INFINITY; n], parent: vec![u32::MAX; n], settled: vec![false; n] };
-    let min_edge = grid.min_cost;
-    let max_edge = grid.longest_step() * grid.max_cost;
-    let mut queue = MinQueue::new(min_edge, max_edge);
-    for &i in sources {
-        if s.dist[i] != 0.0 {
-            s.dist[i] = 0.0;
-            queue.push(0.0, i as u32);
+    /// A* with the octile (or Manhattan) distance times the cheapest cell cost, which
+    /// never overestimates and is consistent, so the first time the goal is settled its
+    /// cost is optimal. Among equal estimates, deeper nodes go first, then lower indices.
+    pub fn astar(&mut self, start: Cell, goal: Cell) -> Option<Route> {
+        if !self.open(start) || !self.open(goal) {
+            return None;
         }
+        let (s, g) = (self.pad(start), self.pad(goal));
+        dispatch!(self.run_astar(s, g));
+        self.finish(g)
     }
-    while let Some(u) = queue.pop() {
-        let u = u as usize;
-        if s.settled[u] {
-            continue;
-        }
-        s.settled[u] = true;
-        if Some(u) == stop {
-            break;
-        }
-        let du = s.dist[u];
-        let (dist, parent) = (&mut s.dist, &mut s.parent);
-        grid.for_each_step(u, |v, w| {
-            let candidate = du + w;
-            if candidate < dist[v] {
-                dist[v] = candidate;
-                parent[v] = u as u32;
-                queue.push(candidate, v as u32);
-            }
+
+    /// The route to `g` if the search settled it; then resets for the next query.
+    fn finish(&mut self, g: usize) -> Option<Route> {
+        let route = (self.nodes[g].link & CLOSED != 0).then(|| Route {
+            cells: self.path(g),
+            cost: self.nodes[g].dist,
         });
+        self.reset();
+        route
     }
-    s
 }
 
-/// Full Dijkstra from one or more sources: the cost-to-go (cost-to-come) field and
-/// the tree of cheapest paths. Blocked or off-grid sources are ignored.
+/// Full Dijkstra from one or more sources (see `GridPlanner::into_cost_to_go`).
 pub fn cost_to_go(costs: &Grid<f32>, sources: &[Cell], moves: Moves) -> CostField {
-    let grid = Padded::new(costs, moves);
-    let starts: Vec<usize> = sources.iter().filter(|&&c| grid.open(c)).map(|&c| grid.pad(c)).collect();
-    let search = run_dijkstra(&grid, &starts, None);
-    let geo = costs.geo.clone();
-    let mut cost = Vec::with_capacity(geo.cell_count());
-    let mut parent = Vec::with_capacity(geo.cell_count());
-    let pw = grid.width + 2;
-    for row in 0..grid.height {
-        let base = (row + 1) * pw + 1;
-        cost.extend_from_slice(&search.dist[base..base + grid.width]);
-        parent.extend(search.parent[base..base + grid.width].iter().map(|&p| {
-            if p == u32::MAX {
-                p
-            } else {
-                let c = grid.unpad(p as usize);
-                (c.row as usize * grid.width + c.col as usize) as u32
-            }
-        }));
-    }
-    CostField { geo, cost, parent }
+    GridPlanner::new(costs, moves).into_cost_to_go(sources)
 }
 
 /// Dijkstra from `start`, stopping when `goal` is settled.
 pub fn dijkstra(costs: &Grid<f32>, start: Cell, goal: Cell, moves: Moves) -> Option<Route> {
-    let grid = Padded::new(costs, moves);
-    if !grid.open(start) || !grid.open(goal) {
-        return None;
-    }
-    let (s, g) = (grid.pad(start), grid.pad(goal));
-    let search = run_dijkstra(&grid, &[s], Some(g));
-    search.settled[g].then(|| Route { cells: grid.path(&search.parent, g), cost: search.dist[g] })
+    GridPlanner::new(costs, moves).dijkstra(start, goal)
 }
 
-/// A* with the octile (or Manhattan) distance times the cheapest cell cost, which never
-/// overestimates and is consistent, so the first time the goal is reached is optimal.
-/// Among equal estimates, deeper nodes go first, then lower indices.
+/// A* from `start` to `goal` (see `GridPlanner::astar`).
 pub fn astar(costs: &Grid<f32>, start: Cell, goal: Cell, moves: Moves) -> Option<Route> {
-    let grid = Padded::new(costs, moves);
-    if !grid.open(start) || !grid.open(goal) {
-        return None;
-    }
-    let (s, g) = (grid.pad(start), grid.pad(goal));
-    let pw = grid.width + 2;
-    let (goal_row, goal_col) = (g / pw, g % pw);
-    let eight = moves.connectivity == Connectivity::Eight;
-    let min_cost = grid.min_cost;
-    let heuristic = |i: usize| {
-        let dr = (i / pw).abs_diff(goal_row) as f64;
-        let dc = (i % pw).abs_diff(goal_col) as f64;
-        let steps = if eight { dr.max(dc) + (SQRT_2 - 1.0) * dr.min(dc) } else { dr + dc };
-        steps * min_cost
-    };
-    let n = grid.half.len();
-    let mut dist = vec![f64::INFINITY; n];
-    let mut parent = vec![u32::MAX; n];
-    let mut closed = vec![false; n];
-    let mut open = BinaryHeap::new();
-    dist[s] = 0.0;
-    open.push((Reverse(heuristic(s).to_bits()), 0u64, Reverse(s as u32)));
-    while let Some((_, _, Reverse(u))) = open.pop() {
-        let u = u as usize;
-        if closed[u] {
-            continue;
-        }
-        closed[u] = true;
-        if u == g {
-            return Some(Route { cells: grid.path(&parent, g), cost: dist[g] });
-        }
-        let du = dist[u];
-        grid.for_each_step(u, |v, w| {
-            let candidate = du + w;
-            if candidate < dist[v] {
-                dist[v] = candidate;
-                parent[v] = u as u32;
-                let f = candidate + heuristic(v);
-                open.push((Reverse(f.to_bits()), candidate.to_bits(), Reverse(v as u32)));
-            }
-        });
-    }
-    None
+    GridPlanner::new(costs, moves).astar(start, goal)
 }
 
 /// The cheapest 8-connected path (corner cutting allowed) from `start` to `goal`, or
 /// `None` when the goal cannot be reached or either end is blocked or off the grid.
 pub fn shortest_path(costs: &Grid<f32>, start: Cell, goal: Cell) -> Option<Route> {
     astar(costs, start, goal, Moves::default())
+}
+
+/// Result of a full Dijkstra: the cost of reaching every cell from the nearest source,
+/// and the tree of cheapest paths. It keeps the searched grid as it is, so making it
+/// copies nothing.
+pub struct CostField {
+    searched: GridPlanner,
+}
+
+impl CostField {
+    pub fn geo(&self) -> &GeoRef {
+        &self.searched.geo
+    }
+
+    /// ∞ where no source reaches.
+    pub fn cost_at(&self, cell: Cell) -> f64 {
+        self.searched.nodes[self.searched.pad(cell)].dist
+    }
+
+    /// Every cell's cost, row by row.
+    pub fn costs(&self) -> impl Iterator<Item = f64> + '_ {
+        let w = self.searched.width;
+        (0..self.searched.height).flat_map(move |row| {
+            let base = (row + 1) * (w + 2) + 1;
+            self.searched.nodes[base..base + w].iter().map(|n| n.dist)
+        })
+    }
+
+    /// The cheapest path from a source to `cell`, or `None` when unreached.
+    pub fn path_to(&self, cell: Cell) -> Option<CellPath> {
+        let reached = self.geo().contains(cell) && self.cost_at(cell).is_finite();
+        reached.then(|| self.searched.path(self.searched.pad(cell)))
+    }
 }
 
 #[cfg(test)]
@@ -357,7 +467,13 @@ mod tests {
     use proptest::prelude::*;
 
     fn grid(width: u32, height: u32, data: Vec<f32>) -> Grid<f32> {
-        let geo = GeoRef { width, height, resolution: 1.0, origin: [0.0, 0.0], frame: "map".into() };
+        let geo = GeoRef {
+            width,
+            height,
+            resolution: 1.0,
+            origin: [0.0, 0.0],
+            frame: "map".into(),
+        };
         Grid::from_vec(geo, data)
     }
 
@@ -370,7 +486,8 @@ mod tests {
             return false;
         }
         if diagonal && !moves.corner_cutting {
-            return passable(costs.get(Cell::new(a.row, b.col))) && passable(costs.get(Cell::new(b.row, a.col)));
+            return passable(costs.get(Cell::new(a.row, b.col)))
+                && passable(costs.get(Cell::new(b.row, a.col)));
         }
         true
     }
@@ -405,8 +522,14 @@ mod tests {
     }
 
     fn all_moves() -> impl Strategy<Value = Moves> {
-        (prop_oneof![Just(Connectivity::Four), Just(Connectivity::Eight)], any::<bool>())
-            .prop_map(|(connectivity, corner_cutting)| Moves { connectivity, corner_cutting })
+        (
+            prop_oneof![Just(Connectivity::Four), Just(Connectivity::Eight)],
+            any::<bool>(),
+        )
+            .prop_map(|(connectivity, corner_cutting)| Moves {
+                connectivity,
+                corner_cutting,
+            })
     }
 
     fn small_grid() -> impl Strategy<Value = (Grid<f32>, usize, usize)> {
@@ -424,7 +547,12 @@ mod tests {
     fn assert_valid(costs: &Grid<f32>, route: &Route, start: Cell, goal: Cell, moves: Moves) {
         assert_eq!(route.cells[0], start);
         assert_eq!(*route.cells.last().unwrap(), goal);
-        assert!(route.cells.windows(2).all(|w| step_allowed(costs, w[0], w[1], moves)));
+        assert!(
+            route
+                .cells
+                .windows(2)
+                .all(|w| step_allowed(costs, w[0], w[1], moves))
+        );
         assert!((path_cost(costs, &route.cells) - route.cost).abs() <= 1e-9 * route.cost.max(1.0));
     }
 
@@ -434,8 +562,18 @@ mod tests {
         let route = shortest_path(&g, Cell::new(0, 0), Cell::new(4, 4)).unwrap();
         assert_eq!(route.cells.len(), 5);
         assert!((route.cost - 4.0 * SQRT_2).abs() < 1e-12);
-        let four = Moves { connectivity: Connectivity::Four, corner_cutting: false };
-        assert!((dijkstra(&g, Cell::new(0, 0), Cell::new(4, 4), four).unwrap().cost - 8.0).abs() < 1e-12);
+        let four = Moves {
+            connectivity: Connectivity::Four,
+            corner_cutting: false,
+        };
+        assert!(
+            (dijkstra(&g, Cell::new(0, 0), Cell::new(4, 4), four)
+                .unwrap()
+                .cost
+                - 8.0)
+                .abs()
+                < 1e-12
+        );
     }
 
     #[test]
@@ -446,7 +584,16 @@ mod tests {
         let (a, b) = (Cell::new(0, 0), Cell::new(1, 1));
         let cutting = astar(&g, a, b, Moves::default()).unwrap();
         assert_eq!(cutting.cells.len(), 2);
-        let careful = astar(&g, a, b, Moves { corner_cutting: false, ..Moves::default() }).unwrap();
+        let careful = astar(
+            &g,
+            a,
+            b,
+            Moves {
+                corner_cutting: false,
+                ..Moves::default()
+            },
+        )
+        .unwrap();
         assert_eq!(careful.cells, [a, Cell::new(1, 0), b]);
     }
 
@@ -454,21 +601,29 @@ mod tests {
     fn multiple_sources_and_visitation() {
         let g = grid(7, 1, vec![1.0; 7]);
         let field = cost_to_go(&g, &[Cell::new(0, 0), Cell::new(0, 6)], Moves::default());
-        let costs: Vec<f64> = field.cost.clone();
+        let costs: Vec<f64> = field.costs().collect();
         assert_eq!(costs, [0.0, 1.0, 2.0, 3.0, 2.0, 1.0, 0.0]);
-        assert_eq!(field.path_to(Cell::new(0, 2)).unwrap(), [Cell::new(0, 0), Cell::new(0, 1), Cell::new(0, 2)]);
+        assert_eq!(
+            field.path_to(Cell::new(0, 2)).unwrap(),
+            [Cell::new(0, 0), Cell::new(0, 1), Cell::new(0, 2)]
+        );
         let p = field.path_to(Cell::new(0, 5)).unwrap();
         let q = field.path_to(Cell::new(0, 4)).unwrap();
-        assert_eq!(visitation(&g.geo, [p.as_slice(), q.as_slice()]), [0, 0, 0, 0, 1, 2, 2]);
+        assert_eq!(
+            visitation(&g.geo, [p.as_slice(), q.as_slice()]),
+            [0, 0, 0, 0, 1, 2, 2]
+        );
     }
 
     #[test]
     fn wide_cost_ranges_use_the_heap_and_agree() {
-        let data: Vec<f32> = (0..100).map(|i| if i % 7 == 0 { 1e-6 } else { 1e6 }).collect();
+        let data: Vec<f32> = (0..100)
+            .map(|i| if i % 7 == 0 { 1e-6 } else { 1e6 })
+            .collect();
         let g = grid(10, 10, data);
         let field = cost_to_go(&g, &[Cell::new(0, 0)], Moves::default());
         let brute = brute_force(&g, Cell::new(0, 0), Moves::default());
-        for (a, b) in field.cost.iter().zip(&brute) {
+        for (a, b) in field.costs().zip(&brute) {
             assert!((a - b).abs() <= 1e-9 * b.max(1.0), "{a} vs {b}");
         }
     }
@@ -479,12 +634,16 @@ mod tests {
             let (start, goal) = (g.geo.cell_at(s), g.geo.cell_at(t));
             let brute = brute_force(&g, start, moves);
             let expected = brute[t];
+            // One planner answers every query, as in a benchmark: generations must keep
+            // the queries apart.
+            let mut planner = GridPlanner::new(&g, moves);
+            let by_astar = planner.astar(start, goal);
             let field = cost_to_go(&g, &[start], moves);
-            for (a, b) in field.cost.iter().zip(&brute) {
+            for (a, b) in field.costs().zip(&brute) {
                 prop_assert!((a - b).abs() <= 1e-9 * b.max(1.0) || (a.is_infinite() && b.is_infinite()));
             }
-            let by_dijkstra = dijkstra(&g, start, goal, moves);
-            let by_astar = astar(&g, start, goal, moves);
+            let by_dijkstra = planner.dijkstra(start, goal);
+            prop_assert_eq!(planner.astar(start, goal), by_astar.clone());
             prop_assert_eq!(by_astar.is_some(), expected.is_finite() && passable(g.get(goal)));
             prop_assert_eq!(by_dijkstra.is_some(), by_astar.is_some());
             if let (Some(d), Some(a)) = (by_dijkstra, by_astar) {

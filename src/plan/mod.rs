@@ -9,6 +9,6 @@ mod grid;
 mod queue;
 
 pub use grid::{
-    CostField, Connectivity, Moves, Route, astar, cost_to_go, dijkstra, edge_cost, path_cost,
-    shortest_path, visitation,
+    Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
+    path_cost, shortest_path, visitation,
 };

@@ -25,10 +25,12 @@ impl MinQueue {
             // A hair narrower than the smallest edge, so rounding never puts a
             // relaxed node back into the bucket being emptied.
             let width = min_edge * (1.0 - 1e-9);
-            let count = (max_edge / width).ceil() as usize + 2;
+            // A power of two, so that the slot of a bucket is a mask away.
+            let count = ((max_edge / width).ceil() as usize + 2).next_power_of_two();
             MinQueue::Buckets(Buckets {
-                width,
+                inverse_width: 1.0 / width,
                 slots: vec![Vec::new(); count],
+                mask: count - 1,
                 cursor: 0,
                 pending: 0,
             })
@@ -37,6 +39,7 @@ impl MinQueue {
         }
     }
 
+    #[inline(always)]
     pub fn push(&mut self, key: f64, node: u32) {
         match self {
             MinQueue::Buckets(b) => b.push(key, node),
@@ -48,6 +51,7 @@ impl MinQueue {
     /// Removes a node of smallest key (last in, first out within a bucket, whose nodes
     /// all have final keys; by key then node index in the heap). Stale entries are the
     /// caller's to skip.
+    #[inline]
     pub fn pop(&mut self) -> Option<u32> {
         match self {
             MinQueue::Buckets(b) => b.pop(),
@@ -57,18 +61,19 @@ impl MinQueue {
 }
 
 pub struct Buckets {
-    width: f64,
+    inverse_width: f64,
     slots: Vec<Vec<u32>>,
+    mask: usize,
     /// Index (not slot) of the bucket being emptied; slots are used circularly.
     cursor: usize,
     pending: usize,
 }
 
 impl Buckets {
+    #[inline(always)]
     fn push(&mut self, key: f64, node: u32) {
-        let bucket = ((key / self.width) as usize).max(self.cursor);
-        let slot = bucket % self.slots.len();
-        self.slots[slot].push(node);
+        let bucket = ((key * self.inverse_width) as usize).max(self.cursor);
+        self.slots[bucket & self.mask].push(node);
         self.pending += 1;
     }
 
@@ -77,8 +82,7 @@ impl Buckets {
             return None;
         }
         loop {
-            let slot = self.cursor % self.slots.len();
-            if let Some(node) = self.slots[slot].pop() {
+            if let Some(node) = self.slots[self.cursor & self.mask].pop() {
                 self.pending -= 1;
                 return Some(node);
             }

@@ -1,0 +1,290 @@
+//! `imitate bench ...`: measured runs of the core algorithms, for BENCHMARKS.md.
+//! Text for people by default, `--json` (with a schema tag) for scripts.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Subcommand;
+use serde::Serialize;
+
+use crate::error::{Error, Result, read_input};
+use crate::grid::{Cell, GeoRef, Grid};
+use crate::io::movingai::{read_map, read_scenarios};
+use crate::plan::{Connectivity, GridPlanner, Moves};
+
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {
+    /// Solve every scenario of a MovingAI benchmark (8-connected, diagonal √2, no corner
+    /// cutting) and compare with the optimal lengths (relative tolerance 1e-4).
+    Movingai {
+        map: PathBuf,
+        scen: PathBuf,
+        /// The planner to answer the queries with.
+        #[arg(long, value_enum, default_value_t = Planner::Astar)]
+        planner: Planner,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Single-source Dijkstra over a whole costmap, one thread, best of several runs.
+    Dijkstra {
+        /// Raw little-endian f32 costs, row by row (e.g. numpy's `tofile`).
+        #[arg(long, value_name = "FILE", requires_all = ["width", "height"])]
+        costs: Option<PathBuf>,
+        #[arg(long)]
+        width: Option<u32>,
+        #[arg(long)]
+        height: Option<u32>,
+        /// Without --costs: a SIZE x SIZE grid of costs uniform in [1, 10].
+        #[arg(long, default_value_t = 1000)]
+        size: u32,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        #[arg(long, default_value_t = 5)]
+        repeat: usize,
+        #[arg(long, value_enum, default_value_t = Connectivity::Eight)]
+        connectivity: Connectivity,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Planner {
+    Astar,
+    Dijkstra,
+}
+
+pub fn run(command: BenchCommand) -> Result<()> {
+    match command {
+        BenchCommand::Movingai {
+            map,
+            scen,
+            planner,
+            json,
+        } => movingai(map, scen, planner, json),
+        BenchCommand::Dijkstra {
+            costs,
+            width,
+            height,
+            size,
+            seed,
+            repeat,
+            connectivity,
+            json,
+        } => {
+            let grid = match costs {
+                Some(path) => read_raw_costs(&path, width.unwrap_or(0), height.unwrap_or(0))?,
+                None => uniform_costs(size, seed),
+            };
+            dijkstra(&grid, repeat.max(1), connectivity, json)
+        }
+    }
+}
+
+const TOLERANCE: f64 = 1e-4;
+
+#[derive(Serialize)]
+struct MovingAiReport {
+    schema: &'static str,
+    map: String,
+    planner: Planner,
+    scenarios: usize,
+    mismatches: usize,
+    first_mismatches: Vec<Mismatch>,
+    total_seconds: f64,
+    microseconds_per_query: f64,
+}
+
+#[derive(Serialize)]
+struct Mismatch {
+    line: usize,
+    start: Cell,
+    goal: Cell,
+    optimal: f64,
+    found: Option<f64>,
+}
+
+fn movingai(
+    map_path: PathBuf,
+    scen_path: PathBuf,
+    planner_kind: Planner,
+    json: bool,
+) -> Result<()> {
+    let map = read_map(&map_path)?;
+    let scenarios = read_scenarios(&scen_path, &map.geo)?;
+    let moves = Moves {
+        connectivity: Connectivity::Eight,
+        corner_cutting: false,
+    };
+    let mut planner = GridPlanner::new(&map, moves);
+    let started = Instant::now();
+    let found: Vec<Option<f64>> = scenarios
+        .iter()
+        .map(|s| match planner_kind {
+            Planner::Astar => planner.astar(s.start, s.goal),
+            Planner::Dijkstra => planner.dijkstra(s.start, s.goal),
+        })
+        .map(|route| route.map(|r| r.cost))
+        .collect();
+    let elapsed = started.elapsed().as_secs_f64();
+    let mismatched: Vec<Mismatch> = scenarios
+        .iter()
+        .zip(&found)
+        .enumerate()
+        .filter(|(_, (s, f))| {
+            f.is_none_or(|cost| {
+                (cost - s.optimal_length).abs() > TOLERANCE * s.optimal_length.max(1.0)
+            })
+        })
+        .map(|(i, (s, &f))| Mismatch {
+            line: i + 2,
+            start: s.start,
+            goal: s.goal,
+            optimal: s.optimal_length,
+            found: f,
+        })
+        .collect();
+    let report = MovingAiReport {
+        schema: "imitate.bench.movingai/1",
+        map: map_path.display().to_string(),
+        planner: planner_kind,
+        scenarios: scenarios.len(),
+        mismatches: mismatched.len(),
+        first_mismatches: mismatched.into_iter().take(10).collect(),
+        total_seconds: elapsed,
+        microseconds_per_query: 1e6 * elapsed / scenarios.len().max(1) as f64,
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).expect("report serialises")
+        );
+    } else {
+        println!(
+            "{}: {} scenarios, {} mismatches, {:.1} µs per query ({:.3} s in all)",
+            report.map,
+            report.scenarios,
+            report.mismatches,
+            report.microseconds_per_query,
+            report.total_seconds
+        );
+        for m in &report.first_mismatches {
+            println!(
+                "  line {}: {} -> {}: optimal {}, found {:?}",
+                m.line, m.start, m.goal, m.optimal, m.found
+            );
+        }
+    }
+    if report.mismatches > 0 {
+        return Err(Error::Failed(format!(
+            "{} scenarios do not match their optimal length",
+            report.mismatches
+        )));
+    }
+    Ok(())
+}
+
+fn read_raw_costs(path: &std::path::Path, width: u32, height: u32) -> Result<Grid<f32>> {
+    let bytes = read_input(path)?;
+    let n = width as usize * height as usize;
+    if n == 0 || bytes.len() != n * 4 {
+        return Err(Error::input(
+            path,
+            format!(
+                "holds {} bytes; a {width}x{height} grid of f32 needs {}",
+                bytes.len(),
+                n * 4
+            ),
+        ));
+    }
+    let data = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    Ok(Grid::from_vec(geo(width, height), data))
+}
+
+fn geo(width: u32, height: u32) -> GeoRef {
+    GeoRef {
+        width,
+        height,
+        resolution: 1.0,
+        origin: [0.0, 0.0],
+        frame: "bench".into(),
+    }
+}
+
+fn uniform_costs(size: u32, seed: u64) -> Grid<f32> {
+    use rand::{RngExt, SeedableRng};
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let n = size as usize * size as usize;
+    Grid::from_vec(
+        geo(size, size),
+        (0..n).map(|_| rng.random_range(1.0f32..10.0)).collect(),
+    )
+}
+
+#[derive(Serialize)]
+struct DijkstraReport {
+    schema: &'static str,
+    width: u32,
+    height: u32,
+    connectivity: Connectivity,
+    repeat: usize,
+    best_seconds: f64,
+    median_seconds: f64,
+    reached: usize,
+    /// Sum of all finite costs-to-go, to compare with another implementation.
+    cost_sum: f64,
+    max_cost: f64,
+}
+
+fn dijkstra(grid: &Grid<f32>, repeat: usize, connectivity: Connectivity, json: bool) -> Result<()> {
+    let moves = Moves {
+        connectivity,
+        corner_cutting: true,
+    };
+    let mut times = Vec::with_capacity(repeat);
+    let mut field = None;
+    for _ in 0..repeat {
+        let started = Instant::now();
+        // Building the planner (padding the costmap) is part of the measured work.
+        let result = GridPlanner::new(grid, moves).into_cost_to_go(&[Cell::new(0, 0)]);
+        times.push(started.elapsed().as_secs_f64());
+        field = Some(result);
+    }
+    let field = field.expect("repeat >= 1");
+    times.sort_by(f64::total_cmp);
+    let finite: Vec<f64> = field.costs().filter(|c| c.is_finite()).collect();
+    let report = DijkstraReport {
+        schema: "imitate.bench.dijkstra/1",
+        width: grid.geo.width,
+        height: grid.geo.height,
+        connectivity,
+        repeat,
+        best_seconds: times[0],
+        median_seconds: times[times.len() / 2],
+        reached: finite.len(),
+        cost_sum: finite.iter().sum(),
+        max_cost: finite.iter().copied().fold(0.0, f64::max),
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).expect("report serialises")
+        );
+    } else {
+        println!(
+            "dijkstra {}x{} ({:?}-connected): best {:.4} s, median {:.4} s over {} runs; {} cells reached",
+            report.width,
+            report.height,
+            connectivity,
+            report.best_seconds,
+            report.median_seconds,
+            repeat,
+            report.reached
+        );
+    }
+    Ok(())
+}
