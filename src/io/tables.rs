@@ -432,18 +432,7 @@ pub fn write_features(
     stack: &FeatureStack,
     spec: &serde_json::Value,
 ) -> Result<()> {
-    let dim = stack.dim();
-    let columns = stack
-        .names
-        .iter()
-        .enumerate()
-        .map(|(j, feature)| {
-            (
-                feature.clone(),
-                stack.data.iter().skip(j).step_by(dim).copied().collect(),
-            )
-        })
-        .collect();
+    let columns = stack.names.iter().cloned().zip(stack.planes().map(<[f32]>::to_vec)).collect();
     let spec = (FEATURE_SPEC_KEY.to_string(), spec.to_string());
     write_raster(path, Table::FEATURES, name, &stack.geo, columns, vec![spec])
 }
@@ -467,8 +456,8 @@ pub fn read_features(path: &Path) -> Result<(String, FeatureStack, serde_json::V
         return Err(Error::input(path, "features table has no feature columns"));
     }
     let mut data = Vec::with_capacity(n * names.len());
-    for i in 0..n {
-        data.extend(raster.columns.iter().map(|(_, v)| v[i]));
+    for (_, values) in &raster.columns {
+        data.extend_from_slice(values);
     }
     Ok((
         raster.name,

@@ -208,6 +208,7 @@ fn example_gradient(
         *visits.entry(geo.index(cell)).or_default() += 1;
     }
     let mut data = RidgeAccumulator::new(stack.dim());
+    let mut raw = vec![0.0f32; stack.dim()];
     let mut x = vec![0.0; stack.dim()];
     let mut disagreeing_cells = 0;
     for (&i, &difference) in &visits {
@@ -215,7 +216,8 @@ fn example_gradient(
             continue;
         }
         disagreeing_cells += 1;
-        model.scaled(stack.at(i), &mut x);
+        stack.cell_into(i, &mut raw);
+        model.scaled(&raw, &mut x);
         data.add(
             &x,
             difference.signum() as f64,
@@ -238,9 +240,9 @@ fn feature_scales(stacks: &[FeatureStack]) -> Vec<f64> {
     let mut sum_sq = vec![0.0f64; dim];
     let mut count = 0usize;
     for stack in stacks {
-        for cell in stack.data.chunks_exact(dim) {
-            for j in 0..dim {
-                let v = f64::from(cell[j]);
+        for (j, plane) in stack.planes().enumerate() {
+            for &v in plane {
+                let v = f64::from(v);
                 sum[j] += v;
                 sum_sq[j] += v * v;
             }
@@ -395,8 +397,10 @@ mod tests {
         for i in 0..geo.cell_count() {
             let cell = geo.cell_at(i);
             if cell.chebyshev(goal) == 1 {
-                let dim = stacks[example.map].dim();
-                stacks[example.map].data[i * dim..(i + 1) * dim].fill(f32::INFINITY);
+                let n = geo.cell_count();
+                for j in 0..stacks[example.map].dim() {
+                    stacks[example.map].data[j * n + i] = f32::INFINITY;
+                }
             }
         }
         let err = train(&stacks, &names, &[example], &[], None, &config(), |_| {}).unwrap_err();

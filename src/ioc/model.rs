@@ -66,10 +66,18 @@ impl LogLinearCost {
         s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT)
     }
 
-    /// Evaluates exp(s) on every cell of a feature stack.
+    /// Evaluates exp(s) on every cell of a feature stack, plane by plane (the same sum,
+    /// in the same order, as `log_cost`).
     pub fn costmap(&self, stack: &FeatureStack) -> Grid<f32> {
-        let data = (0..stack.geo.cell_count())
-            .map(|i| self.log_cost(stack.at(i)).exp() as f32)
+        let mut log_cost = vec![0.0f64; stack.geo.cell_count()];
+        for (&w, plane) in self.raw_weights.iter().zip(stack.planes()) {
+            for (s, &f) in log_cost.iter_mut().zip(plane) {
+                *s += f64::from(f) * w;
+            }
+        }
+        let data = log_cost
+            .iter()
+            .map(|s| s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT).exp() as f32)
             .collect();
         Grid::from_vec(stack.geo.clone(), data)
     }
