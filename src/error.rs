@@ -66,3 +66,12 @@ fn describe_io(e: &std::io::Error) -> String {
         _ => e.to_string(),
     }
 }
+
+/// The values of parallel results, or the error of the first failure in input order,
+/// so that which error is reported does not depend on thread timing (rayon's own
+/// `collect::<Result<..>>` returns whichever failure it meets first).
+pub fn first_error_in_order<T, E>(
+    results: Vec<std::result::Result<T, E>>,
+) -> std::result::Result<Vec<T>, E> {
+    results.into_iter().collect()
+}

@@ -8,9 +8,12 @@ use clap::Subcommand;
 use serde::Serialize;
 
 use crate::error::{Error, Result, read_input};
+use crate::features::{FeatureSpec, Op, compute};
 use crate::grid::{Cell, GeoRef, Grid};
+use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::io::movingai::{read_map, read_scenarios};
 use crate::plan::{Connectivity, GridPlanner, Moves};
+use crate::sim::{WorldConfig, generate_world};
 
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
@@ -22,6 +25,19 @@ pub enum BenchCommand {
         /// The planner to answer the queries with.
         #[arg(long, value_enum, default_value_t = Planner::Astar)]
         planner: Planner,
+        #[arg(long)]
+        json: bool,
+    },
+    /// Feature operators over a synthetic SIZE x SIZE map with 4 layers (about 32
+    /// features), with peak memory against the size of the output stack.
+    Features {
+        #[arg(long, default_value_t = 4096)]
+        size: u32,
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        /// Write the layers (raw f32) and the spec here for the NumPy/SciPy peer script.
+        #[arg(long, value_name = "DIR")]
+        dump: Option<PathBuf>,
         #[arg(long)]
         json: bool,
     },
@@ -63,6 +79,12 @@ pub fn run(command: BenchCommand) -> Result<()> {
             planner,
             json,
         } => movingai(map, scen, planner, json),
+        BenchCommand::Features {
+            size,
+            repeat,
+            dump,
+            json,
+        } => features(size, repeat.max(1), dump, json),
         BenchCommand::Dijkstra {
             costs,
             width,
@@ -284,6 +306,154 @@ fn dijkstra(grid: &Grid<f32>, repeat: usize, connectivity: Connectivity, json: b
             report.median_seconds,
             repeat,
             report.reached
+        );
+    }
+    Ok(())
+}
+
+/// The benchmark's feature spec: the operators of every kind over 4 layers.
+fn bench_feature_spec() -> FeatureSpec {
+    let op =
+        |json: serde_json::Value| serde_json::from_value::<Op>(json).expect("a valid operator");
+    use serde_json::json;
+    FeatureSpec {
+        layers: Some(
+            ["elevation", "vegetation", "water", "road"]
+                .map(String::from)
+                .to_vec(),
+        ),
+        ops: vec![
+            op(json!({"op": "blur", "layer": "elevation", "sigmas": [1, 2, 4, 8]})),
+            op(json!({"op": "gradient", "layer": "elevation"})),
+            op(json!({"op": "slope", "layer": "elevation"})),
+            op(json!({"op": "roughness", "layer": "elevation", "windows": [3, 7, 15]})),
+            op(json!({"op": "laplacian", "layer": "elevation"})),
+            op(json!({"op": "normalize", "layer": "elevation"})),
+            op(json!({"op": "threshold", "layer": "elevation", "above": [10, 20]})),
+            op(json!({"op": "normalize", "layer": "vegetation"})),
+            op(json!({"op": "blur", "layer": "vegetation", "sigmas": [2, 8]})),
+            op(json!({"op": "roughness", "layer": "vegetation", "windows": [7]})),
+            op(json!({"op": "threshold", "layer": "vegetation", "above": [0.3, 0.6]})),
+            op(json!({"op": "one_hot", "layer": "water", "classes": [0, 1]})),
+            op(json!({"op": "distance", "layer": "water", "above": 0.5})),
+            op(json!({"op": "blur", "layer": "water", "sigmas": [4]})),
+            op(json!({"op": "one_hot", "layer": "road", "classes": [1]})),
+            op(json!({"op": "distance", "layer": "road", "class": 1})),
+            op(json!({"op": "blur", "layer": "road", "sigmas": [4]})),
+            op(json!({"op": "product", "a": "vegetation", "b": "elevation/slope_deg"})),
+        ],
+        bias: true,
+        nodata_fill: 0.0,
+    }
+}
+
+/// Resident memory now and at its peak (bytes), from /proc/self/status.
+fn memory() -> (u64, u64) {
+    let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
+    let field = |key: &str| {
+        status
+            .lines()
+            .find(|l| l.starts_with(key))
+            .and_then(|l| l.split_whitespace().nth(1))
+            .and_then(|v| v.parse::<u64>().ok())
+            .unwrap_or(0)
+            * 1024
+    };
+    (field("VmRSS:"), field("VmHWM:"))
+}
+
+/// Resets the peak-memory mark so that the next reading covers what follows.
+fn reset_peak_memory() {
+    let _ = std::fs::write("/proc/self/clear_refs", "5");
+}
+
+#[derive(Serialize)]
+struct FeatureSummary {
+    name: String,
+    mean: f64,
+}
+
+#[derive(Serialize)]
+struct FeaturesReport {
+    schema: &'static str,
+    size: u32,
+    threads: usize,
+    features: Vec<FeatureSummary>,
+    best_seconds: f64,
+    output_bytes: u64,
+    peak_extra_bytes: u64,
+    peak_over_output: f64,
+}
+
+fn features(size: u32, repeat: usize, dump: Option<PathBuf>, json: bool) -> Result<()> {
+    let config = WorldConfig {
+        maps: 1,
+        width: size,
+        height: size,
+        demonstrations_per_map: 0,
+        ..WorldConfig::default()
+    };
+    let map = generate_world(&config)
+        .map_err(Error::Usage)?
+        .maps
+        .remove(0);
+    let spec = bench_feature_spec();
+    if let Some(dir) = &dump {
+        for layer in &map.layers {
+            let bytes: Vec<u8> = layer.values.iter().flat_map(|v| v.to_le_bytes()).collect();
+            write_bytes_atomic(&dir.join(format!("{}.f32", layer.name)), &bytes)?;
+        }
+        let meta = serde_json::json!({"width": size, "height": size, "resolution": map.geo.resolution, "spec": spec});
+        write_bytes_atomic(&dir.join("spec.json"), &to_json_bytes(&meta))?;
+    }
+    let mut best = f64::INFINITY;
+    let mut last = None;
+    let mut peak_extra = 0;
+    for _ in 0..repeat {
+        drop(last.take());
+        let (before, _) = memory();
+        reset_peak_memory();
+        let started = Instant::now();
+        let stack = compute(&map, &spec).map_err(Error::Failed)?;
+        best = best.min(started.elapsed().as_secs_f64());
+        let (_, peak) = memory();
+        peak_extra = peak.saturating_sub(before);
+        last = Some(stack);
+    }
+    let stack = last.expect("repeat >= 1");
+    let output_bytes = (stack.data.len() * 4) as u64;
+    let report = FeaturesReport {
+        schema: "imitate.bench.features/1",
+        size,
+        threads: rayon::current_num_threads(),
+        features: stack
+            .names
+            .iter()
+            .zip(stack.planes())
+            .map(|(name, plane)| FeatureSummary {
+                name: name.clone(),
+                mean: plane.iter().map(|&v| f64::from(v)).sum::<f64>() / plane.len() as f64,
+            })
+            .collect(),
+        best_seconds: best,
+        output_bytes,
+        peak_extra_bytes: peak_extra,
+        peak_over_output: peak_extra as f64 / output_bytes as f64,
+    };
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(&report).expect("report serialises")
+        );
+    } else {
+        println!(
+            "features {size}x{size}: {} features in {:.3} s (best of {repeat}, {} threads); output {:.0} MiB, peak extra memory {:.0} MiB ({:.2}x the output)",
+            report.features.len(),
+            best,
+            report.threads,
+            output_bytes as f64 / (1 << 20) as f64,
+            peak_extra as f64 / (1 << 20) as f64,
+            report.peak_over_output
         );
     }
     Ok(())

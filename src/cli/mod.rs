@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand; `main.rs` only calls `run`.
 
 mod bench;
+mod plan;
 mod testdata;
 
 use std::path::PathBuf;
@@ -40,6 +41,8 @@ pub enum Command {
     Features(features::FeaturesParams),
     /// Learn a costmap with LEARCH.
     Learch(learch::LearchParams),
+    /// Plan the cheapest path between two points on a costmap.
+    Plan(plan::PlanArgs),
     /// Generate synthetic test data.
     #[command(subcommand)]
     Testdata(testdata::TestdataCommand),
@@ -69,6 +72,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Learch(params) => run_stage(&params),
         Command::Testdata(command) => testdata::run(command),
         Command::Bench(command) => bench::run(command),
+        Command::Plan(args) => plan::run(args),
     }
 }
 

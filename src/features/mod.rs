@@ -1,66 +1,416 @@
-//! Per-cell features of a map. This first set is the raw layers plus a constant bias;
-//! the feature operators (blur, slope, distance transforms, ...) are their own work.
+//! Per-cell features of a map: operators composed per layer, computed plane by plane
+//! in parallel. Each output plane is written once, in place, so memory stays close to
+//! the size of the output stack (plus a few temporary planes per worker thread).
 
+mod kernels;
+
+pub use kernels::{
+    distance_transform, gaussian_blur, gradient, laplacian, local_std, robust_normalize,
+};
+
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::grid::{FeatureStack, Map};
 
-/// Which features to compute; stored with every stack it made.
+/// What to compute; stored with every stack it made.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct FeatureSpec {
-    /// Layers taken as they are, in this order; `None` takes every layer of the map.
+    /// Layers taken as they are, in this order; `None` takes every layer of the map
+    /// (when `ops` is empty) or none (when it is not).
+    #[serde(default)]
     pub layers: Option<Vec<String>>,
+    /// Operators on layers, after the plain layers, in this order.
+    #[serde(default)]
+    pub ops: Vec<Op>,
     /// Append a constant 1 feature so that a linear cost has an intercept.
     pub bias: bool,
+    /// NaN cells of a layer (no data) read as this value, and the layer gets an extra
+    /// `<layer>/nodata` indicator feature.
+    #[serde(default)]
+    pub nodata_fill: f32,
+}
+
+/// One operator. Lengths are in metres (using the map's resolution) unless named in cells.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "op", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Op {
+    /// (x − median) / interquartile range.
+    Normalize { layer: String },
+    /// Gaussian blur at each standard deviation (metres).
+    Blur { layer: String, sigmas: Vec<f64> },
+    /// Gradient magnitude, layer units per metre.
+    Gradient { layer: String },
+    /// Slope in degrees, atan |∇z|, for an elevation layer in metres.
+    Slope { layer: String },
+    /// Local standard deviation over square windows of this many cells (odd).
+    Roughness { layer: String, windows: Vec<usize> },
+    /// The 5-point Laplacian per square metre.
+    Laplacian { layer: String },
+    /// An indicator per class value.
+    OneHot { layer: String, classes: Vec<f32> },
+    /// Euclidean distance (metres) to the nearest cell equal to `class`, or above
+    /// `above`; capped at `max` (default: the map's diagonal).
+    Distance {
+        layer: String,
+        #[serde(default)]
+        class: Option<f32>,
+        #[serde(default)]
+        above: Option<f32>,
+        #[serde(default)]
+        max: Option<f64>,
+    },
+    /// An indicator per threshold: 1 where the layer is above it.
+    Threshold { layer: String, above: Vec<f32> },
+    /// The product of two features computed before it (by name).
+    Product { a: String, b: String },
 }
 
 pub const BIAS: &str = "bias";
 
-/// Builds the feature stack of one map; the error names a missing layer.
-pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
-    let names: Vec<String> = spec.layers.clone().unwrap_or_else(|| map.layer_names());
-    if names.is_empty() && !spec.bias {
-        return Err("the feature spec selects no features".into());
-    }
-    let layers = names
-        .iter()
-        .map(|name| {
-            map.layer(name).ok_or_else(|| {
+/// How one output plane is made.
+#[derive(Debug, Clone)]
+enum Plane {
+    Copy(usize),
+    Nodata(usize),
+    Normalize(usize),
+    Blur(usize, f64),
+    Gradient(usize, bool),
+    Roughness(usize, usize),
+    Laplacian(usize),
+    Equals(usize, f32),
+    Above(usize, f32),
+    Distance(usize, Target, f64),
+    Product(usize, usize),
+    Bias,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Target {
+    Equals(f32),
+    Above(f32),
+}
+
+/// Shortest decimal form of a parameter for a feature name ("2", "0.3", "2.5").
+fn format_number(v: impl std::fmt::Display) -> String {
+    let s = v.to_string();
+    s.strip_suffix(".0").map(String::from).unwrap_or(s)
+}
+
+/// What a spec asks of one map: the output planes with their names, and the layers
+/// (by index) that hold no-data cells.
+struct Layout {
+    names: Vec<String>,
+    planes: Vec<Plane>,
+    nodata: Vec<usize>,
+}
+
+/// Turns the spec into named planes over the given layers; errors name what is wrong.
+fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
+    let mut used: Vec<usize> = Vec::new();
+    let layer = |name: &str, used: &mut Vec<usize>| -> Result<usize, String> {
+        let i = map
+            .layers
+            .iter()
+            .position(|l| l.name == name)
+            .ok_or_else(|| {
                 format!(
                     "map '{}' has no layer '{name}' (it has: {})",
                     map.name,
                     map.layer_names().join(", ")
                 )
-            })
-        })
-        .collect::<Result<Vec<_>, _>>()?;
-    if let Some((layer, i)) = layers
+            })?;
+        if !used.contains(&i) {
+            used.push(i);
+        }
+        Ok(i)
+    };
+    let mut names: Vec<String> = Vec::new();
+    let mut planes: Vec<Plane> = Vec::new();
+    fn push(
+        name: String,
+        plane: Plane,
+        names: &mut Vec<String>,
+        planes: &mut Vec<Plane>,
+    ) -> Result<(), String> {
+        if names.contains(&name) {
+            return Err(format!("feature '{name}' is asked for twice"));
+        }
+        names.push(name);
+        planes.push(plane);
+        Ok(())
+    }
+    let plain = match (&spec.layers, spec.ops.is_empty()) {
+        (Some(layers), _) => layers.clone(),
+        (None, true) => map.layer_names(),
+        (None, false) => Vec::new(),
+    };
+    for name in &plain {
+        let i = layer(name, &mut used)?;
+        push(name.clone(), Plane::Copy(i), &mut names, &mut planes)?;
+    }
+    let resolution = map.geo.resolution;
+    for op in &spec.ops {
+        match op {
+            Op::Normalize { layer: l } => {
+                let i = layer(l, &mut used)?;
+                push(
+                    format!("{l}/robust"),
+                    Plane::Normalize(i),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Blur { layer: l, sigmas } => {
+                let i = layer(l, &mut used)?;
+                for &sigma in sigmas {
+                    if !(sigma.is_finite() && sigma > 0.0) {
+                        return Err(format!(
+                            "blur of '{l}': sigma {sigma} must be a positive number of metres"
+                        ));
+                    }
+                    push(
+                        format!("{l}/blur_{}m", format_number(sigma)),
+                        Plane::Blur(i, sigma / resolution),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
+            Op::Gradient { layer: l } => {
+                let i = layer(l, &mut used)?;
+                push(
+                    format!("{l}/gradient"),
+                    Plane::Gradient(i, false),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Slope { layer: l } => {
+                let i = layer(l, &mut used)?;
+                push(
+                    format!("{l}/slope_deg"),
+                    Plane::Gradient(i, true),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Roughness { layer: l, windows } => {
+                let i = layer(l, &mut used)?;
+                for &w in windows {
+                    if w % 2 == 0 || w == 0 {
+                        return Err(format!(
+                            "roughness of '{l}': window {w} must be an odd number of cells"
+                        ));
+                    }
+                    push(
+                        format!("{l}/roughness_{w}c"),
+                        Plane::Roughness(i, w),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
+            Op::Laplacian { layer: l } => {
+                let i = layer(l, &mut used)?;
+                push(
+                    format!("{l}/laplacian"),
+                    Plane::Laplacian(i),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::OneHot { layer: l, classes } => {
+                let i = layer(l, &mut used)?;
+                for &c in classes {
+                    push(
+                        format!("{l}/class_{}", format_number(c)),
+                        Plane::Equals(i, c),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
+            Op::Threshold { layer: l, above } => {
+                let i = layer(l, &mut used)?;
+                for &t in above {
+                    push(
+                        format!("{l}/above_{}", format_number(t)),
+                        Plane::Above(i, t),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
+            Op::Distance {
+                layer: l,
+                class,
+                above,
+                max,
+            } => {
+                let i = layer(l, &mut used)?;
+                let (target, label) = match (class, above) {
+                    (Some(c), None) => (Target::Equals(*c), format!("class_{}", format_number(c))),
+                    (None, Some(t)) => (Target::Above(*t), format!("above_{}", format_number(t))),
+                    _ => {
+                        return Err(format!(
+                            "distance on '{l}': give exactly one of `class` and `above`"
+                        ));
+                    }
+                };
+                let [x0, y0, x1, y1] = map.geo.bounds();
+                let cap = max.unwrap_or_else(|| (x1 - x0).hypot(y1 - y0));
+                push(
+                    format!("{l}/distance_to_{label}_m"),
+                    Plane::Distance(i, target, cap),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Product { a, b } => {
+                let find = |n: &str| {
+                    names.iter().position(|x| x == n).ok_or_else(|| {
+                        format!(
+                            "product: no feature '{n}' before it (features so far: {})",
+                            names.join(", ")
+                        )
+                    })
+                };
+                let (ia, ib) = (find(a)?, find(b)?);
+                if matches!(planes[ia], Plane::Product(..))
+                    || matches!(planes[ib], Plane::Product(..))
+                {
+                    return Err(format!(
+                        "product of '{a}' and '{b}': products of products are not supported"
+                    ));
+                }
+                push(
+                    format!("{a}*{b}"),
+                    Plane::Product(ia, ib),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+        }
+    }
+    // Layers with no data get an indicator.
+    let mut nodata = Vec::new();
+    for &i in &used {
+        let values = &map.layers[i].values;
+        if let Some(j) = values.iter().position(|v| v.is_infinite()) {
+            return Err(format!(
+                "layer '{}' of map '{}' is {} at {}",
+                map.layers[i].name,
+                map.name,
+                values[j],
+                map.geo.cell_at(j)
+            ));
+        }
+        if values.iter().any(|v| v.is_nan()) {
+            nodata.push(i);
+            push(
+                format!("{}/nodata", map.layers[i].name),
+                Plane::Nodata(i),
+                &mut names,
+                &mut planes,
+            )?;
+        }
+    }
+    if spec.bias {
+        push(BIAS.into(), Plane::Bias, &mut names, &mut planes)?;
+    }
+    if names.is_empty() {
+        return Err("the feature spec selects no features".into());
+    }
+    Ok(Layout {
+        names,
+        planes,
+        nodata,
+    })
+}
+
+/// Builds the feature stack of one map; the error names what is missing or invalid.
+pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
+    let Layout {
+        names,
+        planes,
+        nodata,
+    } = plan(map, spec)?;
+    let (w, h, res) = (
+        map.geo.width as usize,
+        map.geo.height as usize,
+        map.geo.resolution,
+    );
+    let n = w * h;
+    // Layers with no data, filled; the others are read in place.
+    let filled: Vec<(usize, Vec<f32>)> = nodata
         .iter()
-        .find_map(|l| l.values.iter().position(|v| !v.is_finite()).map(|i| (l, i)))
-    {
-        let cell = map.geo.cell_at(i);
-        return Err(format!(
-            "layer '{}' of map '{}' is {} at {cell}",
-            layer.name, map.name, layer.values[i]
-        ));
-    }
-    let n = map.geo.cell_count();
-    let dim = names.len() + usize::from(spec.bias);
-    let mut data = Vec::with_capacity(n * dim);
-    for layer in &layers {
-        data.extend_from_slice(&layer.values);
-    }
-    if spec.bias {
-        data.resize(n * dim, 1.0);
-    }
-    let mut feature_names = names;
-    if spec.bias {
-        feature_names.push(BIAS.into());
+        .map(|&i| {
+            let values = map.layers[i]
+                .values
+                .iter()
+                .map(|&v| if v.is_nan() { spec.nodata_fill } else { v })
+                .collect();
+            (i, values)
+        })
+        .collect();
+    let input = |i: usize| -> &[f32] {
+        filled
+            .iter()
+            .find(|(j, _)| *j == i)
+            .map_or(&map.layers[i].values, |(_, v)| v)
+    };
+    let mut data = vec![0.0f32; n * names.len()];
+    // Everything but products, in parallel, each plane written in place.
+    data.par_chunks_mut(n)
+        .zip(planes.par_iter())
+        .for_each(|(out, plane)| match *plane {
+            Plane::Copy(i) => out.copy_from_slice(input(i)),
+            Plane::Nodata(i) => {
+                for (o, v) in out.iter_mut().zip(&map.layers[i].values) {
+                    *o = f32::from(u8::from(v.is_nan()));
+                }
+            }
+            Plane::Normalize(i) => robust_normalize(input(i), out),
+            Plane::Blur(i, sigma_cells) => gaussian_blur(input(i), w, h, sigma_cells, out),
+            Plane::Gradient(i, degrees) => gradient(input(i), w, h, res, degrees, out),
+            Plane::Roughness(i, window) => local_std(input(i), w, h, window, out),
+            Plane::Laplacian(i) => laplacian(input(i), w, h, res, out),
+            Plane::Equals(i, c) => {
+                for (o, &v) in out.iter_mut().zip(input(i)) {
+                    *o = f32::from(u8::from(v == c));
+                }
+            }
+            Plane::Above(i, t) => {
+                for (o, &v) in out.iter_mut().zip(input(i)) {
+                    *o = f32::from(u8::from(v > t));
+                }
+            }
+            Plane::Distance(i, target, cap) => {
+                let mask: Vec<bool> = input(i)
+                    .iter()
+                    .map(|&v| match target {
+                        Target::Equals(c) => v == c,
+                        Target::Above(t) => v > t,
+                    })
+                    .collect();
+                distance_transform(&mask, w, h, res, cap, out);
+            }
+            Plane::Bias => out.fill(1.0),
+            Plane::Product(..) => {}
+        });
+    // Products read planes made above.
+    for (k, plane) in planes.iter().enumerate() {
+        if let Plane::Product(a, b) = *plane {
+            for cell in 0..n {
+                data[k * n + cell] = data[a * n + cell] * data[b * n + cell];
+            }
+        }
     }
     Ok(FeatureStack {
         geo: map.geo.clone(),
-        names: feature_names,
+        names,
         data,
     })
 }
@@ -93,43 +443,117 @@ mod tests {
         }
     }
 
-    #[test]
-    fn raw_layers_and_bias() {
-        let spec = FeatureSpec {
-            layers: Some(vec!["b".into()]),
+    fn spec(layers: Option<Vec<&str>>, ops: Vec<Op>) -> FeatureSpec {
+        FeatureSpec {
+            layers: layers.map(|l| l.into_iter().map(String::from).collect()),
+            ops,
             bias: true,
-        };
-        let stack = compute(&map(), &spec).unwrap();
-        assert_eq!(stack.names, ["b", "bias"]);
-        assert_eq!(stack.data, [3.0, 4.0, 1.0, 1.0]);
-        let all = compute(
-            &map(),
-            &FeatureSpec {
-                layers: None,
-                bias: false,
-            },
-        )
-        .unwrap();
-        assert_eq!(all.names, ["a", "b"]);
+            nodata_fill: 0.0,
+        }
     }
 
     #[test]
-    fn missing_layers_and_non_finite_values_are_errors() {
-        let spec = FeatureSpec {
-            layers: Some(vec!["c".into()]),
-            bias: true,
-        };
-        assert!(compute(&map(), &spec).unwrap_err().contains("no layer 'c'"));
-        let mut bad = map();
-        bad.layers[0].values[1] = f32::NAN;
-        let err = compute(
-            &bad,
-            &FeatureSpec {
-                layers: None,
-                bias: true,
+    fn raw_layers_and_bias() {
+        let stack = compute(&map(), &spec(Some(vec!["b"]), vec![])).unwrap();
+        assert_eq!(stack.names, ["b", "bias"]);
+        assert_eq!(stack.data, [3.0, 4.0, 1.0, 1.0]);
+        let mut all = spec(None, vec![]);
+        all.bias = false;
+        assert_eq!(compute(&map(), &all).unwrap().names, ["a", "b"]);
+    }
+
+    #[test]
+    fn operators_name_their_planes() {
+        let ops = vec![
+            Op::Threshold {
+                layer: "a".into(),
+                above: vec![1.5],
             },
-        )
-        .unwrap_err();
+            Op::OneHot {
+                layer: "b".into(),
+                classes: vec![4.0],
+            },
+            Op::Distance {
+                layer: "b".into(),
+                class: Some(4.0),
+                above: None,
+                max: None,
+            },
+            Op::Product {
+                a: "a".into(),
+                b: "b/class_4".into(),
+            },
+        ];
+        let stack = compute(&map(), &spec(Some(vec!["a"]), ops)).unwrap();
+        assert_eq!(
+            stack.names,
+            [
+                "a",
+                "a/above_1.5",
+                "b/class_4",
+                "b/distance_to_class_4_m",
+                "a*b/class_4",
+                "bias"
+            ]
+        );
+        assert_eq!(stack.plane(1), [0.0, 1.0]);
+        assert_eq!(stack.plane(2), [0.0, 1.0]);
+        assert_eq!(stack.plane(3), [1.0, 0.0]);
+        assert_eq!(stack.plane(4), [0.0, 2.0]);
+    }
+
+    #[test]
+    fn nodata_becomes_an_indicator_and_a_fill_value() {
+        let mut m = map();
+        m.layers[0].values[1] = f32::NAN;
+        let mut s = spec(Some(vec!["a"]), vec![]);
+        s.nodata_fill = -1.0;
+        let stack = compute(&m, &s).unwrap();
+        assert_eq!(stack.names, ["a", "a/nodata", "bias"]);
+        assert_eq!(stack.data, [1.0, -1.0, 0.0, 1.0, 1.0, 1.0]);
+    }
+
+    #[test]
+    fn mistakes_are_named() {
+        let err = compute(&map(), &spec(Some(vec!["c"]), vec![])).unwrap_err();
+        assert!(err.contains("no layer 'c'"), "{err}");
+        let mut bad = map();
+        bad.layers[0].values[1] = f32::INFINITY;
+        let err = compute(&bad, &spec(None, vec![])).unwrap_err();
         assert!(err.contains("layer 'a'") && err.contains("col 1"), "{err}");
+        let ops = vec![Op::Roughness {
+            layer: "a".into(),
+            windows: vec![4],
+        }];
+        assert!(
+            compute(&map(), &spec(None, ops))
+                .unwrap_err()
+                .contains("odd")
+        );
+        let ops = vec![Op::Product {
+            a: "a".into(),
+            b: "zz".into(),
+        }];
+        assert!(
+            compute(&map(), &spec(Some(vec!["a"]), ops))
+                .unwrap_err()
+                .contains("no feature 'zz'")
+        );
+    }
+
+    #[test]
+    fn specs_read_from_yaml() {
+        let yaml = "bias: true\nops:\n  - {op: blur, layer: a, sigmas: [1, 2.5]}\n  - {op: distance, layer: b, above: 3}\n";
+        let s: FeatureSpec = serde_saphyr::from_str(yaml).unwrap();
+        let stack = compute(&map(), &s).unwrap();
+        assert_eq!(
+            stack.names,
+            [
+                "a/blur_1m",
+                "a/blur_2.5m",
+                "b/distance_to_above_3_m",
+                "bias"
+            ]
+        );
     }
 }

@@ -432,7 +432,12 @@ pub fn write_features(
     stack: &FeatureStack,
     spec: &serde_json::Value,
 ) -> Result<()> {
-    let columns = stack.names.iter().cloned().zip(stack.planes().map(<[f32]>::to_vec)).collect();
+    let columns = stack
+        .names
+        .iter()
+        .cloned()
+        .zip(stack.planes().map(<[f32]>::to_vec))
+        .collect();
     let spec = (FEATURE_SPEC_KEY.to_string(), spec.to_string());
     write_raster(path, Table::FEATURES, name, &stack.geo, columns, vec![spec])
 }

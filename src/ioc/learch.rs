@@ -16,6 +16,7 @@ use serde::{Deserialize, Serialize};
 
 use super::metrics::{Agreement, evaluate_example, summarize};
 use super::model::{LogLinearCost, WeakLearner};
+use crate::error::first_error_in_order;
 use crate::grid::{CellPath, FeatureStack, Grid};
 use crate::learn::RidgeAccumulator;
 use crate::plan::{path_cost, shortest_path};
@@ -106,10 +107,11 @@ pub fn train(
     let mut rounds = Vec::with_capacity(config.rounds);
     for t in 0..config.rounds {
         let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
-        let gradients: Vec<ExampleGradient> = training
+        let gradients: Vec<Result<ExampleGradient, String>> = training
             .par_iter()
             .map(|ex| example_gradient(&model, &stacks[ex.map], &costmaps[ex.map], ex, config.loss))
-            .collect::<Result<_, _>>()?;
+            .collect::<Vec<_>>();
+        let gradients = first_error_in_order(gradients)?;
         let mut data = RidgeAccumulator::new(model.feature_names.len());
         for g in &gradients {
             data.merge(&g.data);
@@ -150,7 +152,7 @@ pub fn evaluate(
     references: Option<&[Grid<f32>]>,
 ) -> Result<Vec<super::ExampleEvaluation>, String> {
     let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
-    examples
+    let evaluations = examples
         .par_iter()
         .map(|ex| {
             evaluate_example(
@@ -162,7 +164,8 @@ pub fn evaluate(
             )
             .ok_or_else(|| unreachable(ex))
         })
-        .collect()
+        .collect::<Vec<_>>();
+    first_error_in_order(evaluations)
 }
 
 fn unreachable(ex: &Example) -> String {
@@ -283,7 +286,9 @@ mod tests {
         let world = generate_world(&config).unwrap();
         let spec = FeatureSpec {
             layers: None,
+            ops: Vec::new(),
             bias: true,
+            nodata_fill: 0.0,
         };
         let stacks: Vec<FeatureStack> = world
             .maps

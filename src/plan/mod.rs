@@ -1,4 +1,4 @@
-//! Planners on in-memory costmaps. They never touch files.
+//! Planners on in-memory costmaps and tabular MDPs. They never touch files.
 //!
 //! Grid planning uses per-cell costs: the cost of a step between neighbouring cells is
 //! the step length (1 or √2 cells) times the mean of the two cells' costs, the usual
@@ -6,9 +6,11 @@
 //! number are blocked.
 
 mod grid;
+mod mdp;
 mod queue;
 
 pub use grid::{
     Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
     path_cost, shortest_path, visitation,
 };
+pub use mdp::{Backup, TabularMdp, Values, value_iteration};

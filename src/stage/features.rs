@@ -7,8 +7,8 @@ use serde::{Deserialize, Serialize};
 
 use super::{Stage, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, read_manifest};
-use crate::error::{Error, Result};
-use crate::features::{FeatureSpec, compute};
+use crate::error::{Error, Result, first_error_in_order};
+use crate::features::{FeatureSpec, Op, compute};
 use crate::io::tables::{read_map, write_features};
 
 pub const KIND: &str = "features";
@@ -28,14 +28,28 @@ pub struct FeaturesParams {
     /// The features folder to write.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Layers to use, in order (repeat the flag); default: every layer of each map.
+    /// Layers to use as they are, in order (repeat the flag); default: every layer of
+    /// each map when no --op is given.
     #[arg(long = "layer", value_name = "NAME")]
     #[serde(default)]
     pub layers: Option<Vec<String>>,
+    /// An operator as JSON, e.g. '{"op":"blur","layer":"elevation","sigmas":[1,4]}'
+    /// (repeat the flag; schemas/tables/features.md lists them).
+    #[arg(long = "op", value_name = "JSON", value_parser = parse_op)]
+    #[serde(default)]
+    pub ops: Vec<Op>,
     /// Leave out the constant bias feature.
     #[arg(long = "no-bias", action = clap::ArgAction::SetFalse)]
     #[serde(default = "default_bias")]
     pub bias: bool,
+    /// Value that no-data (NaN) cells read as; such layers also get a `/nodata` indicator.
+    #[arg(long, default_value_t = 0.0)]
+    #[serde(default)]
+    pub nodata_fill: f32,
+}
+
+fn parse_op(text: &str) -> Result<Op, String> {
+    serde_json::from_str(text).map_err(|e| format!("not a feature operator: {e}"))
 }
 
 impl Stage for FeaturesParams {
@@ -55,7 +69,9 @@ impl Stage for FeaturesParams {
         let dataset = read_manifest(&self.dataset, "dataset")?;
         let spec = FeatureSpec {
             layers: self.layers.clone(),
+            ops: self.ops.clone(),
             bias: self.bias,
+            nodata_fill: self.nodata_fill,
         };
         let map_files: Vec<PathBuf> = dataset
             .files_with_role("map")
@@ -68,7 +84,8 @@ impl Stage for FeaturesParams {
                 let stack = compute(&map, &spec).map_err(|e| Error::input(path, e))?;
                 Ok((map.name, stack))
             })
-            .collect::<Result<Vec<_>>>()?;
+            .collect::<Vec<_>>();
+        let stacks = first_error_in_order(stacks)?;
         let mut out = ArtifactBuilder::new(&self.out)?;
         let spec_json = serde_json::to_value(&spec).expect("the spec serialises");
         for (name, stack) in &stacks {

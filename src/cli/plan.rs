@@ -1,0 +1,181 @@
+//! `imitate plan`: the cheapest path between two points on a costmap, as JSON on
+//! stdout and optionally as a PNG overlay.
+
+use std::path::{Path, PathBuf};
+
+use clap::Args;
+use serde::Serialize;
+
+use super::bench::Planner;
+use crate::artifact::read_manifest;
+use crate::error::{Error, Result};
+use crate::grid::{Cell, Grid};
+use crate::io::png::write_png;
+use crate::io::tables::read_costmap;
+use crate::plan::{Connectivity, GridPlanner, Moves};
+use crate::report::{Preview, render_preview};
+
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// A costmap artifact folder (written by `learch`) or a `costmap/1` Parquet file.
+    pub costmap: PathBuf,
+    /// Start as "x,y" in the map frame (metres), or "row,col" with --cells.
+    #[arg(long, allow_hyphen_values = true)]
+    pub start: String,
+    /// Goal, as --start.
+    #[arg(long, allow_hyphen_values = true)]
+    pub goal: String,
+    /// Read --start and --goal as "row,col" cells.
+    #[arg(long)]
+    pub cells: bool,
+    /// Which map of an artifact (default: its only one).
+    #[arg(long)]
+    pub map: Option<String>,
+    #[arg(long, value_enum, default_value_t = Connectivity::Eight)]
+    pub connectivity: Connectivity,
+    /// Forbid diagonal steps past blocked cells.
+    #[arg(long)]
+    pub no_corner_cutting: bool,
+    #[arg(long, value_enum, default_value_t = Planner::Astar)]
+    pub planner: Planner,
+    /// Also draw the path over the costmap into this PNG.
+    #[arg(long, value_name = "FILE")]
+    pub png: Option<PathBuf>,
+    /// Pixels per cell in the PNG.
+    #[arg(long, default_value_t = 4)]
+    pub scale: u32,
+}
+
+#[derive(Serialize)]
+struct PlanOutput {
+    schema: &'static str,
+    map: String,
+    cost: f64,
+    cells: Vec<[u32; 2]>,
+    world: Vec<[f64; 2]>,
+}
+
+/// Loads the costmap named by `path` (an artifact folder or a table) and its map name.
+fn load(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {
+    if !path.is_dir() {
+        return read_costmap(path);
+    }
+    let manifest = read_manifest(path, "costmap")?;
+    let files: Vec<_> = manifest.files_with_role("costmap").collect();
+    let names: Vec<String> = files
+        .iter()
+        .map(|f| {
+            f.path
+                .trim_start_matches("costmaps/")
+                .trim_end_matches(".parquet")
+                .to_string()
+        })
+        .collect();
+    let chosen = match map {
+        Some(m) => names.iter().position(|n| n == m).ok_or_else(|| {
+            Error::Usage(format!(
+                "{} has no map '{m}' (it has: {})",
+                path.display(),
+                names.join(", ")
+            ))
+        })?,
+        None if files.len() == 1 => 0,
+        None => {
+            return Err(Error::Usage(format!(
+                "{} holds {} maps; choose one with --map ({})",
+                path.display(),
+                files.len(),
+                names.join(", ")
+            )));
+        }
+    };
+    read_costmap(&path.join(&files[chosen].path))
+}
+
+fn parse_point(text: &str, what: &str) -> Result<[f64; 2]> {
+    let parts: Vec<&str> = text.split(',').map(str::trim).collect();
+    let numbers: Option<Vec<f64>> = parts.iter().map(|p| p.parse().ok()).collect();
+    match numbers.as_deref() {
+        Some(&[a, b]) if a.is_finite() && b.is_finite() => Ok([a, b]),
+        _ => Err(Error::Usage(format!(
+            "--{what} '{text}': expected two numbers separated by a comma"
+        ))),
+    }
+}
+
+pub fn run(args: PlanArgs) -> Result<()> {
+    let (name, costs) = load(&args.costmap, args.map.as_deref())?;
+    let geo = &costs.geo;
+    let locate = |text: &str, what: &str| -> Result<Cell> {
+        let [a, b] = parse_point(text, what)?;
+        let cell = if args.cells {
+            let inside = a >= 0.0 && b >= 0.0 && a.fract() == 0.0 && b.fract() == 0.0;
+            let cell = Cell::new(a as u32, b as u32);
+            (inside && geo.contains(cell)).then_some(cell)
+        } else {
+            geo.cell_of(a, b)
+        };
+        let cell = cell.ok_or_else(|| {
+            let [x0, y0, x1, y1] = geo.bounds();
+            Error::input(
+                &args.costmap,
+                format!(
+                    "--{what} {text} lies outside map '{name}' ({}x{} cells, x {x0}..{x1}, y {y0}..{y1})",
+                    geo.width, geo.height
+                ),
+            )
+        })?;
+        let cost = costs.get(cell);
+        if !(cost.is_finite() && cost > 0.0) {
+            return Err(Error::input(
+                &args.costmap,
+                format!("--{what} {text} is on a blocked cell {cell} (cost {cost})"),
+            ));
+        }
+        Ok(cell)
+    };
+    let (start, goal) = (locate(&args.start, "start")?, locate(&args.goal, "goal")?);
+    let moves = Moves {
+        connectivity: args.connectivity,
+        corner_cutting: !args.no_corner_cutting,
+    };
+    let mut planner = GridPlanner::new(&costs, moves);
+    let route = match args.planner {
+        Planner::Astar => planner.astar(start, goal),
+        Planner::Dijkstra => planner.dijkstra(start, goal),
+    }
+    .ok_or_else(|| Error::Failed(format!("no path from {start} to {goal} on map '{name}'")))?;
+    if let Some(png) = &args.png {
+        if !(1..=64).contains(&args.scale) {
+            return Err(Error::Usage("--scale must be in 1..=64".into()));
+        }
+        let picture = render_preview(
+            &Preview {
+                costs: &costs,
+                demonstrations: vec![],
+                plans: vec![&route.cells],
+            },
+            args.scale,
+        );
+        write_png(png, &picture)?;
+    }
+    let output = PlanOutput {
+        schema: "imitate.plan/1",
+        map: name,
+        cost: route.cost * geo.resolution,
+        cells: route.cells.iter().map(|c| [c.row, c.col]).collect(),
+        world: route
+            .cells
+            .iter()
+            .map(|&c| {
+                let (x, y) = geo.center_of(c);
+                [x, y]
+            })
+            .collect(),
+    };
+    println!(
+        "{}",
+        serde_json::to_string(&output).expect("plans serialise")
+    );
+    Ok(())
+}

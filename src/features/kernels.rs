@@ -1,0 +1,450 @@
+//! Raster kernels behind the feature operators. Each reads one layer (row-major,
+//! `width` × `height`) and writes one plane; boundaries reflect about the edge
+//! (scipy.ndimage's mode "reflect": d c b a | a b c d | d c b a), so the results match
+//! `scipy.ndimage` and `numpy.gradient`, against which the benchmark checks them.
+
+/// Index `i` (possibly outside 0..n) reflected into 0..n.
+fn reflect(mut i: isize, n: usize) -> usize {
+    let n = n as isize;
+    let period = 2 * n;
+    i = i.rem_euclid(period);
+    (if i < n { i } else { period - 1 - i }) as usize
+}
+
+/// Copies `row` into `padded` with `r` reflected values on each side.
+fn pad_row<T: Copy>(row: &[T], r: usize, padded: &mut [T]) {
+    let n = row.len();
+    padded[r..r + n].copy_from_slice(row);
+    for j in 0..r {
+        padded[j] = row[reflect(j as isize - r as isize, n)];
+        padded[r + n + j] = row[reflect((n + j) as isize, n)];
+    }
+}
+
+/// Symmetric 1-D kernel taps w[0..=radius] (w[k] applies at offsets ±k).
+fn gaussian_taps(sigma: f64) -> Vec<f32> {
+    let radius = (4.0 * sigma + 0.5) as usize;
+    let raw: Vec<f64> = (0..=radius)
+        .map(|k| (-0.5 * (k as f64 / sigma).powi(2)).exp())
+        .collect();
+    let total = raw[0] + 2.0 * raw[1..].iter().sum::<f64>();
+    raw.iter().map(|w| (w / total) as f32).collect()
+}
+
+/// Rows of a raster filtered along themselves, computed on demand and kept in a ring
+/// of `slots` rows, so that a vertical pass over a window of rows needs memory for the
+/// window, not for a whole intermediate raster.
+struct RowCache<T> {
+    width: usize,
+    rows: Vec<T>,
+    tags: Vec<usize>,
+}
+
+impl<T: Copy + Default> RowCache<T> {
+    fn new(width: usize, slots: usize) -> Self {
+        RowCache {
+            width,
+            rows: vec![T::default(); width * slots],
+            tags: vec![usize::MAX; slots],
+        }
+    }
+
+    /// Row `row` filtered by `fill(row, out)`; a slot holds row `row % slots`.
+    fn get(&mut self, row: usize, fill: &mut impl FnMut(usize, &mut [T])) -> &[T] {
+        let slot = row % self.tags.len();
+        let range = slot * self.width..(slot + 1) * self.width;
+        if self.tags[slot] != row {
+            fill(row, &mut self.rows[range.clone()]);
+            self.tags[slot] = row;
+        }
+        &self.rows[range]
+    }
+}
+
+/// Separable correlation with a symmetric kernel along rows, then along columns.
+fn separable(input: &[f32], width: usize, height: usize, taps: &[f32], out: &mut [f32]) {
+    let r = taps.len() - 1;
+    let mut padded = vec![0.0f32; width + 2 * r];
+    let mut across_row = |row: usize, dst: &mut [f32]| {
+        pad_row(&input[row * width..(row + 1) * width], r, &mut padded);
+        // Tap by tap across the whole row, so the inner loop vectorises.
+        for (d, &v) in dst.iter_mut().zip(&padded[r..r + width]) {
+            *d = taps[0] * v;
+        }
+        for (k, &w) in taps.iter().enumerate().skip(1) {
+            let (left, right) = (&padded[r - k..r - k + width], &padded[r + k..r + k + width]);
+            for ((d, &a), &b) in dst.iter_mut().zip(left).zip(right) {
+                *d += w * (a + b);
+            }
+        }
+    };
+    // Rows near an edge reflect onto rows within the same window, so 2r + 1 slots
+    // always hold every row a window needs at once.
+    let mut cache = RowCache::new(width, 2 * r + 1);
+    let mut line = vec![0.0f32; width];
+    for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        dst.copy_from_slice(cache.get(row, &mut across_row));
+        for v in dst.iter_mut() {
+            *v *= taps[0];
+        }
+        for (k, &w) in taps.iter().enumerate().skip(1) {
+            line.copy_from_slice(
+                cache.get(reflect(row as isize + k as isize, height), &mut across_row),
+            );
+            let below = cache.get(reflect(row as isize - k as isize, height), &mut across_row);
+            for ((d, &a), &b) in dst.iter_mut().zip(&line).zip(below) {
+                *d += w * (a + b);
+            }
+        }
+    }
+}
+
+/// Gaussian blur with standard deviation `sigma` cells (kernel radius 4σ, as scipy).
+pub fn gaussian_blur(input: &[f32], width: usize, height: usize, sigma: f64, out: &mut [f32]) {
+    separable(input, width, height, &gaussian_taps(sigma), out);
+}
+
+/// Local standard deviation (roughness) over a `window` × `window` square (odd).
+/// Sums of x and x² run along rows, then down columns, in f64 so that E[x²] − E[x]²
+/// stays accurate; each row's sums are recomputed when it leaves the window instead
+/// of being stored, so memory is a few rows.
+pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out: &mut [f32]) {
+    let r = window / 2;
+    let mut padded = vec![0.0f64; width + 2 * r];
+    // Sums of x and x² over the horizontal window of every cell of a row.
+    let mut row_sums = |row: usize, sums: &mut [f64], squares: &mut [f64]| {
+        for (p, &v) in padded[r..r + width]
+            .iter_mut()
+            .zip(&input[row * width..(row + 1) * width])
+        {
+            *p = f64::from(v);
+        }
+        for j in 0..r {
+            padded[j] = padded[r + reflect(j as isize - r as isize, width)];
+            padded[r + width + j] = padded[r + reflect((width + j) as isize, width)];
+        }
+        let (mut s, mut q) = (0.0, 0.0);
+        for &v in &padded[..window] {
+            s += v;
+            q += v * v;
+        }
+        for c in 0..width {
+            sums[c] = s;
+            squares[c] = q;
+            if c + 1 < width {
+                let (enter, leave) = (padded[c + window], padded[c]);
+                s += enter - leave;
+                q += enter * enter - leave * leave;
+            }
+        }
+    };
+    let (mut column_s, mut column_q) = (vec![0.0f64; width], vec![0.0f64; width]);
+    let (mut s, mut q) = (vec![0.0f64; width], vec![0.0f64; width]);
+    for k in -(r as isize)..=r as isize {
+        row_sums(reflect(k, height), &mut s, &mut q);
+        for c in 0..width {
+            column_s[c] += s[c];
+            column_q[c] += q[c];
+        }
+    }
+    let area = (window * window) as f64;
+    for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        for c in 0..width {
+            let mean = column_s[c] / area;
+            dst[c] = (column_q[c] / area - mean * mean).max(0.0).sqrt() as f32;
+        }
+        if row + 1 == height {
+            break;
+        }
+        row_sums(
+            reflect(row as isize + r as isize + 1, height),
+            &mut s,
+            &mut q,
+        );
+        for c in 0..width {
+            column_s[c] += s[c];
+            column_q[c] += q[c];
+        }
+        row_sums(reflect(row as isize - r as isize, height), &mut s, &mut q);
+        for c in 0..width {
+            column_s[c] -= s[c];
+            column_q[c] -= q[c];
+        }
+    }
+}
+
+/// Derivative along one axis the way numpy.gradient takes it: central differences
+/// inside, one-sided at the two ends; `before` and `after` are the neighbours.
+#[inline(always)]
+fn difference(
+    before: f32,
+    here: f32,
+    after: f32,
+    at_start: bool,
+    at_end: bool,
+    spacing: f64,
+) -> f64 {
+    let (b, h, a) = (f64::from(before), f64::from(here), f64::from(after));
+    match (at_start, at_end) {
+        (true, true) => 0.0,
+        (true, false) => (a - h) / spacing,
+        (false, true) => (h - b) / spacing,
+        (false, false) => (a - b) / (2.0 * spacing),
+    }
+}
+
+/// Gradient magnitude |∇z| (units of z per metre) and, with `degrees`, the slope
+/// atan |∇z| in degrees.
+pub fn gradient(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    resolution: f64,
+    degrees: bool,
+    out: &mut [f32],
+) {
+    let line = |r: usize| &input[r * width..(r + 1) * width];
+    for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        let (here, below, above) = (
+            line(row),
+            line(row.saturating_sub(1)),
+            line((row + 1).min(height - 1)),
+        );
+        for col in 0..width {
+            let (left, right) = (here[col.saturating_sub(1)], here[(col + 1).min(width - 1)]);
+            let dx = difference(
+                left,
+                here[col],
+                right,
+                col == 0,
+                col == width - 1,
+                resolution,
+            );
+            let dy = difference(
+                below[col],
+                here[col],
+                above[col],
+                row == 0,
+                row == height - 1,
+                resolution,
+            );
+            let magnitude = (dx * dx + dy * dy).sqrt();
+            dst[col] = if degrees {
+                magnitude.atan().to_degrees()
+            } else {
+                magnitude
+            } as f32;
+        }
+    }
+}
+
+/// The 5-point Laplacian per square metre (scipy.ndimage.laplace / resolution²).
+pub fn laplacian(input: &[f32], width: usize, height: usize, resolution: f64, out: &mut [f32]) {
+    let scale = 1.0 / (resolution * resolution);
+    let line = |r: isize| {
+        let rr = reflect(r, height);
+        &input[rr * width..(rr + 1) * width]
+    };
+    let mut padded = vec![0.0f32; width + 2];
+    for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        let here = line(row as isize);
+        pad_row(here, 1, &mut padded);
+        let (below, above) = (line(row as isize - 1), line(row as isize + 1));
+        for c in 0..width {
+            let sum = f64::from(below[c])
+                + f64::from(above[c])
+                + f64::from(padded[c])
+                + f64::from(padded[c + 2])
+                - 4.0 * f64::from(here[c]);
+            dst[c] = (sum * scale) as f32;
+        }
+    }
+}
+
+/// Exact Euclidean distance (metres) from every cell to the nearest target cell, by
+/// Felzenszwalb and Huttenlocher's linear-time algorithm: distances along columns,
+/// then the lower envelope of parabolas along rows. Capped at `cap`, which is also the
+/// value everywhere when there is no target at all.
+pub fn distance_transform(
+    target: &[bool],
+    width: usize,
+    height: usize,
+    resolution: f64,
+    cap: f64,
+    out: &mut [f32],
+) {
+    // Pass 1: squared distance along each column, as whole-row sweeps down then up.
+    let far = f64::INFINITY;
+    let mut along = vec![far; width * height];
+    for row in 0..height {
+        for col in 0..width {
+            let i = row * width + col;
+            along[i] = if target[i] {
+                0.0
+            } else if row > 0 {
+                along[i - width] + 1.0
+            } else {
+                far
+            };
+        }
+    }
+    for row in (0..height.saturating_sub(1)).rev() {
+        for col in 0..width {
+            let i = row * width + col;
+            along[i] = along[i].min(along[i + width] + 1.0);
+        }
+    }
+    // Pass 2: per row, the lower envelope of parabolas (c - q)² + g(q)².
+    let mut vertices = vec![0usize; width];
+    let mut bounds = vec![0.0f64; width + 1];
+    for row in 0..height {
+        let g = &along[row * width..(row + 1) * width];
+        let f = |q: usize| g[q] * g[q];
+        let dst = &mut out[row * width..(row + 1) * width];
+        let mut k: isize = -1;
+        for (q, gq) in g.iter().enumerate() {
+            if !gq.is_finite() {
+                continue;
+            }
+            loop {
+                if k < 0 {
+                    k = 0;
+                    vertices[0] = q;
+                    bounds[0] = f64::NEG_INFINITY;
+                    bounds[1] = f64::INFINITY;
+                    break;
+                }
+                let v = vertices[k as usize];
+                let s = ((f(q) + (q * q) as f64) - (f(v) + (v * v) as f64))
+                    / (2.0 * (q as f64 - v as f64));
+                if s <= bounds[k as usize] {
+                    k -= 1;
+                    continue;
+                }
+                k += 1;
+                vertices[k as usize] = q;
+                bounds[k as usize] = s;
+                bounds[k as usize + 1] = f64::INFINITY;
+                break;
+            }
+        }
+        if k < 0 {
+            dst.fill(cap as f32);
+            continue;
+        }
+        let mut j = 0usize;
+        for (c, d) in dst.iter_mut().enumerate() {
+            while bounds[j + 1] < c as f64 {
+                j += 1;
+            }
+            let v = vertices[j];
+            let squared = (c as f64 - v as f64).powi(2) + f(v);
+            *d = (squared.sqrt() * resolution).min(cap) as f32;
+        }
+    }
+}
+
+/// (x − median) / interquartile range, with quantiles at index ⌊q(n − 1)⌋ of the
+/// sorted values (numpy's method "lower"); a zero range divides by 1.
+pub fn robust_normalize(input: &[f32], out: &mut [f32]) {
+    let mut sorted = input.to_vec();
+    let n = sorted.len();
+    let mut quantile = |q: f64| {
+        let k = (q * (n - 1) as f64) as usize;
+        *sorted.select_nth_unstable_by(k, f32::total_cmp).1
+    };
+    let (q25, q50, q75) = (quantile(0.25), quantile(0.5), quantile(0.75));
+    let range = if q75 > q25 { q75 - q25 } else { 1.0 };
+    for (o, &x) in out.iter_mut().zip(input) {
+        *o = (x - q50) / range;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn reflection_is_half_sample_symmetric() {
+        let mapped: Vec<usize> = (-3..7).map(|i| reflect(i, 4)).collect();
+        assert_eq!(mapped, [2, 1, 0, 0, 1, 2, 3, 3, 2, 1]);
+    }
+
+    #[test]
+    fn blur_keeps_constants_and_mass() {
+        let (w, h) = (9, 7);
+        let mut out = vec![0.0; w * h];
+        gaussian_blur(&vec![3.0; w * h], w, h, 1.5, &mut out);
+        assert!(out.iter().all(|v| (v - 3.0).abs() < 1e-5));
+        let mut impulse = vec![0.0; w * h];
+        impulse[3 * w + 4] = 1.0;
+        gaussian_blur(&impulse, w, h, 1.0, &mut out);
+        assert!(
+            (out.iter().sum::<f32>() - 1.0).abs() < 1e-4,
+            "mass is kept away from the edges"
+        );
+        assert!(out[3 * w + 4] > out[3 * w + 5] && out[3 * w + 5] > out[3 * w + 6]);
+    }
+
+    #[test]
+    fn local_std_of_a_checkerboard() {
+        let (w, h) = (6, 6);
+        let input: Vec<f32> = (0..w * h).map(|i| ((i / w + i % w) % 2) as f32).collect();
+        let mut out = vec![0.0; w * h];
+        local_std(&input, w, h, 3, &mut out);
+        // A 3x3 window in the interior holds 4 or 5 ones of 9.
+        let interior = out[2 * w + 2];
+        assert!(
+            (interior - (20.0f32 / 81.0).sqrt()).abs() < 1e-5,
+            "{interior}"
+        );
+    }
+
+    #[test]
+    fn gradient_and_slope_of_a_plane() {
+        let (w, h) = (5, 4);
+        // z = 2x metres per metre at resolution 0.5: one cell east raises z by 1.
+        let input: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
+        let mut out = vec![0.0; w * h];
+        gradient(&input, w, h, 0.5, false, &mut out);
+        assert!(out.iter().all(|&g| (g - 2.0).abs() < 1e-6));
+        gradient(&input, w, h, 0.5, true, &mut out);
+        assert!(
+            out.iter()
+                .all(|&s| (s - 2f32.atan().to_degrees()).abs() < 1e-4)
+        );
+        laplacian(&input, w, h, 0.5, &mut out);
+        assert!(out[w + 2].abs() < 1e-6, "a plane has no curvature inside");
+    }
+
+    #[test]
+    fn distance_transform_matches_brute_force() {
+        let (w, h) = (13, 9);
+        let target: Vec<bool> = (0..w * h).map(|i| i % 17 == 3 || i == 50).collect();
+        let mut out = vec![0.0; w * h];
+        distance_transform(&target, w, h, 0.5, 100.0, &mut out);
+        for (i, &found) in out.iter().enumerate() {
+            let (r, c) = ((i / w) as f64, (i % w) as f64);
+            let best = (0..w * h)
+                .filter(|&j| target[j])
+                .map(|j| ((r - (j / w) as f64).powi(2) + (c - (j % w) as f64).powi(2)).sqrt())
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                (f64::from(found) - 0.5 * best).abs() < 1e-5,
+                "cell {i}: {found} vs {}",
+                0.5 * best
+            );
+        }
+        distance_transform(&vec![false; w * h], w, h, 1.0, 7.0, &mut out);
+        assert!(out.iter().all(|&d| d == 7.0));
+    }
+
+    #[test]
+    fn robust_normalisation_centres_on_the_median() {
+        let input: Vec<f32> = (0..9).map(|v| v as f32).collect();
+        let mut out = vec![0.0; 9];
+        robust_normalize(&input, &mut out);
+        assert_eq!(out[4], 0.0);
+        assert_eq!(out[8], 1.0); // (8 − 4) / (6 − 2)
+    }
+}

@@ -1,0 +1,225 @@
+//! `imitate plan` and `imitate features --op ...` as a user runs them.
+
+mod common;
+
+use common::*;
+use imitate::grid::{GeoRef, Grid};
+use imitate::io::tables::write_costmap;
+
+/// A 5 x 4 costmap of ones with a wall in column 2, open only in the top row.
+fn walled(dir: &std::path::Path) -> std::path::PathBuf {
+    let geo = GeoRef {
+        width: 5,
+        height: 4,
+        resolution: 2.0,
+        origin: [10.0, 20.0],
+        frame: "map".into(),
+    };
+    let mut costs = Grid::filled(geo, 1.0f32);
+    for row in 0..3 {
+        costs.set(imitate::grid::Cell::new(row, 2), f32::INFINITY);
+    }
+    let path = dir.join("walled.parquet");
+    write_costmap(&path, "walled", &costs).unwrap();
+    path
+}
+
+fn plan(dir: &std::path::Path, args: &[&str]) -> std::process::Output {
+    let mut all = vec!["plan", "walled.parquet"];
+    all.extend_from_slice(args);
+    imitate(dir, &all)
+}
+
+#[test]
+fn plans_around_a_wall_in_cells_and_in_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    walled(dir.path());
+    let out = plan(
+        dir.path(),
+        &[
+            "--cells", "--start", "0,0", "--goal", "0,4", "--png", "plan.png",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(json["schema"], "imitate.plan/1");
+    let cells = json["cells"].as_array().unwrap();
+    assert_eq!(cells.first().unwrap(), &serde_json::json!([0, 0]));
+    assert!(
+        cells.contains(&serde_json::json!([3, 2])),
+        "through the gap in the top row"
+    );
+    // Up to the gap at (3, 2) and down again: each leg 2 diagonals and 1 straight step,
+    // at 2 m per cell.
+    let cost = json["cost"].as_f64().unwrap();
+    assert!(
+        (cost - 2.0 * (2.0 + 4.0 * 2f64.sqrt())).abs() < 1e-9,
+        "{cost}"
+    );
+    let picture = imitate::io::png::read_png(&dir.path().join("plan.png")).unwrap();
+    assert_eq!((picture.width, picture.height), (20, 16));
+    // The same query in world coordinates (cell centres at 11 m, 21 m and 19 m, 21 m).
+    let world = plan(
+        dir.path(),
+        &["--start", "11,21", "--goal", "19,21", "--no-corner-cutting"],
+    );
+    assert!(world.status.success(), "{}", stderr(&world));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&world)).unwrap();
+    assert!(
+        json["cost"].as_f64().unwrap() >= cost,
+        "no corner cutting is never cheaper"
+    );
+}
+
+#[test]
+fn bad_plan_requests_are_explained() {
+    let dir = tempfile::tempdir().unwrap();
+    walled(dir.path());
+    let out = plan(dir.path(), &["--start", "0,0", "--goal", "19,21"]);
+    assert_input_error(
+        &out,
+        &["walled.parquet", "--start 0,0 lies outside map 'walled'"],
+    );
+    let out = plan(dir.path(), &["--cells", "--start", "0,2", "--goal", "0,4"]);
+    assert_input_error(&out, &["--start 0,2 is on a blocked cell"]);
+    let out = plan(
+        dir.path(),
+        &[
+            "--cells",
+            "--start",
+            "0,0",
+            "--goal",
+            "0,4",
+            "--connectivity",
+            "four",
+            "--start",
+            "x",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    let out = plan(
+        dir.path(),
+        &[
+            "--cells",
+            "--start",
+            "0,0",
+            "--goal",
+            "0,4",
+            "--connectivity",
+            "four",
+        ],
+    );
+    assert!(out.status.success(), "4-connected also finds the gap");
+}
+
+#[test]
+fn unreachable_goals_fail_with_exit_code_1() {
+    let dir = tempfile::tempdir().unwrap();
+    let geo = GeoRef {
+        width: 3,
+        height: 1,
+        resolution: 1.0,
+        origin: [0.0, 0.0],
+        frame: "map".into(),
+    };
+    let costs = Grid::from_vec(geo, vec![1.0, f32::INFINITY, 1.0]);
+    write_costmap(&dir.path().join("walled.parquet"), "cut", &costs).unwrap();
+    let out = plan(dir.path(), &["--cells", "--start", "0,0", "--goal", "0,2"]);
+    assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
+    assert!(stderr(&out).contains("no path"));
+}
+
+#[test]
+fn features_with_operators_from_the_command_line() {
+    let ws = quickstart_workspace();
+    let map = "testdata/world/maps/terrain-000.parquet";
+    let out = imitate(
+        ws.path(),
+        &[
+            "ingest",
+            "--map",
+            map,
+            "--demonstrations",
+            "testdata/world/demonstrations.parquet",
+            "--out",
+            "ds",
+        ],
+    );
+    // The demonstrations name four maps; only one is given.
+    assert_input_error(&out, &["refers to map 'terrain-001'"]);
+    let maps: Vec<String> = (0..4)
+        .map(|m| format!("testdata/world/maps/terrain-00{m}.parquet"))
+        .collect();
+    let mut args = vec!["ingest"];
+    for m in &maps {
+        args.extend(["--map", m.as_str()]);
+    }
+    args.extend([
+        "--demonstrations",
+        "testdata/world/demonstrations.parquet",
+        "--out",
+        "ds",
+    ]);
+    assert!(imitate(ws.path(), &args).status.success());
+    let out = imitate(
+        ws.path(),
+        &[
+            "features",
+            "--dataset",
+            "ds",
+            "--out",
+            "fs",
+            "--layer",
+            "road",
+            "--op",
+            r#"{"op":"slope","layer":"elevation"}"#,
+            "--op",
+            r#"{"op":"distance","layer":"water","above":0.5}"#,
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(ws.path().join("fs/manifest.json")).unwrap())
+            .unwrap();
+    assert_eq!(
+        manifest["metrics"]["features"],
+        serde_json::json!([
+            "road",
+            "elevation/slope_deg",
+            "water/distance_to_above_0.5_m",
+            "bias"
+        ])
+    );
+    let out = imitate(
+        ws.path(),
+        &[
+            "features",
+            "--dataset",
+            "ds",
+            "--out",
+            "fs2",
+            "--op",
+            r#"{"op":"blurr"}"#,
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("not a feature operator"),
+        "{}",
+        stderr(&out)
+    );
+    let out = imitate(
+        ws.path(),
+        &[
+            "features",
+            "--dataset",
+            "ds",
+            "--out",
+            "fs2",
+            "--op",
+            r#"{"op":"slope","layer":"height"}"#,
+        ],
+    );
+    assert_input_error(&out, &["terrain-000.parquet", "no layer 'height'"]);
+    assert!(!ws.path().join("fs2").exists());
+}
