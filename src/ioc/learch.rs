@@ -19,7 +19,10 @@ use super::model::{LogLinearCost, WeakLearner};
 use crate::error::first_error_in_order;
 use crate::grid::{CellPath, FeatureStack, Grid};
 use crate::learn::RidgeAccumulator;
-use crate::plan::{path_cost, shortest_path};
+use crate::plan::{loss_augmented, path_cost, shortest_path};
+
+/// Augmented costs never drop below this, so every cell stays passable.
+const LOSS_FLOOR: f32 = 1e-6;
 
 /// A demonstration on one of the maps.
 #[derive(Debug, Clone)]
@@ -191,14 +194,17 @@ fn example_gradient(
         *visits.entry(geo.index(cell)).or_default() -= 1;
     }
     let augmented = if loss > 0.0 {
-        let keep = (1.0 - loss).max(1e-6) as f32;
-        let mut aug = costs.clone();
-        for (i, c) in aug.data.iter_mut().enumerate() {
-            if !visits.contains_key(&i) {
-                *c *= keep;
-            }
-        }
-        std::borrow::Cow::Owned(aug)
+        // Hamming loss off the demonstration, as a share of each cell's cost.
+        let per_cell: Vec<f32> = (0..costs.data.len())
+            .map(|i| {
+                if visits.contains_key(&i) {
+                    0.0
+                } else {
+                    loss as f32 * costs.data[i]
+                }
+            })
+            .collect();
+        std::borrow::Cow::Owned(loss_augmented(costs, &per_cell, LOSS_FLOOR))
     } else {
         std::borrow::Cow::Borrowed(costs)
     };

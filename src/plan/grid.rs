@@ -60,6 +60,20 @@ pub fn path_cost(costs: &Grid<f32>, path: &[Cell]) -> f64 {
         .sum()
 }
 
+/// Loss-augmented costs for LEARCH-style training: cost minus a per-cell loss, floored
+/// at `floor` (> 0) so that no passable cell becomes free or blocked. Blocked cells
+/// stay blocked.
+pub fn loss_augmented(costs: &Grid<f32>, loss: &[f32], floor: f32) -> Grid<f32> {
+    assert_eq!(loss.len(), costs.data.len(), "one loss per cell");
+    let data = costs
+        .data
+        .iter()
+        .zip(loss)
+        .map(|(&c, &l)| if passable(c) { (c - l).max(floor) } else { c })
+        .collect();
+    Grid::from_vec(costs.geo.clone(), data)
+}
+
 /// How many times the paths visit each cell (row-major).
 pub fn visitation<'a>(geo: &GeoRef, paths: impl IntoIterator<Item = &'a [Cell]>) -> Vec<u32> {
     let mut counts = vec![0u32; geo.cell_count()];
@@ -123,7 +137,10 @@ impl Frontier for MinQueue {
 /// A*'s open list: ordered by cost plus the octile (or Manhattan) distance to the goal
 /// times the cheapest cell cost, then by larger cost (deeper first), then by index.
 struct AstarOpen<const N: usize> {
-    heap: BinaryHeap<(Reverse<u64>, u64, Reverse<u32>)>,
+    /// Keys packed into one integer for cheap comparisons: f's bits (non-negative f64s
+    /// order like their bits), then the complement of g's f32 bits (deeper first, a
+    /// tie-break only), then the node index.
+    heap: BinaryHeap<Reverse<u128>>,
     row: u32,
     goal_row: u32,
     goal_col: u32,
@@ -149,8 +166,10 @@ impl<const N: usize> Frontier for AstarOpen<N> {
     #[inline(always)]
     fn reached(&mut self, node: usize, cost: f64) {
         let f = cost + self.heuristic(node);
-        self.heap
-            .push((Reverse(f.to_bits()), cost.to_bits(), Reverse(node as u32)));
+        let deeper_first = u128::from(!(cost as f32).to_bits());
+        self.heap.push(Reverse(
+            (u128::from(f.to_bits()) << 64) | (deeper_first << 32) | node as u128,
+        ));
     }
 }
 
@@ -348,8 +367,8 @@ impl GridPlanner {
         self.start(s);
         open.reached(s, 0.0);
         let GridPlanner { nodes, touched, .. } = self;
-        while let Some((_, _, Reverse(u))) = open.heap.pop() {
-            let u = u as usize;
+        while let Some(Reverse(key)) = open.heap.pop() {
+            let u = key as u32 as usize;
             if nodes[u].link & CLOSED != 0 {
                 continue;
             }
@@ -595,6 +614,13 @@ mod tests {
         )
         .unwrap();
         assert_eq!(careful.cells, [a, Cell::new(1, 0), b]);
+    }
+
+    #[test]
+    fn loss_augmentation_lowers_costs_down_to_the_floor() {
+        let g = grid(4, 1, vec![2.0, 2.0, f32::INFINITY, 1.0]);
+        let augmented = loss_augmented(&g, &[0.5, 3.0, 1.0, 0.0], 0.01);
+        assert_eq!(augmented.data, [1.5, 0.01, f32::INFINITY, 1.0]);
     }
 
     #[test]

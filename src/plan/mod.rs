@@ -11,6 +11,6 @@ mod queue;
 
 pub use grid::{
     Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
-    path_cost, shortest_path, visitation,
+    loss_augmented, path_cost, shortest_path, visitation,
 };
 pub use mdp::{Backup, TabularMdp, Values, value_iteration};
