@@ -71,6 +71,18 @@ pub enum Planner {
     Dijkstra,
 }
 
+/// Prints a report: JSON for scripts, or the text `describe` makes for people.
+fn emit<T: Serialize>(report: &T, json: bool, describe: impl FnOnce(&T) -> String) {
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string(report).expect("reports serialise")
+        );
+    } else {
+        println!("{}", describe(report));
+    }
+}
+
 pub fn run(command: BenchCommand) -> Result<()> {
     match command {
         BenchCommand::Movingai {
@@ -177,13 +189,8 @@ fn movingai(
         total_seconds: elapsed,
         microseconds_per_query: 1e6 * elapsed / scenarios.len().max(1) as f64,
     };
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string(&report).expect("report serialises")
-        );
-    } else {
-        println!(
+    emit(&report, json, |report| {
+        let mut text = format!(
             "{}: {} scenarios, {} mismatches, {:.1} µs per query ({:.3} s in all)",
             report.map,
             report.scenarios,
@@ -192,12 +199,13 @@ fn movingai(
             report.total_seconds
         );
         for m in &report.first_mismatches {
-            println!(
-                "  line {}: {} -> {}: optimal {}, found {:?}",
+            text.push_str(&format!(
+                "\n  line {}: {} -> {}: optimal {}, found {:?}",
                 m.line, m.start, m.goal, m.optimal, m.found
-            );
+            ));
         }
-    }
+        text
+    });
     if report.mismatches > 0 {
         return Err(Error::Failed(format!(
             "{} scenarios do not match their optimal length",
@@ -291,13 +299,8 @@ fn dijkstra(grid: &Grid<f32>, repeat: usize, connectivity: Connectivity, json: b
         cost_sum: finite.iter().sum(),
         max_cost: finite.iter().copied().fold(0.0, f64::max),
     };
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string(&report).expect("report serialises")
-        );
-    } else {
-        println!(
+    emit(&report, json, |report| {
+        format!(
             "dijkstra {}x{} ({:?}-connected): best {:.4} s, median {:.4} s over {} runs; {} cells reached",
             report.width,
             report.height,
@@ -306,8 +309,8 @@ fn dijkstra(grid: &Grid<f32>, repeat: usize, connectivity: Connectivity, json: b
             report.median_seconds,
             repeat,
             report.reached
-        );
-    }
+        )
+    });
     Ok(())
 }
 
@@ -440,13 +443,8 @@ fn features(size: u32, repeat: usize, dump: Option<PathBuf>, json: bool) -> Resu
         peak_extra_bytes: peak_extra,
         peak_over_output: peak_extra as f64 / output_bytes as f64,
     };
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string(&report).expect("report serialises")
-        );
-    } else {
-        println!(
+    emit(&report, json, |report| {
+        format!(
             "features {size}x{size}: {} features in {:.3} s (best of {repeat}, {} threads); output {:.0} MiB, peak extra memory {:.0} MiB ({:.2}x the output)",
             report.features.len(),
             best,
@@ -454,7 +452,7 @@ fn features(size: u32, repeat: usize, dump: Option<PathBuf>, json: bool) -> Resu
             output_bytes as f64 / (1 << 20) as f64,
             peak_extra as f64 / (1 << 20) as f64,
             report.peak_over_output
-        );
-    }
+        )
+    });
     Ok(())
 }

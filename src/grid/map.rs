@@ -1,6 +1,6 @@
 //! Maps: a georeference and named f32 layers (elevation, vegetation, class, ...).
 
-use super::{GeoRef, Grid};
+use super::GeoRef;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct Layer {
@@ -23,11 +23,5 @@ impl Map {
 
     pub fn layer_names(&self) -> Vec<String> {
         self.layers.iter().map(|l| l.name.clone()).collect()
-    }
-
-    /// A layer as a grid of its own.
-    pub fn layer_grid(&self, name: &str) -> Option<Grid<f32>> {
-        self.layer(name)
-            .map(|l| Grid::from_vec(self.geo.clone(), l.values.clone()))
     }
 }
