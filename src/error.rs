@@ -23,6 +23,9 @@ pub enum Error {
     /// A computation could not produce a result (e.g. no path between two cells).
     #[error("{0}")]
     Failed(String),
+    /// Not an error of the run: a check found something out of date (exit code 1).
+    #[error("{0}")]
+    Stale(String),
 }
 
 impl Error {
@@ -44,7 +47,7 @@ impl Error {
     pub fn exit_code(&self) -> i32 {
         match self {
             Error::Input { .. } | Error::Usage(_) => 2,
-            Error::Io { .. } | Error::Failed(_) => 1,
+            Error::Io { .. } | Error::Failed(_) | Error::Stale(_) => 1,
         }
     }
 }

@@ -74,7 +74,13 @@ fn artifacts_are_identical_across_thread_counts_runs_and_checkouts() {
     let args = ["run", "pipelines/quickstart.yaml"];
     let one_thread = digests(&imitate_env(a.path(), &args, &[("RAYON_NUM_THREADS", "1")]));
     let two_threads = digests(&imitate_env(b.path(), &args, &[("RAYON_NUM_THREADS", "2")]));
-    let again = digests(&imitate_env(a.path(), &args, &[("RAYON_NUM_THREADS", "2")]));
+    // --force: the lock file would otherwise (rightly) skip every stage.
+    let forced = ["run", "pipelines/quickstart.yaml", "--force"];
+    let again = digests(&imitate_env(
+        a.path(),
+        &forced,
+        &[("RAYON_NUM_THREADS", "2")],
+    ));
     assert_eq!(one_thread, two_threads);
     assert_eq!(one_thread, again);
     let manifest = |ws: &std::path::Path| {

@@ -9,6 +9,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand};
 
 use crate::error::{Error, Result};
+use crate::pipeline::RunOptions;
 use crate::stage::{Stage, StageReport, features, ingest, learch};
 
 #[derive(Debug, Parser)]
@@ -30,10 +31,30 @@ pub struct Cli {
 
 #[derive(Debug, Subcommand)]
 pub enum Command {
-    /// Run a pipeline file (default: imitate.yaml).
+    /// Run the stale stages of a pipeline file (default: imitate.yaml); the lock file
+    /// beside it (imitate.lock) records what each stage last ran with.
     Run {
         #[arg(default_value = "imitate.yaml")]
         pipeline: PathBuf,
+        /// Say which stages would run and why; run nothing.
+        #[arg(long)]
+        dry_run: bool,
+        /// Rerun stages even when they are up to date.
+        #[arg(long)]
+        force: bool,
+        /// Only this stage (its inputs must exist).
+        #[arg(long, value_name = "NAME")]
+        stage: Option<String>,
+    },
+    /// Which stages of a pipeline are stale, and why.
+    Status {
+        #[arg(default_value = "imitate.yaml")]
+        pipeline: PathBuf,
+        #[arg(long)]
+        json: bool,
+        /// Exit with code 1 when a stage is stale (like `make -q`).
+        #[arg(long)]
+        exit_code: bool,
     },
     /// Ingest maps and demonstrations into a dataset.
     Ingest(ingest::IngestParams),
@@ -58,12 +79,67 @@ pub fn run(cli: Cli) -> Result<()> {
             .map_err(|e| Error::input(dir, format!("cannot change into it: {e}")))?;
     }
     match cli.command {
-        Command::Run { pipeline } => {
-            let reports = crate::pipeline::run(&pipeline, |name, report| {
-                eprintln!("{name}: {}", report.summary);
+        Command::Run {
+            pipeline,
+            dry_run,
+            force,
+            stage,
+        } => {
+            let options = RunOptions {
+                force,
+                only: stage,
+                dry_run,
+            };
+            let outcomes = crate::pipeline::run(&pipeline, &options, |o| {
+                match (&o.summary, o.reasons.is_empty()) {
+                    (_, true) => eprintln!("{}: up to date", o.name),
+                    (Some(summary), false) => {
+                        eprintln!("{}: {summary} ({})", o.name, o.reasons.join("; "))
+                    }
+                    (None, false) => eprintln!("{}: would run ({})", o.name, o.reasons.join("; ")),
+                }
             })?;
-            for (name, report) in reports {
-                print_report(&name, &report);
+            for o in outcomes {
+                match &o.digest {
+                    Some(digest) => println!("{}\t{}\t{digest}", o.name, o.out.display()),
+                    None => println!(
+                        "{}\t{}\twould run: {}",
+                        o.name,
+                        o.out.display(),
+                        o.reasons.join("; ")
+                    ),
+                }
+            }
+            Ok(())
+        }
+        Command::Status {
+            pipeline,
+            json,
+            exit_code,
+        } => {
+            let options = RunOptions {
+                dry_run: true,
+                ..RunOptions::default()
+            };
+            let outcomes = crate::pipeline::run(&pipeline, &options, |_| {})?;
+            let stale = outcomes.iter().filter(|o| !o.reasons.is_empty()).count();
+            if json {
+                let report = serde_json::json!({ "schema": "imitate.status/1", "stale": stale, "stages": outcomes });
+                println!("{report}");
+            } else {
+                for o in &outcomes {
+                    if o.reasons.is_empty() {
+                        println!("{}: up to date", o.name);
+                    } else {
+                        println!("{}: stale: {}", o.name, o.reasons.join("; "));
+                    }
+                }
+            }
+            if exit_code && stale > 0 {
+                return Err(Error::Stale(format!(
+                    "{stale} stage(s) of {} are stale",
+                    pipeline.display()
+                )));
             }
             Ok(())
         }

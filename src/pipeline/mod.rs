@@ -1,15 +1,26 @@
-//! Pipelines: a YAML file of named stages, run in the order written. This is the
-//! minimal runner (every stage, every time); stage keys, caching and the DAG are their
-//! own work.
+//! Pipelines: a YAML file of named stages, run in the order written, make-style: a
+//! stage reruns only when its lineage (stage version, tool version, resolved
+//! parameters, input digests) differs from the one in the lock file, or its output is
+//! missing or not the one it made. A stage whose inputs came out byte-identical is
+//! skipped (early cutoff), because input digests are content digests.
+//!
+//! Still to come (their own issue): a stat cache (inputs are hashed on every run), a
+//! content-addressed cache of outputs, parallel stages, `vars`/`foreach`, a repository
+//! lock between concurrent runs.
 
+mod lock;
 mod spec;
 
+pub use lock::{LockFile, LockedStage, differences, lock_path};
 pub use spec::{PipelineSpec, StageSpec};
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
+use serde::Serialize;
+
+use crate::artifact::{MANIFEST, Manifest};
 use crate::error::{Error, Result, read_input};
-use crate::stage::{self, StageReport};
+use crate::stage::{self, Stage};
 
 /// Parses a pipeline file; errors name the file, line and column.
 pub fn load(path: &Path) -> Result<PipelineSpec> {
@@ -32,12 +43,94 @@ pub fn load(path: &Path) -> Result<PipelineSpec> {
     Ok(spec)
 }
 
+#[derive(Debug, Clone, Default)]
+pub struct RunOptions {
+    /// Rerun every stage (or the one chosen) whatever the lock file says.
+    pub force: bool,
+    /// Only this stage; its inputs must exist.
+    pub only: Option<String>,
+    /// Decide and report, run nothing, write nothing.
+    pub dry_run: bool,
+}
+
+/// What happened to (or would happen to) one stage.
+#[derive(Debug, Clone, Serialize)]
+pub struct StageOutcome {
+    pub name: String,
+    pub kind: &'static str,
+    pub out: PathBuf,
+    /// Why it (would) run; empty when up to date.
+    pub reasons: Vec<String>,
+    pub ran: bool,
+    /// The output's digest, when there is one.
+    pub digest: Option<String>,
+    /// What the stage made, when it ran.
+    pub summary: Option<String>,
+}
+
+/// The manifest digest of an output folder, or `None` when there is no readable one.
+fn output_digest(out: &Path) -> Option<String> {
+    let bytes = std::fs::read(out.join(MANIFEST)).ok()?;
+    serde_json::from_slice::<Manifest>(&bytes)
+        .ok()
+        .map(|m| m.digest)
+}
+
+/// Why `stage` must run, or nothing when it is up to date. `pending` holds the outputs
+/// of earlier stages that will run but have not (in a dry run), whose digests are not
+/// known yet.
+fn reasons_to_run(
+    name: &str,
+    stage: &dyn Stage,
+    lock: &LockFile,
+    pending: &[PathBuf],
+    force: bool,
+) -> Result<Vec<String>> {
+    if force {
+        return Ok(vec!["forced".into()]);
+    }
+    let waiting: Vec<String> = stage
+        .deps()
+        .iter()
+        .filter(|d| pending.iter().any(|p| d.starts_with(p)))
+        .map(|d| format!("input will be remade: {}", d.display()))
+        .collect();
+    if !waiting.is_empty() {
+        return Ok(waiting);
+    }
+    let Some(locked) = lock.stages.get(name) else {
+        return Ok(vec!["never run".into()]);
+    };
+    let now = stage::lineage(stage).map_err(|e| match e {
+        Error::Input { path, message } => {
+            Error::input(path, format!("{message} (an input of stage '{name}')"))
+        }
+        other => other,
+    })?;
+    let mut reasons = differences(name, &locked.lineage, &now);
+    let out = stage.out();
+    if locked.out != out.to_string_lossy() {
+        reasons.push(format!("output moved: {} → {}", locked.out, out.display()));
+    } else {
+        match output_digest(&out) {
+            None => reasons.push(format!("output missing: {}", out.display())),
+            Some(d) if d != locked.out_digest => {
+                reasons.push(format!("output changed: {}", out.display()))
+            }
+            Some(_) => {}
+        }
+    }
+    Ok(reasons)
+}
+
 /// Builds every stage (so a typo in the last stage fails before the first runs), then
-/// runs them in order. `on_done` sees each stage's report as it finishes.
+/// runs the stale ones in order, recording each in the lock file as it finishes.
+/// `on_event` sees each outcome as soon as it is known.
 pub fn run(
     path: &Path,
-    mut on_done: impl FnMut(&str, &StageReport),
-) -> Result<Vec<(String, StageReport)>> {
+    options: &RunOptions,
+    mut on_event: impl FnMut(&StageOutcome),
+) -> Result<Vec<StageOutcome>> {
     let spec = load(path)?;
     let stages = spec
         .stages
@@ -49,12 +142,62 @@ pub fn run(
                 .map_err(|e| Error::input(path, format!("stage '{name}': {e}")))
         })
         .collect::<Result<Vec<_>>>()?;
-    let mut reports = Vec::with_capacity(stages.len());
-    for (name, stage) in stages {
-        tracing::info!(stage = %name, kind = stage.kind(), "running");
-        let report = stage.run()?;
-        on_done(&name, &report);
-        reports.push((name, report));
+    if let Some(only) = options
+        .only
+        .as_ref()
+        .filter(|only| !stages.iter().any(|(n, _)| n == *only))
+    {
+        let names: Vec<&str> = stages.iter().map(|(n, _)| n.as_str()).collect();
+        return Err(Error::Usage(format!(
+            "{} has no stage '{only}' (it has: {})",
+            path.display(),
+            names.join(", ")
+        )));
     }
-    Ok(reports)
+    let lock_file = lock_path(path);
+    let mut lock = lock::read(&lock_file)?;
+    let mut pending: Vec<PathBuf> = Vec::new();
+    let mut outcomes = Vec::with_capacity(stages.len());
+    for (name, stage) in &stages {
+        if options.only.as_ref().is_some_and(|only| only != name) {
+            continue;
+        }
+        let reasons = reasons_to_run(name, stage.as_ref(), &lock, &pending, options.force)?;
+        let mut outcome = StageOutcome {
+            name: name.clone(),
+            kind: stage.kind(),
+            out: stage.out(),
+            reasons,
+            ran: false,
+            digest: None,
+            summary: None,
+        };
+        if outcome.reasons.is_empty() {
+            outcome.digest = lock.stages.get(name).map(|l| l.out_digest.clone());
+        } else if options.dry_run {
+            pending.push(stage.out());
+        } else {
+            tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
+            let report = stage.run()?;
+            let bytes = read_input(&report.output.join(MANIFEST))?;
+            let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| {
+                Error::Failed(format!("stage '{name}' wrote an unreadable manifest: {e}"))
+            })?;
+            lock.stages.insert(
+                name.clone(),
+                LockedStage {
+                    lineage: manifest.lineage,
+                    out: report.output.to_string_lossy().into_owned(),
+                    out_digest: manifest.digest,
+                },
+            );
+            lock::write(&lock_file, &lock)?;
+            outcome.ran = true;
+            outcome.digest = Some(report.digest);
+            outcome.summary = Some(report.summary);
+        }
+        on_event(&outcome);
+        outcomes.push(outcome);
+    }
+    Ok(outcomes)
 }

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact};
+use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
 use crate::features::{FeatureSpec, Op, compute};
@@ -55,6 +55,14 @@ fn parse_op(text: &str) -> Result<Op, String> {
 impl Stage for FeaturesParams {
     fn kind(&self) -> &'static str {
         KIND
+    }
+
+    fn version(&self) -> u32 {
+        VERSION
+    }
+
+    fn params(&self) -> serde_json::Value {
+        resolved(self)
     }
 
     fn deps(&self) -> Vec<PathBuf> {
@@ -107,6 +115,6 @@ impl Stage for FeaturesParams {
             names.len(),
             names.join(", ")
         );
-        commit_artifact(self, VERSION, out, "features", metrics, summary)
+        commit_artifact(self, out, "features", metrics, summary)
     }
 }

@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact};
+use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result};
 use crate::grid::{PathError, rasterize};
@@ -35,6 +35,14 @@ pub struct IngestParams {
 impl Stage for IngestParams {
     fn kind(&self) -> &'static str {
         KIND
+    }
+
+    fn version(&self) -> u32 {
+        VERSION
+    }
+
+    fn params(&self) -> serde_json::Value {
+        resolved(self)
     }
 
     fn deps(&self) -> Vec<PathBuf> {
@@ -116,6 +124,6 @@ impl Stage for IngestParams {
             "path_cells": paths.iter().map(|p| p.cells.len()).sum::<usize>(),
         });
         let summary = format!("{} maps, {} demonstrations", maps.len(), demos.len());
-        commit_artifact(self, VERSION, out, "dataset", metrics, summary)
+        commit_artifact(self, out, "dataset", metrics, summary)
     }
 }

@@ -10,7 +10,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact};
+use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result};
 use crate::grid::{FeatureStack, Grid};
@@ -149,6 +149,14 @@ fn split(examples: Vec<Example>, fraction: f64, seed: u64) -> (Vec<Example>, Vec
 impl Stage for LearchParams {
     fn kind(&self) -> &'static str {
         KIND
+    }
+
+    fn version(&self) -> u32 {
+        VERSION
+    }
+
+    fn params(&self) -> serde_json::Value {
+        resolved(self)
     }
 
     fn deps(&self) -> Vec<PathBuf> {
@@ -313,7 +321,7 @@ impl Stage for LearchParams {
         if let Some(ratio) = holdout_summary.mean_reference_cost_ratio {
             summary.push_str(&format!(", reference cost ratio {ratio:.3}"));
         }
-        commit_artifact(self, VERSION, out, "costmap", summary_metrics, summary)
+        commit_artifact(self, out, "costmap", summary_metrics, summary)
     }
 }
 

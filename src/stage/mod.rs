@@ -26,6 +26,10 @@ pub struct StageReport {
 
 pub trait Stage {
     fn kind(&self) -> &'static str;
+    /// The implementation's version: bumped when the same inputs would give other outputs.
+    fn version(&self) -> u32;
+    /// The resolved parameters (defaults filled in), as recorded in lineage.
+    fn params(&self) -> serde_json::Value;
     /// Files and artifact folders the stage reads.
     fn deps(&self) -> Vec<PathBuf>;
     /// The artifact folder the stage writes.
@@ -75,22 +79,31 @@ fn resolved<T: Serialize>(params: &T) -> serde_json::Value {
     serde_json::to_value(params).expect("parameters serialise")
 }
 
-/// Digests the stage's inputs, commits its artifact with lineage, and reports it.
-fn commit_artifact(
-    stage: &(impl Stage + Serialize),
-    version: u32,
-    out: ArtifactBuilder,
-    kind: &str,
-    metrics: serde_json::Value,
-    summary: String,
-) -> Result<StageReport> {
+/// The lineage a run of `stage` would have now: its version and parameters, the
+/// digests of its inputs as they are, and the stage key made of them.
+pub fn lineage(stage: &dyn Stage) -> Result<Lineage> {
     let inputs = stage
         .deps()
         .iter()
         .map(|p| digest_input(p))
         .collect::<Result<Vec<_>>>()?;
-    let lineage = Lineage::new(stage.kind(), version, resolved(stage), inputs);
-    let manifest = out.commit(kind, lineage, metrics)?;
+    Ok(Lineage::new(
+        stage.kind(),
+        stage.version(),
+        stage.params(),
+        inputs,
+    ))
+}
+
+/// Commits a stage's artifact with its lineage, and reports it.
+fn commit_artifact(
+    stage: &dyn Stage,
+    out: ArtifactBuilder,
+    kind: &str,
+    metrics: serde_json::Value,
+    summary: String,
+) -> Result<StageReport> {
+    let manifest = out.commit(kind, lineage(stage)?, metrics)?;
     Ok(StageReport {
         output: stage.out(),
         digest: manifest.digest,

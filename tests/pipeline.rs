@@ -1,0 +1,130 @@
+//! Make-style reruns: only what is stale runs, with a reason a person can read.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+const PIPELINE: &str = "pipelines/quickstart.yaml";
+
+fn run(ws: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["run", PIPELINE];
+    args.extend_from_slice(extra);
+    let out = imitate(ws, &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    out
+}
+
+/// stderr line of each stage, in order.
+fn lines(out: &std::process::Output) -> Vec<String> {
+    stderr(out)
+        .lines()
+        .filter(|l| !l.starts_with(' '))
+        .map(String::from)
+        .collect()
+}
+
+fn edit(ws: &Path, from: &str, to: &str) {
+    let path = ws.join(PIPELINE);
+    let text = std::fs::read_to_string(&path).unwrap();
+    assert!(text.contains(from));
+    std::fs::write(&path, text.replacen(from, to, 1)).unwrap();
+}
+
+#[test]
+fn only_stale_stages_rerun_and_say_why() {
+    let ws = quickstart_workspace();
+    let first = run(ws.path(), &[]);
+    assert!(ws.path().join("pipelines/quickstart.lock").is_file());
+    let digests = stdout(&first);
+
+    // Nothing changed: nothing runs, the same outputs are reported.
+    let again = run(ws.path(), &[]);
+    assert_eq!(
+        lines(&again),
+        [
+            "ingest: up to date",
+            "features: up to date",
+            "learch: up to date"
+        ]
+    );
+    assert_eq!(stdout(&again), digests);
+
+    // Touching an input without changing it changes nothing.
+    let demos = ws.path().join("testdata/world/demonstrations.parquet");
+    let bytes = std::fs::read(&demos).unwrap();
+    std::fs::write(&demos, &bytes).unwrap();
+    let touched = imitate(ws.path(), &["status", PIPELINE, "--exit-code"]);
+    assert_eq!(touched.status.code(), Some(0), "{}", stdout(&touched));
+
+    // One parameter: only that stage is stale, and the reason names it.
+    edit(ws.path(), "rounds: 40", "rounds: 5");
+    let status = imitate(ws.path(), &["status", PIPELINE, "--exit-code"]);
+    assert_eq!(status.status.code(), Some(1));
+    assert_eq!(
+        stdout(&status).lines().collect::<Vec<_>>(),
+        [
+            "ingest: up to date",
+            "features: up to date",
+            "learch: stale: param changed: learch.rounds 40 → 5"
+        ]
+    );
+    let dry = imitate(ws.path(), &["run", PIPELINE, "--dry-run"]);
+    assert!(stdout(&dry).contains(
+        "learch\tout/quickstart/costmap\twould run: param changed: learch.rounds 40 → 5"
+    ));
+    let rerun = run(ws.path(), &[]);
+    let rerun_lines = lines(&rerun);
+    assert_eq!(
+        rerun_lines[..2],
+        ["ingest: up to date", "features: up to date"]
+    );
+    assert!(
+        rerun_lines[2].starts_with("learch: 5 rounds"),
+        "{rerun_lines:?}"
+    );
+
+    // Reverting reruns it to the very same artifact as the first run.
+    edit(ws.path(), "rounds: 5", "rounds: 40");
+    assert_eq!(stdout(&run(ws.path(), &[])), digests);
+}
+
+#[test]
+fn a_deleted_output_reruns_its_stage_and_identical_outputs_cut_off_downstream() {
+    let ws = quickstart_workspace();
+    run(ws.path(), &[]);
+    std::fs::remove_dir_all(ws.path().join("out/quickstart/features")).unwrap();
+    let status = imitate(ws.path(), &["status", PIPELINE, "--json"]);
+    let json: serde_json::Value = serde_json::from_str(&stdout(&status)).unwrap();
+    assert_eq!(json["schema"], "imitate.status/1");
+    assert_eq!(
+        json["stale"], 2,
+        "features, and learch whose input will be remade"
+    );
+    assert_eq!(
+        json["stages"][1]["reasons"][0],
+        "output missing: out/quickstart/features"
+    );
+    // Running remakes the features byte for byte, so learch stays up to date.
+    let rerun = run(ws.path(), &[]);
+    let stages = lines(&rerun);
+    assert!(stages[1].starts_with("features: 4 maps"), "{stages:?}");
+    assert_eq!(stages[2], "learch: up to date");
+}
+
+#[test]
+fn force_and_single_stage_runs() {
+    let ws = quickstart_workspace();
+    run(ws.path(), &[]);
+    let forced = run(ws.path(), &["--force", "--stage", "features"]);
+    let stages = lines(&forced);
+    assert_eq!(stages.len(), 1, "{stages:?}");
+    assert!(
+        stages[0].starts_with("features: ") && stages[0].ends_with("(forced)"),
+        "{stages:?}"
+    );
+    let out = imitate(ws.path(), &["run", PIPELINE, "--stage", "nope"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("no stage 'nope'"), "{}", stderr(&out));
+}
