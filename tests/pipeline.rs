@@ -128,3 +128,27 @@ fn force_and_single_stage_runs() {
     assert_eq!(out.status.code(), Some(2));
     assert!(stderr(&out).contains("no stage 'nope'"), "{}", stderr(&out));
 }
+
+#[test]
+fn impossible_pipelines_are_refused_before_anything_runs() {
+    let ws = quickstart_workspace();
+    let cases = [
+        ("stages:\n  a:\n    uses: features\n    with: {dataset: d, out: ../elsewhere}\n", "outside the workspace"),
+        ("stages:\n  a:\n    uses: features\n    with: {dataset: d, out: /tmp/x}\n", "outside the workspace"),
+        (
+            "stages:\n  a:\n    uses: features\n    with: {dataset: d, out: out/f}\n  b:\n    uses: features\n    with: {dataset: d, out: out/f}\n",
+            "stages 'a' and 'b' both write out/f",
+        ),
+        (
+            "stages:\n  a:\n    uses: features\n    with: {dataset: out/d, out: out/f}\n  b:\n    uses: features\n    with: {dataset: x, out: out/d}\n",
+            "stage 'a' reads out/d, which stage 'b', listed after it, writes",
+        ),
+        ("stages:\n  a:\n    uses: features\n    with: {dataset: out/f, out: out/f}\n", "which itself writes"),
+    ];
+    for (stages, expected) in cases {
+        std::fs::write(ws.path().join("bad.yaml"), format!("schema: 1\n{stages}")).unwrap();
+        let out = imitate(ws.path(), &["run", "bad.yaml"]);
+        assert_input_error(&out, &["bad.yaml", expected]);
+        assert!(!ws.path().join("out").exists());
+    }
+}

@@ -123,6 +123,42 @@ fn reasons_to_run(
     Ok(reasons)
 }
 
+/// Refuses, before anything runs, what cannot work: outputs outside the workspace, two
+/// stages writing one place, and a stage reading what the same or a later stage writes
+/// (stages run in the order listed).
+fn check_graph(path: &Path, stages: &[(String, Box<dyn Stage>)]) -> Result<()> {
+    use std::path::Component;
+    for (i, (name, stage)) in stages.iter().enumerate() {
+        let out = stage.out();
+        let escapes = out.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
+        if escapes || out.as_os_str().is_empty() {
+            return Err(Error::input(
+                path,
+                format!("stage '{name}' writes {}, outside the workspace: outputs are relative paths without '..'", out.display()),
+            ));
+        }
+        for (other, later) in &stages[i + 1..] {
+            let theirs = later.out();
+            if out.starts_with(&theirs) || theirs.starts_with(&out) {
+                return Err(Error::input(
+                    path,
+                    format!("stages '{name}' and '{other}' both write {}", out.min(theirs).display()),
+                ));
+            }
+        }
+        for (j, (other, writer)) in stages.iter().enumerate().skip(i) {
+            if let Some(dep) = stage.deps().into_iter().find(|d| d.starts_with(writer.out())) {
+                let when = if j == i { "itself".to_string() } else { format!("stage '{other}', listed after it,") };
+                return Err(Error::input(
+                    path,
+                    format!("stage '{name}' reads {}, which {when} writes: a stage may read only what earlier stages write", dep.display()),
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Builds every stage (so a typo in the last stage fails before the first runs), then
 /// runs the stale ones in order, recording each in the lock file as it finishes.
 /// `on_event` sees each outcome as soon as it is known.
@@ -154,6 +190,7 @@ pub fn run(
             names.join(", ")
         )));
     }
+    check_graph(path, &stages)?;
     let lock_file = lock_path(path);
     let mut lock = lock::read(&lock_file)?;
     let mut pending: Vec<PathBuf> = Vec::new();
