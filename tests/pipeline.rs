@@ -85,9 +85,16 @@ fn only_stale_stages_rerun_and_say_why() {
         "{rerun_lines:?}"
     );
 
-    // Reverting reruns it to the very same artifact as the first run.
+    // Reverting restores the first run's artifact from the cache, without training.
     edit(ws.path(), "rounds: 5", "rounds: 40");
-    assert_eq!(stdout(&run(ws.path(), &[])), digests);
+    let reverted = run(ws.path(), &[]);
+    assert_eq!(stdout(&reverted), digests);
+    assert_eq!(
+        lines(&reverted)[2],
+        "learch: restored from the output cache (param changed: learch.rounds 5 → 40)"
+    );
+    let status = imitate(ws.path(), &["status", PIPELINE, "--exit-code"]);
+    assert_eq!(status.status.code(), Some(0), "{}", stdout(&status));
 }
 
 #[test]
@@ -106,7 +113,19 @@ fn a_deleted_output_reruns_its_stage_and_identical_outputs_cut_off_downstream() 
         json["stages"][1]["reasons"][0],
         "output missing: out/quickstart/features"
     );
-    // Running remakes the features byte for byte, so learch stays up to date.
+    // The cache has it.
+    let restored = run(ws.path(), &[]);
+    assert_eq!(
+        lines(&restored)[1..],
+        [
+            "features: restored from the output cache (output missing: out/quickstart/features)",
+            "learch: up to date"
+        ]
+    );
+    // Without the cache the stage runs, remakes the features byte for byte, and so
+    // learch stays up to date.
+    std::fs::remove_dir_all(ws.path().join("out/quickstart/features")).unwrap();
+    std::fs::remove_dir_all(ws.path().join(".imitate")).unwrap();
     let rerun = run(ws.path(), &[]);
     let stages = lines(&rerun);
     assert!(stages[1].starts_with("features: 4 maps"), "{stages:?}");
@@ -133,8 +152,14 @@ fn force_and_single_stage_runs() {
 fn impossible_pipelines_are_refused_before_anything_runs() {
     let ws = quickstart_workspace();
     let cases = [
-        ("stages:\n  a:\n    uses: features\n    with: {dataset: d, out: ../elsewhere}\n", "outside the workspace"),
-        ("stages:\n  a:\n    uses: features\n    with: {dataset: d, out: /tmp/x}\n", "outside the workspace"),
+        (
+            "stages:\n  a:\n    uses: features\n    with: {dataset: d, out: ../elsewhere}\n",
+            "outside the workspace",
+        ),
+        (
+            "stages:\n  a:\n    uses: features\n    with: {dataset: d, out: /tmp/x}\n",
+            "outside the workspace",
+        ),
         (
             "stages:\n  a:\n    uses: features\n    with: {dataset: d, out: out/f}\n  b:\n    uses: features\n    with: {dataset: d, out: out/f}\n",
             "stages 'a' and 'b' both write out/f",
@@ -143,7 +168,10 @@ fn impossible_pipelines_are_refused_before_anything_runs() {
             "stages:\n  a:\n    uses: features\n    with: {dataset: out/d, out: out/f}\n  b:\n    uses: features\n    with: {dataset: x, out: out/d}\n",
             "stage 'a' reads out/d, which stage 'b', listed after it, writes",
         ),
-        ("stages:\n  a:\n    uses: features\n    with: {dataset: out/f, out: out/f}\n", "which itself writes"),
+        (
+            "stages:\n  a:\n    uses: features\n    with: {dataset: out/f, out: out/f}\n",
+            "which itself writes",
+        ),
     ];
     for (stages, expected) in cases {
         std::fs::write(ws.path().join("bad.yaml"), format!("schema: 1\n{stages}")).unwrap();

@@ -114,6 +114,50 @@ impl ArtifactBuilder {
     }
 }
 
+/// Copies the artifact folder `from` to `to`, atomically like a commit: into a staging
+/// folder beside `to` first, then moved into place.
+pub fn copy_artifact(from: &Path, to: &Path) -> Result<()> {
+    let parent = match to.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent)
+        .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
+    let staging = tempfile::Builder::new()
+        .prefix(".imitate-staging-")
+        .tempdir_in(&parent)
+        .map_err(|e| {
+            Error::io(
+                format!("creating a staging folder in {}", parent.display()),
+                e,
+            )
+        })?;
+    copy_tree(from, staging.path())?;
+    install(staging, to)
+}
+
+fn copy_tree(from: &Path, to: &Path) -> Result<()> {
+    let entries =
+        std::fs::read_dir(from).map_err(|e| Error::io(format!("reading {}", from.display()), e))?;
+    for entry in entries {
+        let entry = entry.map_err(|e| Error::io(format!("reading {}", from.display()), e))?;
+        let (source, target) = (entry.path(), to.join(entry.file_name()));
+        if source.is_dir() {
+            std::fs::create_dir_all(&target)
+                .map_err(|e| Error::io(format!("creating {}", target.display()), e))?;
+            copy_tree(&source, &target)?;
+        } else {
+            std::fs::copy(&source, &target).map_err(|e| {
+                Error::io(
+                    format!("copying {} to {}", source.display(), target.display()),
+                    e,
+                )
+            })?;
+        }
+    }
+    Ok(())
+}
+
 /// Replaces `destination` with the staged folder: the old version is moved aside,
 /// the new one renamed in, then the old one removed.
 fn install(staging: tempfile::TempDir, destination: &Path) -> Result<()> {

@@ -6,7 +6,7 @@
 mod builder;
 mod manifest;
 
-pub use builder::ArtifactBuilder;
+pub use builder::{ArtifactBuilder, copy_artifact};
 pub use manifest::{
     FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, digest_input, read_manifest,
     stage_key,

@@ -4,10 +4,13 @@
 //! missing or not the one it made. A stage whose inputs came out byte-identical is
 //! skipped (early cutoff), because input digests are content digests.
 //!
-//! Still to come (their own issue): a stat cache (inputs are hashed on every run), a
-//! content-addressed cache of outputs, parallel stages, `vars`/`foreach`, a repository
-//! lock between concurrent runs.
+//! Outputs are kept in a content-addressed cache (`cache.rs`), so a stage whose stage
+//! key was seen before gets its output back without running.
+//!
+//! Still to come (their own issue): a stat cache (inputs are hashed on every run),
+//! parallel stages, `vars`/`foreach`, a repository lock between concurrent runs.
 
+mod cache;
 mod lock;
 mod spec;
 
@@ -18,7 +21,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
-use crate::artifact::{MANIFEST, Manifest};
+use crate::artifact::{Lineage, MANIFEST, Manifest};
 use crate::error::{Error, Result, read_input};
 use crate::stage::{self, Stage};
 
@@ -85,9 +88,9 @@ fn reasons_to_run(
     lock: &LockFile,
     pending: &[PathBuf],
     force: bool,
-) -> Result<Vec<String>> {
+) -> Result<(Vec<String>, Option<Lineage>)> {
     if force {
-        return Ok(vec!["forced".into()]);
+        return Ok((vec!["forced".into()], None));
     }
     let waiting: Vec<String> = stage
         .deps()
@@ -96,17 +99,17 @@ fn reasons_to_run(
         .map(|d| format!("input will be remade: {}", d.display()))
         .collect();
     if !waiting.is_empty() {
-        return Ok(waiting);
+        return Ok((waiting, None));
     }
-    let Some(locked) = lock.stages.get(name) else {
-        return Ok(vec!["never run".into()]);
-    };
     let now = stage::lineage(stage).map_err(|e| match e {
         Error::Input { path, message } => {
             Error::input(path, format!("{message} (an input of stage '{name}')"))
         }
         other => other,
     })?;
+    let Some(locked) = lock.stages.get(name) else {
+        return Ok((vec!["never run".into()], Some(now)));
+    };
     let mut reasons = differences(name, &locked.lineage, &now);
     let out = stage.out();
     if locked.out != out.to_string_lossy() {
@@ -120,7 +123,7 @@ fn reasons_to_run(
             Some(_) => {}
         }
     }
-    Ok(reasons)
+    Ok((reasons, Some(now)))
 }
 
 /// Refuses, before anything runs, what cannot work: outputs outside the workspace, two
@@ -130,11 +133,16 @@ fn check_graph(path: &Path, stages: &[(String, Box<dyn Stage>)]) -> Result<()> {
     use std::path::Component;
     for (i, (name, stage)) in stages.iter().enumerate() {
         let out = stage.out();
-        let escapes = out.components().any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
+        let escapes = out
+            .components()
+            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
         if escapes || out.as_os_str().is_empty() {
             return Err(Error::input(
                 path,
-                format!("stage '{name}' writes {}, outside the workspace: outputs are relative paths without '..'", out.display()),
+                format!(
+                    "stage '{name}' writes {}, outside the workspace: outputs are relative paths without '..'",
+                    out.display()
+                ),
             ));
         }
         for (other, later) in &stages[i + 1..] {
@@ -142,16 +150,30 @@ fn check_graph(path: &Path, stages: &[(String, Box<dyn Stage>)]) -> Result<()> {
             if out.starts_with(&theirs) || theirs.starts_with(&out) {
                 return Err(Error::input(
                     path,
-                    format!("stages '{name}' and '{other}' both write {}", out.min(theirs).display()),
+                    format!(
+                        "stages '{name}' and '{other}' both write {}",
+                        out.min(theirs).display()
+                    ),
                 ));
             }
         }
         for (j, (other, writer)) in stages.iter().enumerate().skip(i) {
-            if let Some(dep) = stage.deps().into_iter().find(|d| d.starts_with(writer.out())) {
-                let when = if j == i { "itself".to_string() } else { format!("stage '{other}', listed after it,") };
+            if let Some(dep) = stage
+                .deps()
+                .into_iter()
+                .find(|d| d.starts_with(writer.out()))
+            {
+                let when = if j == i {
+                    "itself".to_string()
+                } else {
+                    format!("stage '{other}', listed after it,")
+                };
                 return Err(Error::input(
                     path,
-                    format!("stage '{name}' reads {}, which {when} writes: a stage may read only what earlier stages write", dep.display()),
+                    format!(
+                        "stage '{name}' reads {}, which {when} writes: a stage may read only what earlier stages write",
+                        dep.display()
+                    ),
                 ));
             }
         }
@@ -194,12 +216,13 @@ pub fn run(
     let lock_file = lock_path(path);
     let mut lock = lock::read(&lock_file)?;
     let mut pending: Vec<PathBuf> = Vec::new();
+    let cache = cache::OutputCache::in_workspace();
     let mut outcomes = Vec::with_capacity(stages.len());
     for (name, stage) in &stages {
         if options.only.as_ref().is_some_and(|only| only != name) {
             continue;
         }
-        let reasons = reasons_to_run(name, stage.as_ref(), &lock, &pending, options.force)?;
+        let (reasons, now) = reasons_to_run(name, stage.as_ref(), &lock, &pending, options.force)?;
         let mut outcome = StageOutcome {
             name: name.clone(),
             kind: stage.kind(),
@@ -214,24 +237,35 @@ pub fn run(
         } else if options.dry_run {
             pending.push(stage.out());
         } else {
-            tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
-            let report = stage.run()?;
-            let bytes = read_input(&report.output.join(MANIFEST))?;
+            let out = stage.out();
+            let cached = now.as_ref().and_then(|l| cache.lookup(&l.stage_key));
+            let summary = match cached {
+                Some((_, dir)) => {
+                    cache.restore(&dir, &out)?;
+                    "restored from the output cache".to_string()
+                }
+                None => {
+                    tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
+                    stage.run()?.summary
+                }
+            };
+            let bytes = read_input(&out.join(MANIFEST))?;
             let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| {
-                Error::Failed(format!("stage '{name}' wrote an unreadable manifest: {e}"))
+                Error::Failed(format!("stage '{name}' left an unreadable manifest: {e}"))
             })?;
+            cache.store(&manifest.lineage.stage_key, &out, &manifest.digest)?;
+            outcome.digest = Some(manifest.digest.clone());
             lock.stages.insert(
                 name.clone(),
                 LockedStage {
                     lineage: manifest.lineage,
-                    out: report.output.to_string_lossy().into_owned(),
+                    out: out.to_string_lossy().into_owned(),
                     out_digest: manifest.digest,
                 },
             );
             lock::write(&lock_file, &lock)?;
             outcome.ran = true;
-            outcome.digest = Some(report.digest);
-            outcome.summary = Some(report.summary);
+            outcome.summary = Some(summary);
         }
         on_event(&outcome);
         outcomes.push(outcome);
