@@ -153,13 +153,23 @@ pub fn read_manifest(dir: &Path, kind: &str) -> Result<Manifest> {
 /// The path is recorded as the user gave it, so that lineage does not depend on where
 /// a checkout lives.
 pub fn digest_input(path: &Path) -> Result<InputDigest> {
+    digest_input_with(path, &mut |file| {
+        file_digest(file).map(|(digest, _)| digest)
+    })
+}
+
+/// As `digest_input`, with files digested by `digest_file` (e.g. through a stat cache).
+pub fn digest_input_with(
+    path: &Path,
+    digest_file: &mut dyn FnMut(&Path) -> Result<String>,
+) -> Result<InputDigest> {
     let digest = if path.is_dir() {
         let bytes = read_input(&path.join(MANIFEST))?;
         let manifest: Manifest = serde_json::from_slice(&bytes)
             .map_err(|e| Error::input(path.join(MANIFEST), format!("not a valid manifest: {e}")))?;
         manifest.digest
     } else {
-        file_digest(path)?.0
+        digest_file(path)?
     };
     Ok(InputDigest {
         path: path.to_string_lossy().replace('\\', "/"),

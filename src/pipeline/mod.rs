@@ -7,12 +7,16 @@
 //! Outputs are kept in a content-addressed cache (`cache.rs`), so a stage whose stage
 //! key was seen before gets its output back without running.
 //!
-//! Still to come (their own issue): a stat cache (inputs are hashed on every run),
-//! parallel stages, `vars`/`foreach`, a repository lock between concurrent runs.
+//! Input files are hashed through a stat cache (`statcache.rs`), so a run in which
+//! nothing changed reads metadata only.
+//!
+//! Still to come (their own issue): parallel stages, `vars`/`foreach`, a repository
+//! lock between concurrent runs.
 
 mod cache;
 mod lock;
 mod spec;
+mod statcache;
 
 pub use lock::{LockFile, LockedStage, differences, lock_path};
 pub use spec::{PipelineSpec, StageSpec};
@@ -88,6 +92,7 @@ fn reasons_to_run(
     lock: &LockFile,
     pending: &[PathBuf],
     force: bool,
+    stats: &mut statcache::StatCache,
 ) -> Result<(Vec<String>, Option<Lineage>)> {
     if force {
         return Ok((vec!["forced".into()], None));
@@ -101,7 +106,7 @@ fn reasons_to_run(
     if !waiting.is_empty() {
         return Ok((waiting, None));
     }
-    let now = stage::lineage(stage).map_err(|e| match e {
+    let now = stage::lineage_with(stage, &mut |file| stats.digest(file)).map_err(|e| match e {
         Error::Input { path, message } => {
             Error::input(path, format!("{message} (an input of stage '{name}')"))
         }
@@ -217,12 +222,20 @@ pub fn run(
     let mut lock = lock::read(&lock_file)?;
     let mut pending: Vec<PathBuf> = Vec::new();
     let cache = cache::OutputCache::in_workspace();
+    let mut stats = statcache::StatCache::in_workspace();
     let mut outcomes = Vec::with_capacity(stages.len());
     for (name, stage) in &stages {
         if options.only.as_ref().is_some_and(|only| only != name) {
             continue;
         }
-        let (reasons, now) = reasons_to_run(name, stage.as_ref(), &lock, &pending, options.force)?;
+        let (reasons, now) = reasons_to_run(
+            name,
+            stage.as_ref(),
+            &lock,
+            &pending,
+            options.force,
+            &mut stats,
+        )?;
         let mut outcome = StageOutcome {
             name: name.clone(),
             kind: stage.kind(),
@@ -269,6 +282,9 @@ pub fn run(
         }
         on_event(&outcome);
         outcomes.push(outcome);
+    }
+    if !options.dry_run {
+        stats.save()?;
     }
     Ok(outcomes)
 }

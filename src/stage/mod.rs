@@ -7,12 +7,12 @@ pub mod features;
 pub mod ingest;
 pub mod learch;
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 
-use crate::artifact::{ArtifactBuilder, Lineage, digest_input};
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input, digest_input_with};
 use crate::error::{Error, Result};
 
 /// What a finished stage tells its caller.
@@ -82,10 +82,20 @@ fn resolved<T: Serialize>(params: &T) -> serde_json::Value {
 /// The lineage a run of `stage` would have now: its version and parameters, the
 /// digests of its inputs as they are, and the stage key made of them.
 pub fn lineage(stage: &dyn Stage) -> Result<Lineage> {
+    lineage_with(stage, &mut |file| {
+        digest_input(file).map(|input| input.digest)
+    })
+}
+
+/// As `lineage`, with input files digested by `digest_file` (e.g. through a stat cache).
+pub fn lineage_with(
+    stage: &dyn Stage,
+    digest_file: &mut dyn FnMut(&Path) -> Result<String>,
+) -> Result<Lineage> {
     let inputs = stage
         .deps()
         .iter()
-        .map(|p| digest_input(p))
+        .map(|p| digest_input_with(p, digest_file))
         .collect::<Result<Vec<_>>>()?;
     Ok(Lineage::new(
         stage.kind(),
