@@ -180,3 +180,64 @@ fn impossible_pipelines_are_refused_before_anything_runs() {
         assert!(!ws.path().join("out").exists());
     }
 }
+
+/// Every output folder that exists is complete: its manifest lists files that are all
+/// there with the sizes and digests it names.
+fn assert_outputs_complete(ws: &Path) {
+    for stage in ["dataset", "features", "costmap"] {
+        let dir = ws.join("out/quickstart").join(stage);
+        if !dir.exists() {
+            continue;
+        }
+        let manifest: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(dir.join("manifest.json")).expect("an output folder has its manifest"),
+        )
+        .unwrap();
+        for file in manifest["files"].as_array().unwrap() {
+            let path = dir.join(file["path"].as_str().unwrap());
+            let bytes = std::fs::read(&path)
+                .unwrap_or_else(|_| panic!("{} is listed but missing", path.display()));
+            assert_eq!(
+                bytes.len() as u64,
+                file["size"].as_u64().unwrap(),
+                "{}",
+                path.display()
+            );
+            assert_eq!(
+                format!("blake3:{}", blake3::hash(&bytes).to_hex()),
+                file["digest"].as_str().unwrap()
+            );
+        }
+    }
+}
+
+#[test]
+fn runs_killed_at_any_moment_leave_no_half_outputs_and_finish_the_same() {
+    let reference = quickstart_workspace();
+    let expected = stdout(&run(reference.path(), &[]));
+    let ws = quickstart_workspace();
+    // Kill moments spread over a whole run (a debug-build quickstart takes seconds).
+    for delay_ms in [5, 40, 120, 300, 600, 900, 1300, 1800, 2500, 3500] {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_imitate"))
+            .current_dir(ws.path())
+            .args(["run", PIPELINE])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        std::thread::sleep(std::time::Duration::from_millis(delay_ms));
+        let _ = child.kill(); // SIGKILL on Unix
+        let _ = child.wait();
+        assert_outputs_complete(ws.path());
+        // Start over from nothing but what the killed run left, now and then.
+        if delay_ms % 3 == 0 {
+            let _ = std::fs::remove_dir_all(ws.path().join(".imitate"));
+        }
+    }
+    assert_eq!(
+        stdout(&run(ws.path(), &[])),
+        expected,
+        "the run after the kills ends where an uninterrupted one does"
+    );
+    assert_outputs_complete(ws.path());
+}

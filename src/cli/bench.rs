@@ -41,6 +41,17 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Digest speed of input files (blake3, as the pipeline hashes them).
+    Hash {
+        /// A file to hash; without it, a temporary file of --size-mib random bytes.
+        file: Option<PathBuf>,
+        #[arg(long, default_value_t = 1024)]
+        size_mib: usize,
+        #[arg(long, default_value_t = 3)]
+        repeat: usize,
+        #[arg(long)]
+        json: bool,
+    },
     /// Single-source Dijkstra over a whole costmap, one thread, best of several runs.
     Dijkstra {
         /// Raw little-endian f32 costs, row by row (e.g. numpy's `tofile`).
@@ -91,6 +102,12 @@ pub fn run(command: BenchCommand) -> Result<()> {
             planner,
             json,
         } => movingai(map, scen, planner, json),
+        BenchCommand::Hash {
+            file,
+            size_mib,
+            repeat,
+            json,
+        } => hash(file, size_mib, repeat.max(1), json),
         BenchCommand::Features {
             size,
             repeat,
@@ -452,6 +469,58 @@ fn features(size: u32, repeat: usize, dump: Option<PathBuf>, json: bool) -> Resu
             output_bytes as f64 / (1 << 20) as f64,
             peak_extra as f64 / (1 << 20) as f64,
             report.peak_over_output
+        )
+    });
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct HashReport {
+    schema: &'static str,
+    bytes: u64,
+    best_seconds: f64,
+    gib_per_second: f64,
+}
+
+fn hash(file: Option<PathBuf>, size_mib: usize, repeat: usize, json: bool) -> Result<()> {
+    let scratch =
+        tempfile::NamedTempFile::new().map_err(|e| Error::io("creating a temporary file", e))?;
+    let path = match file {
+        Some(path) => path,
+        None => {
+            use rand::{RngExt, SeedableRng};
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(0);
+            let mut block = vec![0u8; 1 << 20];
+            let mut out = std::io::BufWriter::new(scratch.as_file());
+            for _ in 0..size_mib {
+                rng.fill(&mut block[..]);
+                std::io::Write::write_all(&mut out, &block)
+                    .map_err(|e| Error::io("writing the file to hash", e))?;
+            }
+            std::io::Write::flush(&mut out)
+                .map_err(|e| Error::io("writing the file to hash", e))?;
+            scratch.path().to_path_buf()
+        }
+    };
+    let mut best = f64::INFINITY;
+    let mut bytes = 0;
+    for _ in 0..repeat {
+        let started = Instant::now();
+        bytes = crate::io::fs::file_digest(&path)?.1;
+        best = best.min(started.elapsed().as_secs_f64());
+    }
+    let report = HashReport {
+        schema: "imitate.bench.hash/1",
+        bytes,
+        best_seconds: best,
+        gib_per_second: bytes as f64 / best / f64::from(1u32 << 30),
+    };
+    emit(&report, json, |r| {
+        format!(
+            "hashed {} MiB in {:.3} s: {:.2} GiB/s (best of {repeat}, file in the page cache)",
+            r.bytes >> 20,
+            r.best_seconds,
+            r.gib_per_second
         )
     });
     Ok(())
