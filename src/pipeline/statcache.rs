@@ -63,10 +63,12 @@ impl StatCache {
         let meta = std::fs::metadata(file).map_err(|e| Error::input(file, e.to_string()))?;
         let (size, mtime_ns, inode) = stamp(&meta);
         let key = file.to_string_lossy().into_owned();
-        if let Some(e) = self.entries.get(&key) {
-            if (e.size, e.mtime_ns, e.inode) == (size, mtime_ns, inode) {
-                return Ok(e.digest.clone());
-            }
+        if let Some(e) = self
+            .entries
+            .get(&key)
+            .filter(|e| (e.size, e.mtime_ns, e.inode) == (size, mtime_ns, inode))
+        {
+            return Ok(e.digest.clone());
         }
         let (digest, _) = file_digest(file)?;
         let settled = meta
