@@ -241,3 +241,87 @@ fn runs_killed_at_any_moment_leave_no_half_outputs_and_finish_the_same() {
     );
     assert_outputs_complete(ws.path());
 }
+
+#[test]
+fn foreach_over_a_glob_and_downstream_runs() {
+    let ws = quickstart_workspace();
+    let yaml = "schema: 1
+stages:
+  ingest:
+    foreach: {glob: \"testdata/world/maps/terrain-00[01].parquet\"}
+    uses: ingest
+    with: {maps: [\"${item}\"], demonstrations: demos.parquet, out: \"out/${item_stem}/dataset\"}
+  features:
+    foreach: [terrain-000, terrain-001]
+    uses: features
+    with: {dataset: \"out/${item}/dataset\", out: \"out/${item}/features\"}
+";
+    std::fs::write(ws.path().join("fan.yaml"), yaml).unwrap();
+    // One demonstrations file for both ingests, holding terrain-000's episodes only.
+    let demos = imitate::io::tables::read_demonstrations(
+        &ws.path().join("testdata/world/demonstrations.parquet"),
+    )
+    .unwrap();
+    let one_map: Vec<_> = demos
+        .into_iter()
+        .filter(|d| d.map == "terrain-000")
+        .collect();
+    imitate::io::tables::write_demonstrations(&ws.path().join("demos.parquet"), &one_map).unwrap();
+    let out = imitate(ws.path(), &["run", "fan.yaml"]);
+    // terrain-001's ingest gets demonstrations on terrain-000 only: a clear input error.
+    assert_input_error(&out, &["demos.parquet", "refers to map 'terrain-000'"]);
+    let yaml = yaml
+        .replace("terrain-00[01]", "terrain-000")
+        .replace("[terrain-000, terrain-001]", "[terrain-000]");
+    std::fs::write(ws.path().join("fan.yaml"), yaml).unwrap();
+    let out = imitate(ws.path(), &["run", "fan.yaml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let names: Vec<String> = stdout(&out)
+        .lines()
+        .map(|l| l.split('\t').next().unwrap().to_string())
+        .collect();
+    assert_eq!(
+        names,
+        [
+            "ingest@testdata/world/maps/terrain-000.parquet",
+            "features@terrain-000"
+        ]
+    );
+    let forced = imitate(
+        ws.path(),
+        &[
+            "run",
+            "fan.yaml",
+            "--force",
+            "--stage",
+            "ingest@testdata/world/maps/terrain-000.parquet",
+            "--downstream",
+        ],
+    );
+    assert_eq!(
+        lines(&forced).len(),
+        2,
+        "the stage and the one downstream of it: {}",
+        stderr(&forced)
+    );
+}
+
+#[test]
+fn a_second_run_in_the_same_workspace_is_refused_while_one_works() {
+    let ws = quickstart_workspace();
+    std::fs::create_dir_all(ws.path().join(".imitate")).unwrap();
+    let held = std::fs::File::create(ws.path().join(".imitate/run.lock")).unwrap();
+    held.lock().unwrap();
+    let out = imitate(ws.path(), &["run", PIPELINE]);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("another `imitate run` is working in this workspace"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!ws.path().join("out").exists());
+    // Looking is always allowed.
+    assert!(imitate(ws.path(), &["status", PIPELINE]).status.success());
+    held.unlock().unwrap();
+    run(ws.path(), &[]);
+}

@@ -45,6 +45,9 @@ pub enum Command {
         /// Only this stage (its inputs must exist).
         #[arg(long, value_name = "NAME")]
         stage: Option<String>,
+        /// With --stage: also every later stage that reads what it writes.
+        #[arg(long, requires = "stage")]
+        downstream: bool,
     },
     /// Which stages of a pipeline are stale, and why.
     Status {
@@ -84,10 +87,12 @@ pub fn run(cli: Cli) -> Result<()> {
             dry_run,
             force,
             stage,
+            downstream,
         } => {
             let options = RunOptions {
                 force,
                 only: stage,
+                downstream,
                 dry_run,
             };
             let outcomes = crate::pipeline::run(&pipeline, &options, |o| {

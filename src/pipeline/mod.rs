@@ -19,7 +19,7 @@ mod spec;
 mod statcache;
 
 pub use lock::{LockFile, LockedStage, differences, lock_path};
-pub use spec::{PipelineSpec, StageSpec};
+pub use spec::{ExpandedStage, Foreach, PipelineSpec, StageSpec};
 
 use std::path::{Path, PathBuf};
 
@@ -56,8 +56,39 @@ pub struct RunOptions {
     pub force: bool,
     /// Only this stage; its inputs must exist.
     pub only: Option<String>,
+    /// With `only`: also the later stages that read what it writes, transitively.
+    pub downstream: bool,
     /// Decide and report, run nothing, write nothing.
     pub dry_run: bool,
+}
+
+/// Holds the workspace's run lock (`.imitate/run.lock`) while alive, so that two runs
+/// never write the same outputs and lock file at once.
+struct RunLock {
+    _held: std::fs::File,
+}
+
+impl RunLock {
+    fn acquire() -> Result<RunLock> {
+        let path = Path::new(".imitate/run.lock");
+        std::fs::create_dir_all(".imitate").map_err(|e| Error::io("creating .imitate", e))?;
+        let file = std::fs::File::options()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(path)
+            .map_err(|e| Error::io(format!("opening {}", path.display()), e))?;
+        match file.try_lock() {
+            Ok(()) => Ok(RunLock { _held: file }),
+            Err(std::fs::TryLockError::WouldBlock) => Err(Error::Failed(format!(
+                "another `imitate run` is working in this workspace (it holds {}); wait for it to finish",
+                path.display()
+            ))),
+            Err(std::fs::TryLockError::Error(e)) => {
+                Err(Error::io(format!("locking {}", path.display()), e))
+            }
+        }
+    }
 }
 
 /// What happened to (or would happen to) one stage.
@@ -195,11 +226,11 @@ pub fn run(
     mut on_event: impl FnMut(&StageOutcome),
 ) -> Result<Vec<StageOutcome>> {
     let spec = load(path)?;
-    let stages = spec
-        .stages
-        .0
+    let expanded = spec.expand().map_err(|e| Error::input(path, e))?;
+    let stages = expanded
         .iter()
-        .map(|(name, s)| {
+        .map(|s| {
+            let name = &s.name;
             stage::build(&s.uses, s.with.clone())
                 .map(|built| (name.clone(), built))
                 .map_err(|e| Error::input(path, format!("stage '{name}': {e}")))
@@ -218,15 +249,30 @@ pub fn run(
         )));
     }
     check_graph(path, &stages)?;
+    let _run_lock = if options.dry_run {
+        None
+    } else {
+        Some(RunLock::acquire()?)
+    };
     let lock_file = lock_path(path);
     let mut lock = lock::read(&lock_file)?;
     let mut pending: Vec<PathBuf> = Vec::new();
     let cache = cache::OutputCache::in_workspace();
     let mut stats = statcache::StatCache::in_workspace();
     let mut outcomes = Vec::with_capacity(stages.len());
+    // With --stage (and --downstream): the outputs of the stages chosen so far.
+    let mut chosen_outs: Vec<PathBuf> = Vec::new();
     for (name, stage) in &stages {
-        if options.only.as_ref().is_some_and(|only| only != name) {
-            continue;
+        if let Some(only) = &options.only {
+            let downstream = options.downstream
+                && stage
+                    .deps()
+                    .iter()
+                    .any(|d| chosen_outs.iter().any(|o| d.starts_with(o)));
+            if only != name && !downstream {
+                continue;
+            }
+            chosen_outs.push(stage.out());
         }
         let (reasons, now) = reasons_to_run(
             name,

@@ -2,19 +2,29 @@
 //!
 //! ```yaml
 //! schema: 1
+//! vars: {rounds: 40}          # optional; `${rounds}` in any string of `with`
 //! stages:
-//!   ingest:                # a name of your choosing
-//!     uses: ingest         # the stage kind
-//!     with: { ... }        # its parameters, as for the CLI subcommand
+//!   ingest:                   # a name of your choosing
+//!     uses: ingest            # the stage kind
+//!     with: { ... }           # its parameters, as for the CLI subcommand
+//!   features:
+//!     foreach: [a, b]         # or {glob: "data/*.parquet"}: one stage per item,
+//!     uses: features          # named `features@<item>`, with `${item}` and
+//!     with: {out: "out/${item}", ...}   # `${item_stem}` (file name, no extension)
 //! ```
+
+use std::collections::BTreeMap;
 
 use serde::de::{MapAccess, Visitor};
 use serde::{Deserialize, Deserializer};
+use serde_json::Value;
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct PipelineSpec {
     pub schema: u32,
+    #[serde(default)]
+    pub vars: BTreeMap<String, Value>,
     pub stages: Stages,
 }
 
@@ -24,6 +34,127 @@ pub struct StageSpec {
     pub uses: String,
     #[serde(default = "empty_object")]
     pub with: serde_json::Value,
+    #[serde(default)]
+    pub foreach: Option<Foreach>,
+}
+
+/// What a stage fans out over.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(untagged)]
+pub enum Foreach {
+    List(Vec<String>),
+    Glob {
+        /// Matched against the workspace, in sorted order.
+        glob: String,
+    },
+}
+
+/// A stage after `vars` and `foreach` are applied.
+#[derive(Debug, Clone)]
+pub struct ExpandedStage {
+    pub name: String,
+    pub uses: String,
+    pub with: Value,
+}
+
+/// Replaces `${name}` in every string of `value`. A string that is exactly one
+/// reference takes the variable's value as it is (a number stays a number).
+fn substitute(value: &Value, vars: &BTreeMap<String, Value>) -> Result<Value, String> {
+    Ok(match value {
+        Value::String(text) => {
+            let whole = text.strip_prefix("${").and_then(|t| t.strip_suffix('}'));
+            if let Some(name) = whole.filter(|n| !n.contains("${") && !n.contains('}')) {
+                return vars.get(name).cloned().ok_or_else(|| unknown(name, vars));
+            }
+            let mut out = String::new();
+            let mut rest = text.as_str();
+            while let Some(start) = rest.find("${") {
+                out.push_str(&rest[..start]);
+                let end = rest[start..]
+                    .find('}')
+                    .ok_or_else(|| format!("'{text}': '${{' without a closing '}}'"))?;
+                let name = &rest[start + 2..start + end];
+                match vars.get(name).ok_or_else(|| unknown(name, vars))? {
+                    Value::String(s) => out.push_str(s),
+                    other => out.push_str(&other.to_string()),
+                }
+                rest = &rest[start + end + 1..];
+            }
+            out.push_str(rest);
+            Value::String(out)
+        }
+        Value::Array(items) => Value::Array(
+            items
+                .iter()
+                .map(|v| substitute(v, vars))
+                .collect::<Result<_, _>>()?,
+        ),
+        Value::Object(map) => Value::Object(
+            map.iter()
+                .map(|(k, v)| Ok((k.clone(), substitute(v, vars)?)))
+                .collect::<Result<_, String>>()?,
+        ),
+        other => other.clone(),
+    })
+}
+
+fn unknown(name: &str, vars: &BTreeMap<String, Value>) -> String {
+    let known: Vec<&str> = vars.keys().map(String::as_str).collect();
+    format!("unknown variable ${{{name}}} (known: {})", known.join(", "))
+}
+
+impl PipelineSpec {
+    /// The stages with `vars` substituted and `foreach` fanned out, in file order.
+    pub fn expand(&self) -> Result<Vec<ExpandedStage>, String> {
+        let mut stages = Vec::new();
+        for (name, spec) in &self.stages.0 {
+            let items: Vec<String> = match &spec.foreach {
+                None => {
+                    let with = substitute(&spec.with, &self.vars)
+                        .map_err(|e| format!("stage '{name}': {e}"))?;
+                    stages.push(ExpandedStage {
+                        name: name.clone(),
+                        uses: spec.uses.clone(),
+                        with,
+                    });
+                    continue;
+                }
+                Some(Foreach::List(items)) => items.clone(),
+                Some(Foreach::Glob { glob }) => {
+                    let paths = glob::glob(glob)
+                        .map_err(|e| format!("stage '{name}': glob '{glob}': {e}"))?;
+                    let mut found: Vec<String> = paths
+                        .filter_map(|p| p.ok())
+                        .map(|p| p.to_string_lossy().replace('\\', "/"))
+                        .collect();
+                    found.sort();
+                    if found.is_empty() {
+                        return Err(format!("stage '{name}': glob '{glob}' matches nothing"));
+                    }
+                    found
+                }
+            };
+            for item in items {
+                let mut vars = self.vars.clone();
+                let stem = std::path::Path::new(&item)
+                    .file_stem()
+                    .map(|s| s.to_string_lossy().into_owned());
+                vars.insert("item".into(), Value::String(item.clone()));
+                vars.insert(
+                    "item_stem".into(),
+                    Value::String(stem.unwrap_or_else(|| item.clone())),
+                );
+                let with = substitute(&spec.with, &vars)
+                    .map_err(|e| format!("stage '{name}@{item}': {e}"))?;
+                stages.push(ExpandedStage {
+                    name: format!("{name}@{item}"),
+                    uses: spec.uses.clone(),
+                    with,
+                });
+            }
+        }
+        Ok(stages)
+    }
 }
 
 fn empty_object() -> serde_json::Value {
@@ -62,6 +193,29 @@ impl<'de> Deserialize<'de> for Stages {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn vars_and_foreach_expand() {
+        let yaml = "schema: 1\nvars: {rounds: 7, root: out}\nstages:\n  f:\n    foreach: [a/x.parquet, b/y.parquet]\n    uses: features\n    with: {dataset: \"${item}\", out: \"${root}/${item_stem}\", n: \"${rounds}\"}\n";
+        let spec: PipelineSpec = serde_saphyr::from_str(yaml).unwrap();
+        let stages = spec.expand().unwrap();
+        let names: Vec<&str> = stages.iter().map(|s| s.name.as_str()).collect();
+        assert_eq!(names, ["f@a/x.parquet", "f@b/y.parquet"]);
+        assert_eq!(stages[1].with["out"], "out/y");
+        assert_eq!(
+            stages[1].with["n"], 7,
+            "a whole-string reference keeps its type"
+        );
+        let bad = "schema: 1\nstages:\n  f:\n    uses: features\n    with: {out: \"${nope}\"}\n";
+        let err = serde_saphyr::from_str::<PipelineSpec>(bad)
+            .unwrap()
+            .expand()
+            .unwrap_err();
+        assert!(
+            err.contains("stage 'f'") && err.contains("unknown variable ${nope}"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn stages_keep_their_order_and_typos_point_at_the_line() {
