@@ -48,6 +48,9 @@ pub enum Command {
         /// With --stage: also every later stage that reads what it writes.
         #[arg(long, requires = "stage")]
         downstream: bool,
+        /// Run up to this many independent stages at once.
+        #[arg(short, long, default_value_t = 1)]
+        jobs: usize,
     },
     /// Which stages of a pipeline are stale, and why.
     Status {
@@ -88,11 +91,13 @@ pub fn run(cli: Cli) -> Result<()> {
             force,
             stage,
             downstream,
+            jobs,
         } => {
             let options = RunOptions {
                 force,
                 only: stage,
                 downstream,
+                jobs,
                 dry_run,
             };
             let outcomes = crate::pipeline::run(&pipeline, &options, |o| {

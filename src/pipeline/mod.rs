@@ -1,4 +1,4 @@
-//! Pipelines: a YAML file of named stages, run in the order written, make-style: a
+//! Pipelines: a YAML file of named stages, run in dependency order, make-style: a
 //! stage reruns only when its lineage (stage version, tool version, resolved
 //! parameters, input digests) differs from the one in the lock file, or its output is
 //! missing or not the one it made. A stage whose inputs came out byte-identical is
@@ -10,10 +10,11 @@
 //! Input files are hashed through a stat cache (`statcache.rs`), so a run in which
 //! nothing changed reads metadata only.
 //!
-//! Still to come (their own issue): parallel stages, `vars`/`foreach`, a repository
-//! lock between concurrent runs.
+//! Stages are ordered by what they read (`graph.rs`) and independent ones can run at
+//! once (`--jobs`).
 
 mod cache;
+mod graph;
 mod lock;
 mod spec;
 mod statcache;
@@ -22,6 +23,7 @@ pub use lock::{LockFile, LockedStage, differences, lock_path};
 pub use spec::{ExpandedStage, Foreach, PipelineSpec, StageSpec};
 
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 
 use serde::Serialize;
 
@@ -58,6 +60,8 @@ pub struct RunOptions {
     pub only: Option<String>,
     /// With `only`: also the later stages that read what it writes, transitively.
     pub downstream: bool,
+    /// Stages to run at once (independent ones only); 0 or 1 runs one at a time.
+    pub jobs: usize,
     /// Decide and report, run nothing, write nothing.
     pub dry_run: bool,
 }
@@ -162,64 +166,96 @@ fn reasons_to_run(
     Ok((reasons, Some(now)))
 }
 
-/// Refuses, before anything runs, what cannot work: outputs outside the workspace, two
-/// stages writing one place, and a stage reading what the same or a later stage writes
-/// (stages run in the order listed).
-fn check_graph(path: &Path, stages: &[(String, Box<dyn Stage>)]) -> Result<()> {
-    use std::path::Component;
-    for (i, (name, stage)) in stages.iter().enumerate() {
-        let out = stage.out();
-        let escapes = out
-            .components()
-            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
-        if escapes || out.as_os_str().is_empty() {
-            return Err(Error::input(
-                path,
-                format!(
-                    "stage '{name}' writes {}, outside the workspace: outputs are relative paths without '..'",
-                    out.display()
-                ),
-            ));
-        }
-        for (other, later) in &stages[i + 1..] {
-            let theirs = later.out();
-            if out.starts_with(&theirs) || theirs.starts_with(&out) {
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "stages '{name}' and '{other}' both write {}",
-                        out.min(theirs).display()
-                    ),
-                ));
-            }
-        }
-        for (j, (other, writer)) in stages.iter().enumerate().skip(i) {
-            if let Some(dep) = stage
-                .deps()
-                .into_iter()
-                .find(|d| d.starts_with(writer.out()))
-            {
-                let when = if j == i {
-                    "itself".to_string()
-                } else {
-                    format!("stage '{other}', listed after it,")
-                };
-                return Err(Error::input(
-                    path,
-                    format!(
-                        "stage '{name}' reads {}, which {when} writes: a stage may read only what earlier stages write",
-                        dep.display()
-                    ),
-                ));
-            }
-        }
-    }
-    Ok(())
+/// What every stage's processing shares.
+struct Context<'a> {
+    options: &'a RunOptions,
+    lock: Mutex<LockFile>,
+    lock_file: PathBuf,
+    cache: cache::OutputCache,
+    stats: Mutex<statcache::StatCache>,
 }
 
-/// Builds every stage (so a typo in the last stage fails before the first runs), then
-/// runs the stale ones in order, recording each in the lock file as it finishes.
-/// `on_event` sees each outcome as soon as it is known.
+/// Decides whether `stage` must run, and runs it (or restores its output from the
+/// cache) unless this is a dry run; records it in the lock file as soon as it is done.
+fn process(
+    ctx: &Context,
+    name: &str,
+    stage: &dyn Stage,
+    pending: &[PathBuf],
+) -> Result<StageOutcome> {
+    let (reasons, now) = {
+        let lock = ctx
+            .lock
+            .lock()
+            .expect("no stage panics while holding the lock file");
+        let mut stats = ctx
+            .stats
+            .lock()
+            .expect("no stage panics while holding the stat cache");
+        reasons_to_run(name, stage, &lock, pending, ctx.options.force, &mut stats)?
+    };
+    let mut outcome = StageOutcome {
+        name: name.to_string(),
+        kind: stage.kind(),
+        out: stage.out(),
+        reasons,
+        ran: false,
+        digest: None,
+        summary: None,
+    };
+    if outcome.reasons.is_empty() {
+        let lock = ctx
+            .lock
+            .lock()
+            .expect("no stage panics while holding the lock file");
+        outcome.digest = lock.stages.get(name).map(|l| l.out_digest.clone());
+        return Ok(outcome);
+    }
+    if ctx.options.dry_run {
+        return Ok(outcome);
+    }
+    let out = stage.out();
+    let cached = now.as_ref().and_then(|l| ctx.cache.lookup(&l.stage_key));
+    let summary = match cached {
+        Some((_, dir)) => {
+            ctx.cache.restore(&dir, &out)?;
+            "restored from the output cache".to_string()
+        }
+        None => {
+            tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
+            stage.run()?.summary
+        }
+    };
+    let bytes = read_input(&out.join(MANIFEST))?;
+    let manifest: Manifest = serde_json::from_slice(&bytes)
+        .map_err(|e| Error::Failed(format!("stage '{name}' left an unreadable manifest: {e}")))?;
+    ctx.cache
+        .store(&manifest.lineage.stage_key, &out, &manifest.digest)?;
+    outcome.digest = Some(manifest.digest.clone());
+    {
+        let mut lock = ctx
+            .lock
+            .lock()
+            .expect("no stage panics while holding the lock file");
+        lock.stages.insert(
+            name.to_string(),
+            LockedStage {
+                lineage: manifest.lineage,
+                out: out.to_string_lossy().into_owned(),
+                out_digest: manifest.digest,
+            },
+        );
+        lock::write(&ctx.lock_file, &lock)?;
+    }
+    outcome.ran = true;
+    outcome.summary = Some(summary);
+    Ok(outcome)
+}
+
+/// Builds every stage (so a typo in the last stage fails before the first runs), orders
+/// them by their dependencies, then runs the stale ones, up to `jobs` at a time, each
+/// recorded in the lock file as it finishes. `on_event` sees each outcome as soon as
+/// it is known; the returned outcomes are in the run order, whatever the timing.
 pub fn run(
     path: &Path,
     options: &RunOptions,
@@ -230,107 +266,145 @@ pub fn run(
     let stages = expanded
         .iter()
         .map(|s| {
-            let name = &s.name;
             stage::build(&s.uses, s.with.clone())
-                .map(|built| (name.clone(), built))
-                .map_err(|e| Error::input(path, format!("stage '{name}': {e}")))
+                .map_err(|e| Error::input(path, format!("stage '{}': {e}", s.name)))
         })
         .collect::<Result<Vec<_>>>()?;
-    if let Some(only) = options
-        .only
-        .as_ref()
-        .filter(|only| !stages.iter().any(|(n, _)| n == *only))
-    {
-        let names: Vec<&str> = stages.iter().map(|(n, _)| n.as_str()).collect();
-        return Err(Error::Usage(format!(
-            "{} has no stage '{only}' (it has: {})",
-            path.display(),
-            names.join(", ")
-        )));
+    let names: Vec<String> = expanded.iter().map(|s| s.name.clone()).collect();
+    let deps: Vec<Vec<PathBuf>> = stages.iter().map(|s| s.deps()).collect();
+    let outs: Vec<PathBuf> = stages.iter().map(|s| s.out()).collect();
+    let graph = graph::build(&names, &deps, &outs).map_err(|e| Error::input(path, e))?;
+    // The stages to consider: all, or the chosen one and (with --downstream) all that
+    // read from it, transitively.
+    let mut chosen = vec![options.only.is_none(); names.len()];
+    if let Some(only) = &options.only {
+        let first = names.iter().position(|n| n == only).ok_or_else(|| {
+            Error::Usage(format!(
+                "{} has no stage '{only}' (it has: {})",
+                path.display(),
+                names.join(", ")
+            ))
+        })?;
+        chosen[first] = true;
+        for &i in &graph.order {
+            if options.downstream && graph.upstream[i].iter().any(|&j| chosen[j]) {
+                chosen[i] = true;
+            }
+        }
     }
-    check_graph(path, &stages)?;
+    let order: Vec<usize> = graph.order.iter().copied().filter(|&i| chosen[i]).collect();
     let _run_lock = if options.dry_run {
         None
     } else {
         Some(RunLock::acquire()?)
     };
-    let lock_file = lock_path(path);
-    let mut lock = lock::read(&lock_file)?;
-    let mut pending: Vec<PathBuf> = Vec::new();
-    let cache = cache::OutputCache::in_workspace();
-    let mut stats = statcache::StatCache::in_workspace();
-    let mut outcomes = Vec::with_capacity(stages.len());
-    // With --stage (and --downstream): the outputs of the stages chosen so far.
-    let mut chosen_outs: Vec<PathBuf> = Vec::new();
-    for (name, stage) in &stages {
-        if let Some(only) = &options.only {
-            let downstream = options.downstream
-                && stage
-                    .deps()
-                    .iter()
-                    .any(|d| chosen_outs.iter().any(|o| d.starts_with(o)));
-            if only != name && !downstream {
-                continue;
+    let ctx = Context {
+        options,
+        lock_file: lock_path(path),
+        lock: Mutex::new(lock::read(&lock_path(path))?),
+        cache: cache::OutputCache::in_workspace(),
+        stats: Mutex::new(statcache::StatCache::in_workspace()),
+    };
+    let outcomes = if options.dry_run || options.jobs <= 1 {
+        let mut pending: Vec<PathBuf> = Vec::new();
+        let mut outcomes = Vec::with_capacity(order.len());
+        for &i in &order {
+            let outcome = process(&ctx, &names[i], stages[i].as_ref(), &pending)?;
+            // In a dry run, what would be remade has no digest to compare yet.
+            if options.dry_run && !outcome.reasons.is_empty() {
+                pending.push(outcome.out.clone());
             }
-            chosen_outs.push(stage.out());
+            on_event(&outcome);
+            outcomes.push(outcome);
         }
-        let (reasons, now) = reasons_to_run(
-            name,
-            stage.as_ref(),
-            &lock,
-            &pending,
-            options.force,
-            &mut stats,
-        )?;
-        let mut outcome = StageOutcome {
-            name: name.clone(),
-            kind: stage.kind(),
-            out: stage.out(),
-            reasons,
-            ran: false,
-            digest: None,
-            summary: None,
-        };
-        if outcome.reasons.is_empty() {
-            outcome.digest = lock.stages.get(name).map(|l| l.out_digest.clone());
-        } else if options.dry_run {
-            pending.push(stage.out());
-        } else {
-            let out = stage.out();
-            let cached = now.as_ref().and_then(|l| cache.lookup(&l.stage_key));
-            let summary = match cached {
-                Some((_, dir)) => {
-                    cache.restore(&dir, &out)?;
-                    "restored from the output cache".to_string()
-                }
-                None => {
-                    tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
-                    stage.run()?.summary
-                }
-            };
-            let bytes = read_input(&out.join(MANIFEST))?;
-            let manifest: Manifest = serde_json::from_slice(&bytes).map_err(|e| {
-                Error::Failed(format!("stage '{name}' left an unreadable manifest: {e}"))
-            })?;
-            cache.store(&manifest.lineage.stage_key, &out, &manifest.digest)?;
-            outcome.digest = Some(manifest.digest.clone());
-            lock.stages.insert(
-                name.clone(),
-                LockedStage {
-                    lineage: manifest.lineage,
-                    out: out.to_string_lossy().into_owned(),
-                    out_digest: manifest.digest,
-                },
-            );
-            lock::write(&lock_file, &lock)?;
-            outcome.ran = true;
-            outcome.summary = Some(summary);
-        }
-        on_event(&outcome);
-        outcomes.push(outcome);
-    }
+        outcomes
+    } else {
+        run_parallel(
+            &ctx,
+            &names,
+            &stages,
+            &graph,
+            &order,
+            &chosen,
+            &mut on_event,
+        )?
+    };
     if !options.dry_run {
-        stats.save()?;
+        ctx.stats
+            .lock()
+            .expect("no stage panics while holding the stat cache")
+            .save()?;
     }
     Ok(outcomes)
+}
+
+/// Runs stages on up to `jobs` threads, each as soon as every chosen stage it reads
+/// from is done. After a failure no new stage starts; the first failure in run order is
+/// returned once the running ones finish.
+fn run_parallel(
+    ctx: &Context,
+    names: &[String],
+    stages: &[Box<dyn Stage>],
+    graph: &graph::Graph,
+    order: &[usize],
+    chosen: &[bool],
+    on_event: &mut impl FnMut(&StageOutcome),
+) -> Result<Vec<StageOutcome>> {
+    let position: Vec<usize> = {
+        let mut p = vec![usize::MAX; names.len()];
+        order.iter().enumerate().for_each(|(k, &i)| p[i] = k);
+        p
+    };
+    let mut waiting: Vec<usize> = (0..names.len())
+        .map(|i| graph.upstream[i].iter().filter(|&&j| chosen[j]).count())
+        .collect();
+    // Ready stages by their place in the run order.
+    let mut ready: std::collections::BTreeSet<usize> = order
+        .iter()
+        .filter(|&&i| waiting[i] == 0)
+        .map(|&i| position[i])
+        .collect();
+    let mut results: Vec<Option<StageOutcome>> = vec![None; order.len()];
+    let mut failures: Vec<(usize, Error)> = Vec::new();
+    std::thread::scope(|scope| {
+        let (done, finished) = std::sync::mpsc::channel::<(usize, Result<StageOutcome>)>();
+        let mut running = 0;
+        loop {
+            while running < ctx.options.jobs && failures.is_empty() {
+                let Some(k) = ready.pop_first() else { break };
+                let (i, done) = (order[k], done.clone());
+                let (name, stage) = (&names[i], stages[i].as_ref());
+                scope.spawn(move || {
+                    let _ = done.send((k, process(ctx, name, stage, &[])));
+                });
+                running += 1;
+            }
+            if running == 0 {
+                break;
+            }
+            let (k, result) = finished
+                .recv()
+                .expect("a stage thread reports before it ends");
+            running -= 1;
+            match result {
+                Ok(outcome) => {
+                    on_event(&outcome);
+                    results[k] = Some(outcome);
+                    for &d in &graph.downstream[order[k]] {
+                        if chosen[d] {
+                            waiting[d] -= 1;
+                            if waiting[d] == 0 {
+                                ready.insert(position[d]);
+                            }
+                        }
+                    }
+                }
+                Err(e) => failures.push((k, e)),
+            }
+        }
+    });
+    if let Some((_, e)) = failures.into_iter().min_by_key(|(k, _)| *k) {
+        return Err(e);
+    }
+    Ok(results.into_iter().flatten().collect())
 }

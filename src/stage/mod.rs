@@ -24,7 +24,8 @@ pub struct StageReport {
     pub summary: String,
 }
 
-pub trait Stage {
+/// `Send + Sync` so that a pipeline can run independent stages on several threads.
+pub trait Stage: Send + Sync {
     fn kind(&self) -> &'static str;
     /// The implementation's version: bumped when the same inputs would give other outputs.
     fn version(&self) -> u32;
