@@ -350,3 +350,30 @@ fn independent_stages_run_at_once_with_the_same_results() {
     assert_eq!(one, two, "same outputs, reported in the same order");
     assert_eq!(one.lines().count(), 4);
 }
+
+#[test]
+fn log_lists_the_stored_versions_with_their_changes() {
+    let ws = quickstart_workspace();
+    run(ws.path(), &[]);
+    edit(ws.path(), "rounds: 40", "rounds: 3");
+    run(ws.path(), &[]);
+    let out = imitate(ws.path(), &["log", "out/quickstart/costmap", "--json"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let json: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let versions = json["versions"].as_array().unwrap();
+    assert_eq!(versions.len(), 2);
+    assert_eq!(versions[0]["changes"][0], "first version");
+    assert_eq!(
+        versions[1]["changes"][0],
+        "param changed: learch.rounds 40 → 3"
+    );
+    assert_eq!(versions[1]["current"], true);
+    let text = imitate(ws.path(), &["log", "out/quickstart/costmap"]);
+    assert!(
+        stdout(&text).contains("(current): param changed: learch.rounds 40 → 3"),
+        "{}",
+        stdout(&text)
+    );
+    let none = imitate(ws.path(), &["log", "out/nothing"]);
+    assert_input_error(&none, &["out/nothing", "no stored versions"]);
+}

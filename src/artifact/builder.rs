@@ -100,11 +100,12 @@ impl ArtifactBuilder {
             &self.staging.path().join(MANIFEST),
             &to_json_bytes(&manifest),
         )?;
+        let finished = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .unwrap_or_default();
         let run = serde_json::json!({
-            "finished_unix_s": std::time::SystemTime::now()
-                .duration_since(std::time::UNIX_EPOCH)
-                .map(|d| d.as_secs())
-                .unwrap_or(0),
+            "finished_unix_s": finished.as_secs(),
+            "finished_unix_ms": finished.as_millis() as u64,
             "duration_s": self.started.elapsed().as_secs_f64(),
             "threads": rayon::current_num_threads(),
         });

@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand; `main.rs` only calls `run`.
 
 mod bench;
+mod log;
 mod plan;
 mod testdata;
 
@@ -68,6 +69,8 @@ pub enum Command {
     Features(features::FeaturesParams),
     /// Learn a costmap with LEARCH.
     Learch(learch::LearchParams),
+    /// The stored versions of an artifact, with what changed between them.
+    Log(log::LogArgs),
     /// Plan the cheapest path between two points on a costmap.
     Plan(plan::PlanArgs),
     /// Generate synthetic test data.
@@ -159,6 +162,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Testdata(command) => testdata::run(command),
         Command::Bench(command) => bench::run(command),
         Command::Plan(args) => plan::run(args),
+        Command::Log(args) => log::run(args),
     }
 }
 
