@@ -189,5 +189,13 @@ fn pipeline_mistakes_point_at_the_line() {
     )
     .unwrap();
     let out = imitate(ws.path(), &["run", "param.yaml"]);
-    assert_input_error(&out, &["param.yaml", "roundz"]);
+    assert_input_error(
+        &out,
+        &[
+            "param.yaml",
+            "line 5 column 12",
+            "unknown field `roundz`",
+            "with: {roundz: 3}",
+        ],
+    );
 }

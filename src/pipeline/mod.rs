@@ -166,6 +166,20 @@ fn reasons_to_run(
     Ok((reasons, Some(now)))
 }
 
+/// `message` prefixed with its line and column and followed by the line itself, as
+/// YAML parse errors are shown.
+fn at_line(text: &str, at: Option<(u64, u64)>, message: String) -> String {
+    let Some((line, column)) = at else {
+        return message;
+    };
+    let source = text
+        .lines()
+        .nth(line.saturating_sub(1) as usize)
+        .unwrap_or("");
+    let caret = " ".repeat(column.saturating_sub(1) as usize);
+    format!("line {line} column {column}: {message}\n {line:>4} | {source}\n      | {caret}^")
+}
+
 /// What every stage's processing shares.
 struct Context<'a> {
     options: &'a RunOptions,
@@ -263,11 +277,14 @@ pub fn run(
 ) -> Result<Vec<StageOutcome>> {
     let spec = load(path)?;
     let expanded = spec.expand().map_err(|e| Error::input(path, e))?;
+    let text = std::fs::read_to_string(path).unwrap_or_default();
     let stages = expanded
         .iter()
         .map(|s| {
-            stage::build(&s.uses, s.with.clone())
-                .map_err(|e| Error::input(path, format!("stage '{}': {e}", s.name)))
+            stage::build(&s.uses, s.with.clone()).map_err(|e| {
+                let message = format!("stage '{}': {e}", s.name);
+                Error::input(path, at_line(&text, s.position_for(&message), message))
+            })
         })
         .collect::<Result<Vec<_>>>()?;
     let names: Vec<String> = expanded.iter().map(|s| s.name.clone()).collect();

@@ -18,6 +18,7 @@ use std::collections::BTreeMap;
 use serde::de::{MapAccess, Visitor};
 use serde::{Deserialize, Deserializer};
 use serde_json::Value;
+use serde_saphyr::Spanned;
 
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -32,8 +33,8 @@ pub struct PipelineSpec {
 #[serde(deny_unknown_fields)]
 pub struct StageSpec {
     pub uses: String,
-    #[serde(default = "empty_object")]
-    pub with: serde_json::Value,
+    #[serde(default)]
+    pub with: Option<Spanned<With>>,
     #[serde(default)]
     pub foreach: Option<Foreach>,
 }
@@ -49,12 +50,74 @@ pub enum Foreach {
     },
 }
 
+/// A stage's parameters, with where each key stands in the file, so that a mistake in
+/// one points at its line.
+#[derive(Debug, Clone, Default)]
+pub struct With(pub Vec<(Spanned<String>, Value)>);
+
+impl<'de> Deserialize<'de> for With {
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        struct Entries;
+        impl<'de> Visitor<'de> for Entries {
+            type Value = With;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a mapping of parameter names to values")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<With, A::Error> {
+                let mut entries = Vec::new();
+                while let Some(entry) = map.next_entry::<Spanned<String>, Value>()? {
+                    entries.push(entry);
+                }
+                Ok(With(entries))
+            }
+        }
+        deserializer.deserialize_map(Entries)
+    }
+}
+
+impl With {
+    fn to_value(&self) -> Value {
+        Value::Object(
+            self.0
+                .iter()
+                .map(|(k, v)| (k.value.clone(), v.clone()))
+                .collect(),
+        )
+    }
+}
+
+/// Line and column (1-based) in the pipeline file.
+pub type Position = (u64, u64);
+
 /// A stage after `vars` and `foreach` are applied.
 #[derive(Debug, Clone)]
 pub struct ExpandedStage {
     pub name: String,
     pub uses: String,
     pub with: Value,
+    /// Where the stage's `with` block and each of its keys stand.
+    pub with_at: Option<Position>,
+    pub keys_at: Vec<(String, Position)>,
+}
+
+impl ExpandedStage {
+    /// Where a message about this stage's parameters should point: at the key it names
+    /// in backticks (as serde's "unknown field `x`"), else at the `with` block.
+    pub fn position_for(&self, message: &str) -> Option<Position> {
+        let named = message.split('`').nth(1);
+        named
+            .and_then(|key| {
+                self.keys_at
+                    .iter()
+                    .find(|(k, _)| k == key)
+                    .map(|(_, at)| *at)
+            })
+            .or(self.with_at)
+    }
+}
+
+fn position(location: &serde_saphyr::Location) -> Position {
+    (location.line(), location.column())
 }
 
 /// Replaces `${name}` in every string of `value`. A string that is exactly one
@@ -110,12 +173,15 @@ impl PipelineSpec {
         for (name, spec) in &self.stages.0 {
             let items: Vec<String> = match &spec.foreach {
                 None => {
-                    let with = substitute(&spec.with, &self.vars)
+                    let with = substitute(&spec.with_value(), &self.vars)
                         .map_err(|e| format!("stage '{name}': {e}"))?;
+                    let (with_at, keys_at) = spec.positions();
                     stages.push(ExpandedStage {
                         name: name.clone(),
                         uses: spec.uses.clone(),
                         with,
+                        with_at,
+                        keys_at,
                     });
                     continue;
                 }
@@ -144,12 +210,15 @@ impl PipelineSpec {
                     "item_stem".into(),
                     Value::String(stem.unwrap_or_else(|| item.clone())),
                 );
-                let with = substitute(&spec.with, &vars)
+                let with = substitute(&spec.with_value(), &vars)
                     .map_err(|e| format!("stage '{name}@{item}': {e}"))?;
+                let (with_at, keys_at) = spec.positions();
                 stages.push(ExpandedStage {
                     name: format!("{name}@{item}"),
                     uses: spec.uses.clone(),
                     with,
+                    with_at,
+                    keys_at,
                 });
             }
         }
@@ -157,8 +226,25 @@ impl PipelineSpec {
     }
 }
 
-fn empty_object() -> serde_json::Value {
-    serde_json::Value::Object(Default::default())
+impl StageSpec {
+    fn with_value(&self) -> Value {
+        self.with
+            .as_ref()
+            .map_or_else(|| Value::Object(Default::default()), |w| w.value.to_value())
+    }
+
+    fn positions(&self) -> (Option<Position>, Vec<(String, Position)>) {
+        let Some(with) = &self.with else {
+            return (None, Vec::new());
+        };
+        let keys = with
+            .value
+            .0
+            .iter()
+            .map(|(k, _)| (k.value.clone(), position(&k.referenced)))
+            .collect();
+        (Some(position(&with.referenced)), keys)
+    }
 }
 
 /// Stages in the order the file lists them (a plain map would sort them by name).
@@ -223,7 +309,12 @@ mod tests {
         let spec: PipelineSpec = serde_saphyr::from_str(yaml).unwrap();
         let names: Vec<&str> = spec.stages.0.iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(names, ["zeta", "alpha"]);
-        assert_eq!(spec.stages.0[1].1.with["rounds"], 3);
+        assert_eq!(spec.stages.0[1].1.with_value()["rounds"], 3);
+        let expanded = spec.expand().unwrap();
+        assert_eq!(
+            expanded[1].position_for("unknown field `rounds`"),
+            Some((7, 12))
+        );
         let err =
             serde_saphyr::from_str::<PipelineSpec>("schema: 1\nstages:\n  a:\n    usez: ingest\n")
                 .unwrap_err()
