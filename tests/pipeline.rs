@@ -377,3 +377,48 @@ fn log_lists_the_stored_versions_with_their_changes() {
     let none = imitate(ws.path(), &["log", "out/nothing"]);
     assert_input_error(&none, &["out/nothing", "no stored versions"]);
 }
+
+#[test]
+fn declared_deps_join_the_lineage_and_declared_outs_are_checked() {
+    let ws = quickstart_workspace();
+    std::fs::write(ws.path().join("notes.txt"), "tuning notes v1").unwrap();
+    edit(
+        ws.path(),
+        "  learch:\n    uses: learch\n",
+        "  learch:\n    uses: learch\n    deps: [notes.txt]\n    outs: [out/quickstart/costmap]\n",
+    );
+    run(ws.path(), &[]);
+    let manifest: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(ws.path().join("out/quickstart/costmap/manifest.json")).unwrap(),
+    )
+    .unwrap();
+    let inputs: Vec<&str> = manifest["lineage"]["inputs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|i| i["path"].as_str().unwrap())
+        .collect();
+    assert!(inputs.contains(&"notes.txt"), "{inputs:?}");
+    assert!(stdout(&imitate(ws.path(), &["status", PIPELINE])).contains("learch: up to date"));
+    std::fs::write(ws.path().join("notes.txt"), "tuning notes v2").unwrap();
+    let status = stdout(&imitate(ws.path(), &["status", PIPELINE]));
+    assert!(
+        status.contains("learch: stale: input changed: notes.txt"),
+        "{status}"
+    );
+    assert!(status.contains("features: up to date"), "{status}");
+
+    edit(
+        ws.path(),
+        "outs: [out/quickstart/costmap]",
+        "outs: [out/elsewhere]",
+    );
+    let out = imitate(ws.path(), &["run", PIPELINE]);
+    assert_input_error(
+        &out,
+        &[
+            "quickstart.yaml",
+            "outs lists out/elsewhere, but its parameters write out/quickstart/costmap",
+        ],
+    );
+}

@@ -167,7 +167,7 @@ pub fn run(cli: Cli) -> Result<()> {
 }
 
 fn run_stage(stage: &dyn Stage) -> Result<()> {
-    let report = stage.run()?;
+    let report = stage.run(&[])?;
     eprintln!("{}: {}", stage.kind(), report.summary);
     print_report(stage.kind(), &report);
     Ok(())

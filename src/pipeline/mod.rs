@@ -124,6 +124,7 @@ fn output_digest(out: &Path) -> Option<String> {
 fn reasons_to_run(
     name: &str,
     stage: &dyn Stage,
+    extra_deps: &[PathBuf],
     lock: &LockFile,
     pending: &[PathBuf],
     force: bool,
@@ -135,18 +136,21 @@ fn reasons_to_run(
     let waiting: Vec<String> = stage
         .deps()
         .iter()
+        .chain(extra_deps)
         .filter(|d| pending.iter().any(|p| d.starts_with(p)))
         .map(|d| format!("input will be remade: {}", d.display()))
         .collect();
     if !waiting.is_empty() {
         return Ok((waiting, None));
     }
-    let now = stage::lineage_with(stage, &mut |file| stats.digest(file)).map_err(|e| match e {
-        Error::Input { path, message } => {
-            Error::input(path, format!("{message} (an input of stage '{name}')"))
-        }
-        other => other,
-    })?;
+    let now = stage::lineage_with(stage, extra_deps, &mut |file| stats.digest(file)).map_err(
+        |e| match e {
+            Error::Input { path, message } => {
+                Error::input(path, format!("{message} (an input of stage '{name}')"))
+            }
+            other => other,
+        },
+    )?;
     let Some(locked) = lock.stages.get(name) else {
         return Ok((vec!["never run".into()], Some(now)));
     };
@@ -195,6 +199,7 @@ fn process(
     ctx: &Context,
     name: &str,
     stage: &dyn Stage,
+    extra_deps: &[PathBuf],
     pending: &[PathBuf],
 ) -> Result<StageOutcome> {
     let (reasons, now) = {
@@ -206,7 +211,15 @@ fn process(
             .stats
             .lock()
             .expect("no stage panics while holding the stat cache");
-        reasons_to_run(name, stage, &lock, pending, ctx.options.force, &mut stats)?
+        reasons_to_run(
+            name,
+            stage,
+            extra_deps,
+            &lock,
+            pending,
+            ctx.options.force,
+            &mut stats,
+        )?
     };
     let mut outcome = StageOutcome {
         name: name.to_string(),
@@ -237,7 +250,7 @@ fn process(
         }
         None => {
             tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
-            stage.run()?.summary
+            stage.run(extra_deps)?.summary
         }
     };
     let bytes = read_input(&out.join(MANIFEST))?;
@@ -288,7 +301,24 @@ pub fn run(
         })
         .collect::<Result<Vec<_>>>()?;
     let names: Vec<String> = expanded.iter().map(|s| s.name.clone()).collect();
-    let deps: Vec<Vec<PathBuf>> = stages.iter().map(|s| s.deps()).collect();
+    let deps: Vec<Vec<PathBuf>> = stages
+        .iter()
+        .zip(&expanded)
+        .map(|(s, e)| s.deps().into_iter().chain(e.deps.iter().cloned()).collect())
+        .collect();
+    // Declared outputs must be the ones the parameters name.
+    for (s, e) in stages.iter().zip(&expanded) {
+        if let Some(outs) = e.outs.as_ref().filter(|outs| **outs != [s.out()]) {
+            let listed: Vec<String> = outs.iter().map(|o| o.display().to_string()).collect();
+            let message = format!(
+                "stage '{}': outs lists {}, but its parameters write {}",
+                e.name,
+                listed.join(", "),
+                s.out().display()
+            );
+            return Err(Error::input(path, at_line(&text, e.with_at, message)));
+        }
+    }
     let outs: Vec<PathBuf> = stages.iter().map(|s| s.out()).collect();
     let graph = graph::build(&names, &deps, &outs).map_err(|e| Error::input(path, e))?;
     // The stages to consider: all, or the chosen one and (with --downstream) all that
@@ -326,7 +356,13 @@ pub fn run(
         let mut pending: Vec<PathBuf> = Vec::new();
         let mut outcomes = Vec::with_capacity(order.len());
         for &i in &order {
-            let outcome = process(&ctx, &names[i], stages[i].as_ref(), &pending)?;
+            let outcome = process(
+                &ctx,
+                &names[i],
+                stages[i].as_ref(),
+                &expanded[i].deps,
+                &pending,
+            )?;
             // In a dry run, what would be remade has no digest to compare yet.
             if options.dry_run && !outcome.reasons.is_empty() {
                 pending.push(outcome.out.clone());
@@ -338,7 +374,7 @@ pub fn run(
     } else {
         run_parallel(
             &ctx,
-            &names,
+            &expanded,
             &stages,
             &graph,
             &order,
@@ -360,19 +396,20 @@ pub fn run(
 /// returned once the running ones finish.
 fn run_parallel(
     ctx: &Context,
-    names: &[String],
+    expanded: &[ExpandedStage],
     stages: &[Box<dyn Stage>],
     graph: &graph::Graph,
     order: &[usize],
     chosen: &[bool],
     on_event: &mut impl FnMut(&StageOutcome),
 ) -> Result<Vec<StageOutcome>> {
+    let n = expanded.len();
     let position: Vec<usize> = {
-        let mut p = vec![usize::MAX; names.len()];
+        let mut p = vec![usize::MAX; n];
         order.iter().enumerate().for_each(|(k, &i)| p[i] = k);
         p
     };
-    let mut waiting: Vec<usize> = (0..names.len())
+    let mut waiting: Vec<usize> = (0..n)
         .map(|i| graph.upstream[i].iter().filter(|&&j| chosen[j]).count())
         .collect();
     // Ready stages by their place in the run order.
@@ -390,9 +427,10 @@ fn run_parallel(
             while running < ctx.options.jobs && failures.is_empty() {
                 let Some(k) = ready.pop_first() else { break };
                 let (i, done) = (order[k], done.clone());
-                let (name, stage) = (&names[i], stages[i].as_ref());
+                let (name, stage, extra) =
+                    (&expanded[i].name, stages[i].as_ref(), &expanded[i].deps);
                 scope.spawn(move || {
-                    let _ = done.send((k, process(ctx, name, stage, &[])));
+                    let _ = done.send((k, process(ctx, name, stage, extra, &[])));
                 });
                 running += 1;
             }

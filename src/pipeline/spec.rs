@@ -35,6 +35,13 @@ pub struct StageSpec {
     pub uses: String,
     #[serde(default)]
     pub with: Option<Spanned<With>>,
+    /// Inputs beyond those the parameters name (a config file the stage's tools read,
+    /// say): they join the stage's lineage and order it after their writers.
+    #[serde(default)]
+    pub deps: Vec<String>,
+    /// The output, declared: must be the one the parameters name.
+    #[serde(default)]
+    pub outs: Option<Vec<String>>,
     #[serde(default)]
     pub foreach: Option<Foreach>,
 }
@@ -95,6 +102,8 @@ pub struct ExpandedStage {
     pub name: String,
     pub uses: String,
     pub with: Value,
+    pub deps: Vec<std::path::PathBuf>,
+    pub outs: Option<Vec<std::path::PathBuf>>,
     /// Where the stage's `with` block and each of its keys stand.
     pub with_at: Option<Position>,
     pub keys_at: Vec<(String, Position)>,
@@ -176,10 +185,15 @@ impl PipelineSpec {
                     let with = substitute(&spec.with_value(), &self.vars)
                         .map_err(|e| format!("stage '{name}': {e}"))?;
                     let (with_at, keys_at) = spec.positions();
+                    let (deps, outs) = spec
+                        .paths(&self.vars)
+                        .map_err(|e| format!("stage '{name}': {e}"))?;
                     stages.push(ExpandedStage {
                         name: name.clone(),
                         uses: spec.uses.clone(),
                         with,
+                        deps,
+                        outs,
                         with_at,
                         keys_at,
                     });
@@ -213,10 +227,15 @@ impl PipelineSpec {
                 let with = substitute(&spec.with_value(), &vars)
                     .map_err(|e| format!("stage '{name}@{item}': {e}"))?;
                 let (with_at, keys_at) = spec.positions();
+                let (deps, outs) = spec
+                    .paths(&vars)
+                    .map_err(|e| format!("stage '{name}@{item}': {e}"))?;
                 stages.push(ExpandedStage {
                     name: format!("{name}@{item}"),
                     uses: spec.uses.clone(),
                     with,
+                    deps,
+                    outs,
                     with_at,
                     keys_at,
                 });
@@ -227,6 +246,25 @@ impl PipelineSpec {
 }
 
 impl StageSpec {
+    /// `deps` and `outs` with variables substituted.
+    fn paths(
+        &self,
+        vars: &BTreeMap<String, Value>,
+    ) -> Result<(Vec<std::path::PathBuf>, Option<Vec<std::path::PathBuf>>), String> {
+        let resolve = |list: &[String]| -> Result<Vec<std::path::PathBuf>, String> {
+            list.iter()
+                .map(|p| match substitute(&Value::String(p.clone()), vars)? {
+                    Value::String(s) => Ok(std::path::PathBuf::from(s)),
+                    other => Err(format!("'{p}' is {other}, not a path")),
+                })
+                .collect()
+        };
+        Ok((
+            resolve(&self.deps)?,
+            self.outs.as_deref().map(resolve).transpose()?,
+        ))
+    }
+
     fn with_value(&self) -> Value {
         self.with
             .as_ref()

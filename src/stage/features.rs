@@ -73,7 +73,7 @@ impl Stage for FeaturesParams {
         self.out.clone()
     }
 
-    fn run(&self) -> Result<StageReport> {
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
         let dataset = read_manifest(&self.dataset, "dataset")?;
         let spec = FeatureSpec {
             layers: self.layers.clone(),
@@ -115,6 +115,6 @@ impl Stage for FeaturesParams {
             names.len(),
             names.join(", ")
         );
-        commit_artifact(self, out, "features", metrics, summary)
+        commit_artifact(self, extra_deps, out, "features", metrics, summary)
     }
 }

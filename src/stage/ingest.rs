@@ -55,7 +55,7 @@ impl Stage for IngestParams {
         self.out.clone()
     }
 
-    fn run(&self) -> Result<StageReport> {
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
         let maps = self
             .maps
             .iter()
@@ -124,6 +124,6 @@ impl Stage for IngestParams {
             "path_cells": paths.iter().map(|p| p.cells.len()).sum::<usize>(),
         });
         let summary = format!("{} maps, {} demonstrations", maps.len(), demos.len());
-        commit_artifact(self, out, "dataset", metrics, summary)
+        commit_artifact(self, extra_deps, out, "dataset", metrics, summary)
     }
 }

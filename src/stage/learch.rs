@@ -169,7 +169,7 @@ impl Stage for LearchParams {
         self.out.clone()
     }
 
-    fn run(&self) -> Result<StageReport> {
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
         self.validate()?;
         let dataset = read_manifest(&self.dataset, "dataset")?;
         let features = read_manifest(&self.features, "features")?;
@@ -321,7 +321,7 @@ impl Stage for LearchParams {
         if let Some(ratio) = holdout_summary.mean_reference_cost_ratio {
             summary.push_str(&format!(", reference cost ratio {ratio:.3}"));
         }
-        commit_artifact(self, out, "costmap", summary_metrics, summary)
+        commit_artifact(self, extra_deps, out, "costmap", summary_metrics, summary)
     }
 }
 

@@ -35,7 +35,9 @@ pub trait Stage: Send + Sync {
     fn deps(&self) -> Vec<PathBuf>;
     /// The artifact folder the stage writes.
     fn out(&self) -> PathBuf;
-    fn run(&self) -> Result<StageReport>;
+    /// Runs the stage. `extra_deps` are inputs the pipeline declares beyond those the
+    /// parameters name; they join the lineage like the others.
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport>;
 }
 
 type Constructor = fn(serde_json::Value) -> Result<Box<dyn Stage>>;
@@ -82,8 +84,8 @@ fn resolved<T: Serialize>(params: &T) -> serde_json::Value {
 
 /// The lineage a run of `stage` would have now: its version and parameters, the
 /// digests of its inputs as they are, and the stage key made of them.
-pub fn lineage(stage: &dyn Stage) -> Result<Lineage> {
-    lineage_with(stage, &mut |file| {
+pub fn lineage(stage: &dyn Stage, extra_deps: &[PathBuf]) -> Result<Lineage> {
+    lineage_with(stage, extra_deps, &mut |file| {
         digest_input(file).map(|input| input.digest)
     })
 }
@@ -91,11 +93,13 @@ pub fn lineage(stage: &dyn Stage) -> Result<Lineage> {
 /// As `lineage`, with input files digested by `digest_file` (e.g. through a stat cache).
 pub fn lineage_with(
     stage: &dyn Stage,
+    extra_deps: &[PathBuf],
     digest_file: &mut dyn FnMut(&Path) -> Result<String>,
 ) -> Result<Lineage> {
     let inputs = stage
         .deps()
         .iter()
+        .chain(extra_deps)
         .map(|p| digest_input_with(p, digest_file))
         .collect::<Result<Vec<_>>>()?;
     Ok(Lineage::new(
@@ -109,12 +113,13 @@ pub fn lineage_with(
 /// Commits a stage's artifact with its lineage, and reports it.
 fn commit_artifact(
     stage: &dyn Stage,
+    extra_deps: &[PathBuf],
     out: ArtifactBuilder,
     kind: &str,
     metrics: serde_json::Value,
     summary: String,
 ) -> Result<StageReport> {
-    let manifest = out.commit(kind, lineage(stage)?, metrics)?;
+    let manifest = out.commit(kind, lineage(stage, extra_deps)?, metrics)?;
     Ok(StageReport {
         output: stage.out(),
         digest: manifest.digest,
