@@ -16,10 +16,6 @@ pub struct ArtifactBuilder {
 
 impl ArtifactBuilder {
     pub fn new(destination: &Path) -> Result<Self> {
-        let parent = match destination.parent() {
-            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-            _ => PathBuf::from("."),
-        };
         if destination.file_name().is_none() {
             return Err(Error::Usage(format!(
                 "{} cannot be an artifact folder",
@@ -32,17 +28,7 @@ impl ArtifactBuilder {
                 destination.display()
             )));
         }
-        std::fs::create_dir_all(&parent)
-            .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
-        let staging = tempfile::Builder::new()
-            .prefix(".imitate-staging-")
-            .tempdir_in(&parent)
-            .map_err(|e| {
-                Error::io(
-                    format!("creating a staging folder in {}", parent.display()),
-                    e,
-                )
-            })?;
+        let staging = staging_beside(destination)?;
         Ok(ArtifactBuilder {
             destination: destination.to_path_buf(),
             staging,
@@ -118,21 +104,7 @@ impl ArtifactBuilder {
 /// Copies the artifact folder `from` to `to`, atomically like a commit: into a staging
 /// folder beside `to` first, then moved into place.
 pub fn copy_artifact(from: &Path, to: &Path) -> Result<()> {
-    let parent = match to.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    std::fs::create_dir_all(&parent)
-        .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
-    let staging = tempfile::Builder::new()
-        .prefix(".imitate-staging-")
-        .tempdir_in(&parent)
-        .map_err(|e| {
-            Error::io(
-                format!("creating a staging folder in {}", parent.display()),
-                e,
-            )
-        })?;
+    let staging = staging_beside(to)?;
     copy_tree(from, staging.path())?;
     install(staging, to)
 }
@@ -157,6 +129,26 @@ fn copy_tree(from: &Path, to: &Path) -> Result<()> {
         }
     }
     Ok(())
+}
+
+/// A new, empty staging folder in the folder that will hold `destination`, so that
+/// moving it into place is a rename within one file system.
+fn staging_beside(destination: &Path) -> Result<tempfile::TempDir> {
+    let parent = match destination.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    std::fs::create_dir_all(&parent)
+        .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
+    tempfile::Builder::new()
+        .prefix(".imitate-staging-")
+        .tempdir_in(&parent)
+        .map_err(|e| {
+            Error::io(
+                format!("creating a staging folder in {}", parent.display()),
+                e,
+            )
+        })
 }
 
 /// Replaces `destination` with the staged folder: the old version is moved aside,
