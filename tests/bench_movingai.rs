@@ -7,13 +7,7 @@ use std::path::PathBuf;
 use common::*;
 
 fn data() -> Option<PathBuf> {
-    let dir = repo().join("../shared/data/movingai");
-    if dir.is_dir() {
-        Some(dir)
-    } else {
-        eprintln!("skipped: {} is absent", dir.display());
-        None
-    }
+    shared_data("movingai")
 }
 
 fn report(args: &[&str]) -> serde_json::Value {

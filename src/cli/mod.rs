@@ -2,6 +2,7 @@
 
 mod bench;
 mod log;
+mod mcap;
 mod plan;
 mod testdata;
 
@@ -71,6 +72,10 @@ pub enum Command {
     Learch(learch::LearchParams),
     /// The stored versions of an artifact, with what changed between them.
     Log(log::LogArgs),
+    /// What an MCAP file holds: channels, schemas, counts, time range, chunks.
+    Inspect(mcap::InspectArgs),
+    /// Decoded messages of an MCAP file (ROS 2 CDR, JSON, protobuf), one per line.
+    Cat(mcap::CatArgs),
     /// Plan the cheapest path between two points on a costmap.
     Plan(plan::PlanArgs),
     /// Generate synthetic test data.
@@ -163,6 +168,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Bench(command) => bench::run(command),
         Command::Plan(args) => plan::run(args),
         Command::Log(args) => log::run(args),
+        Command::Inspect(args) => mcap::inspect_command(args),
+        Command::Cat(args) => mcap::cat_command(args),
     }
 }
 

@@ -19,6 +19,18 @@ pub fn imitate_env(dir: &Path, args: &[&str], env: &[(&str, &str)]) -> Output {
     command.output().expect("the imitate binary runs")
 }
 
+/// A folder of the real third-party data in ../shared/data, or `None` (with a message
+/// saying the test is skipped) when this checkout has none.
+pub fn shared_data(folder: &str) -> Option<PathBuf> {
+    let dir = repo().join("../shared/data").join(folder);
+    if dir.is_dir() {
+        Some(dir)
+    } else {
+        eprintln!("skipped: {} is absent", dir.display());
+        None
+    }
+}
+
 pub fn imitate(dir: &Path, args: &[&str]) -> Output {
     imitate_env(dir, args, &[])
 }

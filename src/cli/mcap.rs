@@ -1,0 +1,189 @@
+//! `imitate inspect FILE.mcap` and `imitate cat FILE.mcap`.
+
+use std::collections::BTreeSet;
+use std::io::Write;
+use std::path::PathBuf;
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::io::mcap::inspect::{McapReport, inspect};
+use crate::io::mcap::{Decoders, Event, Value, scan};
+
+#[derive(Debug, clap::Args)]
+pub struct InspectArgs {
+    /// An MCAP file.
+    pub file: PathBuf,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Read every record even when the file has a summary section.
+    #[arg(long)]
+    pub scan: bool,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct CatArgs {
+    /// An MCAP file.
+    pub file: PathBuf,
+    /// Only messages on this topic (repeat for several).
+    #[arg(long = "topic", value_name = "TOPIC")]
+    pub topics: Vec<String>,
+    /// One JSON object per line: topic, schema, log_time, sequence, message.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn inspect_command(args: InspectArgs) -> Result<()> {
+    if args.file.is_dir() {
+        return Err(Error::input(
+            &args.file,
+            "is a folder; inspect reads MCAP files",
+        ));
+    }
+    let report = inspect(&args.file, !args.scan)?;
+    let mut out = std::io::stdout().lock();
+    let written = if args.json {
+        serde_json::to_writer_pretty(&mut out, &report)
+            .map_err(std::io::Error::from)
+            .and_then(|()| writeln!(out))
+    } else {
+        out.write_all(render_report(&report).as_bytes())
+    };
+    written.map_err(|e| Error::io("writing to stdout", e))
+}
+
+fn seconds(ns: u64) -> String {
+    format!("{}.{:09}", ns / 1_000_000_000, ns % 1_000_000_000)
+}
+
+fn render_report(report: &McapReport) -> String {
+    let mut text = format!(
+        "file:      {} ({} bytes)\nprofile:   {}\nlibrary:   {}\nread from: {}\nmessages:  {}\n",
+        report.file,
+        report.bytes,
+        report.profile,
+        report.library,
+        report.source,
+        report.message_count
+    );
+    if let (Some(start), Some(end)) = (report.start_time, report.end_time) {
+        text += &format!(
+            "time:      {} .. {} ({:.3} s)\n",
+            seconds(start),
+            seconds(end),
+            (end - start) as f64 * 1e-9
+        );
+    }
+    let compression: Vec<String> = report
+        .chunks
+        .compression
+        .iter()
+        .map(|(name, count)| format!("{name}: {count}"))
+        .collect();
+    text += &format!(
+        "chunks:    {} ({}), {} bytes compressed, {} uncompressed\n",
+        report.chunks.count,
+        compression.join(", "),
+        report.chunks.compressed_bytes,
+        report.chunks.uncompressed_bytes
+    );
+    text += &format!(
+        "other:     {} attachments, {} metadata records\nchannels:\n",
+        report.attachments, report.metadata
+    );
+    let topic_width = report
+        .channels
+        .iter()
+        .map(|c| c.topic.len())
+        .max()
+        .unwrap_or(5);
+    for c in &report.channels {
+        text += &format!(
+            "  {:>3}  {:<topic_width$}  {:>8} msgs  {} / {} ({})\n",
+            c.id, c.topic, c.message_count, c.message_encoding, c.schema, c.schema_encoding
+        );
+    }
+    text
+}
+
+/// One line of `cat --json`; the field names are the ones of Foxglove's Python tools.
+#[derive(Serialize)]
+struct CatLine<'a> {
+    topic: &'a str,
+    schema: &'a str,
+    log_time: u64,
+    sequence: u32,
+    message: &'a Value,
+}
+
+pub fn cat_command(args: CatArgs) -> Result<()> {
+    let wanted: BTreeSet<&str> = args.topics.iter().map(String::as_str).collect();
+    let mut seen = BTreeSet::new();
+    let mut decoders = Decoders::default();
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let write_error = |e: std::io::Error| Error::io("writing to stdout", e);
+    scan(&args.file, |event| {
+        let Event::Message {
+            channel,
+            header,
+            data,
+        } = event
+        else {
+            if let Event::Channel(channel) = event {
+                seen.insert(channel.topic.clone());
+            }
+            return Ok(());
+        };
+        if !wanted.is_empty() && !wanted.contains(channel.topic.as_str()) {
+            return Ok(());
+        }
+        let problem = |message: String| {
+            Error::input(
+                &args.file,
+                format!(
+                    "topic {} message {} (log time {}): {message}",
+                    channel.topic, header.sequence, header.log_time
+                ),
+            )
+        };
+        let message = decoders
+            .get(channel)
+            .map_err(&problem)?
+            .decode(data)
+            .map_err(&problem)?;
+        if args.json {
+            let line = CatLine {
+                topic: &channel.topic,
+                schema: channel.schema_name(),
+                log_time: header.log_time,
+                sequence: header.sequence,
+                message: &message,
+            };
+            serde_json::to_writer(&mut out, &line).map_err(|e| write_error(e.into()))?;
+            writeln!(out).map_err(write_error)
+        } else {
+            write!(out, "{} {} ", seconds(header.log_time), channel.topic).map_err(write_error)?;
+            serde_json::to_writer(&mut out, &message).map_err(|e| write_error(e.into()))?;
+            writeln!(out).map_err(write_error)
+        }
+    })?;
+    out.flush().map_err(write_error)?;
+    let missing: Vec<&str> = wanted
+        .iter()
+        .filter(|t| !seen.contains(**t))
+        .copied()
+        .collect();
+    if !missing.is_empty() {
+        return Err(Error::input(
+            &args.file,
+            format!(
+                "no channel on topic {} (topics: {})",
+                missing.join(", "),
+                seen.into_iter().collect::<Vec<_>>().join(", ")
+            ),
+        ));
+    }
+    Ok(())
+}

@@ -1,0 +1,13 @@
+//! MCAP logs (ROS 2, Foxglove): streaming reader, schema-driven decoders (ROS 2 CDR,
+//! JSON, protobuf), inspection and a writer for the logs the tool produces itself.
+
+pub mod cdr;
+pub mod decode;
+pub mod inspect;
+pub mod reader;
+pub mod ros2msg;
+pub mod value;
+
+pub use decode::{Decoders, MessageDecoder};
+pub use reader::{ChannelInfo, Event, scan};
+pub use value::Value;

@@ -1,0 +1,323 @@
+//! Streaming MCAP reading: one pass from the start, memory bounded by the largest chunk,
+//! so it works on files of any size and on files without a summary section (a recorder
+//! that crashed). Chunks are decompressed here (zstd, lz4) rather than by the `mcap`
+//! crate so that callers see each chunk's compression and sizes.
+
+use std::collections::HashMap;
+use std::io::Read;
+use std::ops::ControlFlow;
+use std::path::Path;
+use std::sync::Arc;
+
+use mcap::records::{MessageHeader, Record};
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+
+use crate::error::{Error, Result, open_input};
+
+#[derive(Debug)]
+pub struct SchemaInfo {
+    pub id: u16,
+    pub name: String,
+    pub encoding: String,
+    pub data: Vec<u8>,
+}
+
+#[derive(Debug)]
+pub struct ChannelInfo {
+    pub id: u16,
+    pub topic: String,
+    pub message_encoding: String,
+    /// `None` for schemaless channels (schema id 0).
+    pub schema: Option<Arc<SchemaInfo>>,
+    pub metadata: std::collections::BTreeMap<String, String>,
+}
+
+impl ChannelInfo {
+    pub fn schema_name(&self) -> &str {
+        self.schema.as_ref().map_or("", |s| s.name.as_str())
+    }
+}
+
+/// What a pass over the file meets, in file order.
+pub enum Event<'a> {
+    Header {
+        profile: &'a str,
+        library: &'a str,
+    },
+    Channel(&'a Arc<ChannelInfo>),
+    Message {
+        channel: &'a Arc<ChannelInfo>,
+        header: &'a MessageHeader,
+        data: &'a [u8],
+    },
+    Chunk {
+        compression: &'a str,
+        compressed: u64,
+        uncompressed: u64,
+    },
+    Attachment {
+        name: &'a str,
+    },
+    Metadata {
+        name: &'a str,
+    },
+}
+
+/// Schemas and channels seen so far: messages refer to them by id.
+#[derive(Default)]
+struct Registry {
+    schemas: HashMap<u16, Arc<SchemaInfo>>,
+    channels: HashMap<u16, Arc<ChannelInfo>>,
+}
+
+/// A decompressor per compression, reused across chunks.
+#[derive(Default)]
+struct Decompressors {
+    zstd: Option<zstd::bulk::Decompressor<'static>>,
+}
+
+impl Decompressors {
+    fn decompress(
+        &mut self,
+        compression: &str,
+        data: &[u8],
+        size: usize,
+        out: &mut Vec<u8>,
+    ) -> std::result::Result<(), String> {
+        out.clear();
+        match compression {
+            "" => out.extend_from_slice(data),
+            "zstd" => {
+                let zstd = match &mut self.zstd {
+                    Some(z) => z,
+                    None => self
+                        .zstd
+                        .insert(zstd::bulk::Decompressor::new().map_err(|e| e.to_string())?),
+                };
+                out.reserve(size);
+                zstd.decompress_to_buffer(data, out)
+                    .map_err(|e| format!("zstd: {e}"))?;
+            }
+            "lz4" => {
+                out.reserve(size);
+                lz4::Decoder::new(data)
+                    .and_then(|mut d| d.read_to_end(out))
+                    .map_err(|e| format!("lz4: {e}"))?;
+            }
+            other => return Err(format!("unsupported chunk compression '{other}'")),
+        }
+        if out.len() != size {
+            return Err(format!(
+                "chunk decompresses to {} bytes, its header says {size}",
+                out.len()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Reads `path` from start to end, calling `visit` for each record of interest (channels
+/// that only the summary section declares included). Errors name the file and the byte
+/// offset.
+pub fn scan(path: &Path, mut visit: impl FnMut(Event<'_>) -> Result<()>) -> Result<()> {
+    let mut file = open_input(path)?;
+    let file_bytes = file
+        .metadata()
+        .map_err(|e| Error::io(format!("reading {}", path.display()), e))?
+        .len();
+    // No record can be longer than the file; the limit also keeps the `mcap` crate from
+    // overflowing on the garbage lengths of a cut-off file.
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default()
+            .with_emit_chunks(true)
+            .with_skip_end_magic(true)
+            .with_record_length_limit(usize::try_from(file_bytes).unwrap_or(usize::MAX)),
+    );
+    let mut registry = Registry::default();
+    let mut decompressors = Decompressors::default();
+    let mut chunk = Vec::new();
+    let mut offset: u64 = 0;
+    let mut records = 0u64;
+    let fail =
+        |offset: u64, problem: String| Error::input(path, format!("at byte {offset}: {problem}"));
+    while let Some(event) = reader.next_event() {
+        let event = event.map_err(|e| {
+            fail(
+                offset,
+                format!(
+                    "{} (after {records} records; the file may be cut short or not MCAP)",
+                    describe(&e)
+                ),
+            )
+        })?;
+        match event {
+            LinearReadEvent::ReadRequest(need) => {
+                let read = file
+                    .read(reader.insert(need))
+                    .map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
+                reader.notify_read(read);
+                offset += read as u64;
+            }
+            LinearReadEvent::Record { opcode, data } => {
+                records += 1;
+                let record = mcap::parse_record(opcode, data)
+                    .map_err(|e| fail(offset, format!("record {records}: {}", describe(&e))))?;
+                match record {
+                    Record::Chunk { header, data } => {
+                        visit(Event::Chunk {
+                            compression: &header.compression,
+                            compressed: header.compressed_size,
+                            uncompressed: header.uncompressed_size,
+                        })?;
+                        let size = usize::try_from(header.uncompressed_size)
+                            .map_err(|_| fail(offset, "chunk too large".into()))?;
+                        decompressors
+                            .decompress(&header.compression, &data, size, &mut chunk)
+                            .map_err(|e| fail(offset, format!("chunk (record {records}): {e}")))?;
+                        for inner in mcap::read::LinearReader::sans_magic(&chunk) {
+                            let inner = inner.map_err(|e| {
+                                fail(
+                                    offset,
+                                    format!(
+                                        "inside the chunk of record {records}: {}",
+                                        describe(&e)
+                                    ),
+                                )
+                            })?;
+                            if registry
+                                .handle(inner, &mut visit)
+                                .map_err(|f| f.into_error(path, offset))?
+                                .is_break()
+                            {
+                                return Ok(());
+                            }
+                        }
+                    }
+                    other => {
+                        if registry
+                            .handle(other, &mut visit)
+                            .map_err(|f| f.into_error(path, offset))?
+                            .is_break()
+                        {
+                            return Ok(());
+                        }
+                    }
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Why handling a record stopped: the visitor's own error, or a problem of the file.
+enum Failure {
+    Visit(Error),
+    File(String),
+}
+
+impl Failure {
+    fn into_error(self, path: &Path, offset: u64) -> Error {
+        match self {
+            Failure::Visit(error) => error,
+            Failure::File(problem) => Error::input(path, format!("at byte {offset}: {problem}")),
+        }
+    }
+}
+
+fn describe(error: &mcap::McapError) -> String {
+    match error {
+        mcap::McapError::UnexpectedEof | mcap::McapError::UnexpectedEoc => {
+            "the file ends in the middle of a record".to_string()
+        }
+        mcap::McapError::BadMagic => "not an MCAP file (bad magic bytes)".to_string(),
+        mcap::McapError::RecordTooLarge { opcode, len } => format!(
+            "a {} record claims {len} bytes, more than the file holds",
+            record_name(*opcode)
+        ),
+        other => other.to_string(),
+    }
+}
+
+fn record_name(opcode: u8) -> String {
+    use mcap::records::op;
+    match opcode {
+        op::HEADER => "header".into(),
+        op::SCHEMA => "schema".into(),
+        op::CHANNEL => "channel".into(),
+        op::MESSAGE => "message".into(),
+        op::CHUNK => "chunk".into(),
+        op::ATTACHMENT => "attachment".into(),
+        op::METADATA => "metadata".into(),
+        other => format!("opcode {other:#04x}"),
+    }
+}
+
+impl Registry {
+    /// Registers schemas and channels and hands events to `visit`; `Break` at the summary.
+    fn handle(
+        &mut self,
+        record: Record<'_>,
+        visit: &mut impl FnMut(Event<'_>) -> Result<()>,
+    ) -> std::result::Result<ControlFlow<()>, Failure> {
+        let mut visit = |event: Event<'_>| visit(event).map_err(Failure::Visit);
+        match record {
+            Record::Header(header) => visit(Event::Header {
+                profile: &header.profile,
+                library: &header.library,
+            })?,
+            Record::Schema { header, data } => {
+                self.schemas.entry(header.id).or_insert_with(|| {
+                    Arc::new(SchemaInfo {
+                        id: header.id,
+                        name: header.name,
+                        encoding: header.encoding,
+                        data: data.into_owned(),
+                    })
+                });
+            }
+            Record::Channel(channel) => {
+                if self.channels.contains_key(&channel.id) {
+                    return Ok(ControlFlow::Continue(()));
+                }
+                let schema = match channel.schema_id {
+                    0 => None,
+                    id => Some(self.schemas.get(&id).cloned().ok_or_else(|| {
+                        Failure::File(format!(
+                            "channel {} ('{}') refers to schema {id}, which has not appeared",
+                            channel.id, channel.topic
+                        ))
+                    })?),
+                };
+                let info = Arc::new(ChannelInfo {
+                    id: channel.id,
+                    topic: channel.topic,
+                    message_encoding: channel.message_encoding,
+                    schema,
+                    metadata: channel.metadata,
+                });
+                visit(Event::Channel(&info))?;
+                self.channels.insert(info.id, info);
+            }
+            Record::Message { header, data } => {
+                let channel = self.channels.get(&header.channel_id).ok_or_else(|| {
+                    Failure::File(format!(
+                        "a message on channel {} before that channel's record",
+                        header.channel_id
+                    ))
+                })?;
+                visit(Event::Message {
+                    channel,
+                    header: &header,
+                    data: &data,
+                })?;
+            }
+            Record::Attachment { header, .. } => visit(Event::Attachment { name: &header.name })?,
+            Record::Metadata(metadata) => visit(Event::Metadata {
+                name: &metadata.name,
+            })?,
+            Record::Footer(_) => return Ok(ControlFlow::Break(())),
+            _ => {}
+        }
+        Ok(ControlFlow::Continue(()))
+    }
+}
