@@ -104,6 +104,7 @@ fn the_committed_test_world_is_what_the_generator_makes() {
         "demonstrations.parquet",
         "maps/terrain-000.parquet",
         "truth/terrain-003.parquet",
+        "logs/terrain-002.mcap",
     ] {
         assert_eq!(
             std::fs::read(dir.path().join("world").join(sub)).unwrap(),

@@ -52,6 +52,9 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Decode and ingest a large robot log (MCAP: 100 Hz odometry, 10 Hz 512×512
+    /// occupancy grids, zstd chunks): throughput and peak memory.
+    Ingest(super::bench_ingest::IngestBenchArgs),
     /// Single-source Dijkstra over a whole costmap, one thread, best of several runs.
     Dijkstra {
         /// Raw little-endian f32 costs, row by row (e.g. numpy's `tofile`).
@@ -83,7 +86,7 @@ pub enum Planner {
 }
 
 /// Prints a report: JSON for scripts, or the text `describe` makes for people.
-fn emit<T: Serialize>(report: &T, json: bool, describe: impl FnOnce(&T) -> String) {
+pub(super) fn emit<T: Serialize>(report: &T, json: bool, describe: impl FnOnce(&T) -> String) {
     if json {
         println!(
             "{}",
@@ -102,6 +105,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
             planner,
             json,
         } => movingai(map, scen, planner, json),
+        BenchCommand::Ingest(args) => super::bench_ingest::run(args),
         BenchCommand::Hash {
             file,
             size_mib,
@@ -368,7 +372,7 @@ fn bench_feature_spec() -> FeatureSpec {
 }
 
 /// Resident memory now and at its peak (bytes), from /proc/self/status.
-fn memory() -> (u64, u64) {
+pub(super) fn memory() -> (u64, u64) {
     let status = std::fs::read_to_string("/proc/self/status").unwrap_or_default();
     let field = |key: &str| {
         status
@@ -383,7 +387,7 @@ fn memory() -> (u64, u64) {
 }
 
 /// Resets the peak-memory mark so that the next reading covers what follows.
-fn reset_peak_memory() {
+pub(super) fn reset_peak_memory() {
     let _ = std::fs::write("/proc/self/clear_refs", "5");
 }
 

@@ -6,6 +6,8 @@ use clap::Subcommand;
 
 use crate::error::{Error, Result};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
+use crate::io::mcap::frames::Planar;
+use crate::io::mcap::writer::{DemonstrationLog, write_demonstration_log};
 use crate::io::tables::{write_costmap, write_demonstrations, write_map};
 use crate::sim::{WorldConfig, generate_world};
 
@@ -13,7 +15,8 @@ use crate::sim::{WorldConfig, generate_world};
 pub enum TestdataCommand {
     /// A terrain world with a hidden true cost and teacher demonstrations.
     World {
-        /// Folder to write: maps/, demonstrations.parquet, truth/, world.json.
+        /// Folder to write: maps/, demonstrations.parquet, logs/ (the same as MCAP),
+        /// truth/, world.json.
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
         #[arg(long, default_value_t = WorldConfig::default().seed)]
@@ -70,6 +73,31 @@ pub fn run(command: TestdataCommand) -> Result<()> {
         )?;
     }
     write_demonstrations(&out.join("demonstrations.parquet"), &world.demonstrations)?;
+    // The same world as robot logs: one per map, odometry in its own frame with a
+    // /tf_static to the map, a goal message starting each episode.
+    let layout = DemonstrationLog {
+        start_ns: 1_700_000_000_000_000_000,
+        gap_ns: 5_000_000_000,
+        odom_frame: "odom".into(),
+        map_to_odom: Planar {
+            x: 3.0,
+            y: -2.0,
+            yaw: 0.25,
+        },
+    };
+    for map in &world.maps {
+        let demos: Vec<_> = world
+            .demonstrations
+            .iter()
+            .filter(|d| d.map == map.name)
+            .collect();
+        write_demonstration_log(
+            &out.join(format!("logs/{}.mcap", map.name)),
+            map,
+            &demos,
+            &layout,
+        )?;
+    }
     let description = serde_json::json!({
         "generator": format!("imitate {} testdata world", env!("CARGO_PKG_VERSION")),
         "config": config,

@@ -3,6 +3,8 @@
 use std::io::{BufWriter, Read, Write};
 use std::path::Path;
 
+use tempfile::NamedTempFile;
+
 use crate::error::{Error, Result, open_input};
 
 /// Writes a file atomically: the content goes to a temporary file in the destination
@@ -11,6 +13,14 @@ use crate::error::{Error, Result, open_input};
 pub fn write_atomic(
     path: &Path,
     write: impl FnOnce(&mut (dyn Write + Send)) -> Result<()>,
+) -> Result<()> {
+    write_atomic_seekable(path, |out| write(out))
+}
+
+/// [`write_atomic`] for writers that seek back (MCAP, whose chunks are patched).
+pub fn write_atomic_seekable(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<NamedTempFile>) -> Result<()>,
 ) -> Result<()> {
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,

@@ -1,6 +1,7 @@
 //! Reading and writing files: Parquet tables, PNG images, atomic writes.
 
 pub mod fs;
+pub mod geotiff;
 pub mod mcap;
 pub mod movingai;
 pub mod png;

@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use crate::error::{Error, Result, read_input};
-use crate::grid::{Cell, GeoRef, Grid};
+use crate::grid::{Cell, GeoRef, Grid, Layer, Map};
 
 /// A passable cell costs 1, so path costs are path lengths in cells.
 pub fn read_map(path: &Path) -> Result<Grid<f32>> {
@@ -74,6 +74,23 @@ pub fn read_map(path: &Path) -> Result<Grid<f32>> {
         }
     }
     Ok(grid)
+}
+
+/// The map as a map layer `blocked`: 1 where the cell is blocked, 0 where passable.
+pub fn read_map_layer(path: &Path, name: &str) -> Result<Map> {
+    let grid = read_map(path)?;
+    Ok(Map {
+        name: name.to_string(),
+        layers: vec![Layer {
+            name: "blocked".into(),
+            values: grid
+                .data
+                .iter()
+                .map(|&c| if c.is_finite() { 0.0 } else { 1.0 })
+                .collect(),
+        }],
+        geo: grid.geo,
+    })
 }
 
 /// One query of a `.scen` file.

@@ -1,35 +1,162 @@
 //! `ingest`: maps and demonstrations in, a dataset out: the maps, the demonstrations,
-//! and each demonstration rasterised into a connected 8-neighbour cell path.
+//! and each demonstration rasterised into a connected 8-neighbour cell path. Maps come
+//! from Parquet tables, GeoTIFF rasters, MovingAI `.map` files or the logs' map topic;
+//! demonstrations from a Parquet table or from robot logs (MCAP).
 
 use std::collections::BTreeSet;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::ArtifactBuilder;
-use crate::error::{Error, Result};
-use crate::grid::{PathError, rasterize};
+use crate::error::{Error, Result, first_error_in_order};
+use crate::grid::{Demonstration, Map, PathError, rasterize};
+use crate::io::geotiff::read_geotiff;
+use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
+use crate::io::mcap::frames::Planar;
+use crate::io::movingai;
 use crate::io::tables::{
     EpisodePath, read_demonstrations, read_map, write_demonstrations, write_map, write_paths,
 };
 
 pub const KIND: &str = "ingest";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
+
+fn default_split() -> Split {
+    Split::File
+}
+
+fn default_gap() -> f64 {
+    2.0
+}
 
 /// Parameters of `imitate ingest` and of `uses: ingest`.
 #[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct IngestParams {
-    /// Map rasters (Parquet `map/1` tables); repeat for several maps.
-    #[arg(long = "map", required = true, value_name = "FILE")]
+    /// Map layers: a Parquet `map/1` table, a GeoTIFF (.tif, .tiff; bands become layers
+    /// band1, band2, ...) or a MovingAI .map (layer `blocked`); repeat for several maps.
+    /// GeoTIFF and MovingAI maps are named after their file.
+    #[arg(long = "map", value_name = "FILE")]
+    #[serde(default)]
     pub maps: Vec<PathBuf>,
-    /// Demonstrations (Parquet: episode, map, t, x, y[, yaw]).
+    /// Demonstrations as a Parquet table (episode, map, t, x, y[, yaw]).
     #[arg(long, value_name = "FILE")]
-    pub demonstrations: PathBuf,
+    #[serde(default)]
+    pub demonstrations: Option<PathBuf>,
+    /// Robot logs (MCAP) to take demonstrations (and maps) from; repeat for several.
+    #[arg(long = "log", value_name = "FILE")]
+    #[serde(default)]
+    pub logs: Vec<PathBuf>,
+    /// The logs' map topic (OccupancyGrid, GridMap or foxglove.Grid); default: the only
+    /// channel of such a type, if there is one. The map is named after the log file.
+    #[arg(long, value_name = "TOPIC")]
+    #[serde(default)]
+    pub map_topic: Option<String>,
+    /// The logs' pose topic (Odometry, PoseStamped, PoseWithCovarianceStamped, Path,
+    /// foxglove.PoseInFrame/PosesInFrame); default: the only channel of such a type.
+    #[arg(long, value_name = "TOPIC")]
+    #[serde(default)]
+    pub pose_topic: Option<String>,
+    /// A topic whose messages each start a new episode (with --split goal).
+    #[arg(long, value_name = "TOPIC")]
+    #[serde(default)]
+    pub goal_topic: Option<String>,
+    /// How a log's poses are cut into episodes.
+    #[arg(long, value_enum, default_value = "file")]
+    #[serde(default = "default_split")]
+    pub split: Split,
+    /// With --split gap: a silence longer than this many seconds ends an episode.
+    #[arg(long, default_value_t = 2.0)]
+    #[serde(default = "default_gap")]
+    pub gap_seconds: f64,
+    /// x,y,yaw of the transform taking pose-frame coordinates into the map frame, for
+    /// logs whose /tf does not link the two frames.
+    #[arg(long, value_name = "X,Y,YAW", value_delimiter = ',', num_args = 3)]
+    #[serde(default)]
+    pub transform: Option<Vec<f64>>,
+    /// The map (by name) that the episodes of logs without a map topic lie on; default:
+    /// the only map given.
+    #[arg(long, value_name = "NAME")]
+    #[serde(default)]
+    pub log_map: Option<String>,
     /// The dataset folder to write.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+}
+
+fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default()
+}
+
+/// A map file of any supported kind, chosen by its extension.
+fn load_map(path: &Path) -> Result<Map> {
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match extension.as_str() {
+        "parquet" => read_map(path),
+        "tif" | "tiff" => read_geotiff(path, &file_stem(path)),
+        "map" => movingai::read_map_layer(path, &file_stem(path)),
+        other => Err(Error::input(
+            path,
+            format!("maps are .parquet, .tif/.tiff or .map files, not '.{other}'"),
+        )),
+    }
+}
+
+impl IngestParams {
+    fn mapping(&self) -> Result<TopicMapping> {
+        let transform = match self.transform.as_deref() {
+            None => None,
+            Some(&[x, y, yaw]) if [x, y, yaw].iter().all(|v| v.is_finite()) => {
+                Some(Planar { x, y, yaw })
+            }
+            Some(other) => {
+                return Err(Error::Usage(format!(
+                    "transform must be three finite numbers x,y,yaw, not {other:?}"
+                )));
+            }
+        };
+        if !(self.gap_seconds.is_finite() && self.gap_seconds > 0.0) {
+            return Err(Error::Usage("gap_seconds must be a positive number".into()));
+        }
+        Ok(TopicMapping {
+            map_topic: self.map_topic.clone(),
+            pose_topic: self.pose_topic.clone(),
+            goal_topic: self.goal_topic.clone(),
+            split: self.split,
+            gap_seconds: self.gap_seconds,
+            transform,
+        })
+    }
+
+    /// The demonstrations and maps of every log, in the order the logs are given.
+    fn read_logs(&self, maps: &[Map]) -> Result<Vec<(Option<Map>, Vec<Demonstration>)>> {
+        if self.logs.is_empty() {
+            return Ok(Vec::new());
+        }
+        let mapping = self.mapping()?;
+        let fallback = match &self.log_map {
+            Some(name) => Some(maps.iter().find(|m| &m.name == name).ok_or_else(|| {
+                Error::Usage(format!("log_map '{name}' is not among the maps given"))
+            })?),
+            None if maps.len() == 1 => Some(&maps[0]),
+            None => None,
+        };
+        let fallback = fallback.map(|m| (m.name.as_str(), m.geo.frame.as_str()));
+        let results: Vec<Result<_>> = self
+            .logs
+            .par_iter()
+            .map(|log| read_log(log, &mapping, fallback).map(|c| (c.map, c.demonstrations)))
+            .collect();
+        first_error_in_order(results)
+    }
 }
 
 impl Stage for IngestParams {
@@ -47,7 +174,8 @@ impl Stage for IngestParams {
 
     fn deps(&self) -> Vec<PathBuf> {
         let mut deps = self.maps.clone();
-        deps.push(self.demonstrations.clone());
+        deps.extend(self.demonstrations.clone());
+        deps.extend(self.logs.iter().cloned());
         deps
     }
 
@@ -56,13 +184,31 @@ impl Stage for IngestParams {
     }
 
     fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
-        let maps = self
-            .maps
-            .iter()
-            .map(|p| read_map(p))
-            .collect::<Result<Vec<_>>>()?;
+        if self.demonstrations.is_none() && self.logs.is_empty() {
+            return Err(Error::Usage(
+                "ingest needs demonstrations (a Parquet table) or logs (MCAP)".into(),
+            ));
+        }
+        let mut maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
+        let mut sources: Vec<&Path> = self.maps.iter().map(PathBuf::as_path).collect();
+        let mut demos: Vec<(Demonstration, &Path)> = Vec::new();
+        if let Some(path) = &self.demonstrations {
+            demos.extend(
+                read_demonstrations(path)?
+                    .into_iter()
+                    .map(|d| (d, path.as_path())),
+            );
+        }
+        for ((map, log_demos), log) in self.read_logs(&maps)?.into_iter().zip(&self.logs) {
+            maps.extend(map);
+            sources.extend(std::iter::repeat_n(
+                log.as_path(),
+                maps.len() - sources.len(),
+            ));
+            demos.extend(log_demos.into_iter().map(|d| (d, log.as_path())));
+        }
         let mut names = BTreeSet::new();
-        for (map, path) in maps.iter().zip(&self.maps) {
+        for (map, path) in maps.iter().zip(&sources) {
             if !names.insert(map.name.clone()) {
                 return Err(Error::input(
                     path,
@@ -70,14 +216,19 @@ impl Stage for IngestParams {
                 ));
             }
         }
-        let demos = read_demonstrations(&self.demonstrations)?;
+        let mut episodes = BTreeSet::new();
+        for (demo, source) in &demos {
+            if !episodes.insert(demo.episode.as_str()) {
+                return Err(Error::input(
+                    source,
+                    format!("a second episode named '{}'", demo.episode),
+                ));
+            }
+        }
         let mut paths = Vec::with_capacity(demos.len());
-        for demo in &demos {
+        for (demo, source) in &demos {
             let problem = |message: String| {
-                Error::input(
-                    &self.demonstrations,
-                    format!("episode '{}': {message}", demo.episode),
-                )
+                Error::input(source, format!("episode '{}': {message}", demo.episode))
             };
             let map = maps.iter().find(|m| m.name == demo.map).ok_or_else(|| {
                 problem(format!(
@@ -113,6 +264,7 @@ impl Stage for IngestParams {
                 map,
             )?;
         }
+        let demos: Vec<Demonstration> = demos.into_iter().map(|(d, _)| d).collect();
         write_demonstrations(
             &out.file("demonstrations.parquet", "demonstrations")?,
             &demos,

@@ -3,10 +3,14 @@
 
 pub mod cdr;
 pub mod decode;
+pub mod episodes;
+pub mod frames;
 pub mod inspect;
 pub mod reader;
+pub mod ros2;
 pub mod ros2msg;
 pub mod value;
+pub mod writer;
 
 pub use decode::{Decoders, MessageDecoder};
 pub use reader::{ChannelInfo, Event, scan};
