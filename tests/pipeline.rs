@@ -263,7 +263,7 @@ stages:
 ";
     std::fs::write(ws.path().join("fan.yaml"), yaml).unwrap();
     // One demonstrations file for both ingests, holding terrain-000's episodes only.
-    let demos = imitate::io::tables::read_demonstrations(
+    let demos = imitate::io::demo_tables::read_demonstrations(
         &ws.path().join("testdata/world/demonstrations.parquet"),
     )
     .unwrap();

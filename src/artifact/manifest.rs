@@ -149,7 +149,47 @@ pub fn read_manifest(dir: &Path, kind: &str) -> Result<Manifest> {
     Ok(manifest)
 }
 
-/// An input's digest: an artifact folder's manifest digest, or a file's content digest.
+/// A plain folder's digest (a dataset someone else made, e.g. LeRobot): blake3 of the
+/// sorted list of its files' relative paths and content digests.
+fn folder_digest(
+    folder: &Path,
+    digest_file: &mut dyn FnMut(&Path) -> Result<String>,
+) -> Result<String> {
+    fn walk(dir: &Path, files: &mut Vec<std::path::PathBuf>) -> Result<()> {
+        let entries = std::fs::read_dir(dir)
+            .map_err(|e| Error::input(dir, format!("cannot list the folder: {e}")))?;
+        for entry in entries {
+            let path = entry
+                .map_err(|e| Error::input(dir, format!("cannot list the folder: {e}")))?
+                .path();
+            if path.is_dir() {
+                walk(&path, files)?;
+            } else {
+                files.push(path);
+            }
+        }
+        Ok(())
+    }
+    let mut files = Vec::new();
+    walk(folder, &mut files)?;
+    files.sort();
+    let mut listing = String::new();
+    for file in &files {
+        let relative = file.strip_prefix(folder).unwrap_or(file);
+        listing += &format!(
+            "{}\t{}\n",
+            relative.to_string_lossy().replace('\\', "/"),
+            digest_file(file)?
+        );
+    }
+    Ok(format!(
+        "blake3:{}",
+        blake3::hash(listing.as_bytes()).to_hex()
+    ))
+}
+
+/// An input's digest: an artifact folder's manifest digest, a plain folder's digest of
+/// its files, or a file's content digest.
 /// The path is recorded as the user gave it, so that lineage does not depend on where
 /// a checkout lives.
 pub fn digest_input(path: &Path) -> Result<InputDigest> {
@@ -163,7 +203,9 @@ pub fn digest_input_with(
     path: &Path,
     digest_file: &mut dyn FnMut(&Path) -> Result<String>,
 ) -> Result<InputDigest> {
-    let digest = if path.is_dir() {
+    let digest = if path.is_dir() && !path.join(MANIFEST).exists() {
+        folder_digest(path, digest_file)?
+    } else if path.is_dir() {
         let bytes = read_input(&path.join(MANIFEST))?;
         let manifest: Manifest = serde_json::from_slice(&bytes)
             .map_err(|e| Error::input(path.join(MANIFEST), format!("not a valid manifest: {e}")))?;

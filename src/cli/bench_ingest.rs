@@ -105,7 +105,7 @@ pub fn run(args: IngestBenchArgs) -> Result<()> {
         eprintln!("bench ingest: wrote {}", args.file.display());
         return Ok(());
     }
-    let report = inspect(&args.file, true)?;
+    let report = inspect(&args.file, true, false)?;
     if !report.channels.iter().any(|c| c.topic == "/map") {
         return Err(Error::input(
             &args.file,
@@ -119,6 +119,7 @@ pub fn run(args: IngestBenchArgs) -> Result<()> {
         split: Split::File,
         gap_seconds: 1.0,
         transform: None,
+        allow_truncated: false,
     };
     let largest_chunk = largest_chunk(&args.file)?;
     let mut best = f64::INFINITY;

@@ -7,7 +7,8 @@ use std::path::PathBuf;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::io::mcap::inspect::{McapReport, inspect};
+use crate::io::mcap::inspect::{McapReport, describe_damage, inspect};
+use crate::io::mcap::reader::scan_until_damage;
 use crate::io::mcap::{Decoders, Event, Value, scan};
 
 #[derive(Debug, clap::Args)]
@@ -20,6 +21,9 @@ pub struct InspectArgs {
     /// Read every record even when the file has a summary section.
     #[arg(long)]
     pub scan: bool,
+    /// On a damaged file (cut short, corrupt chunk), report what precedes the damage.
+    #[arg(long)]
+    pub allow_truncated: bool,
 }
 
 #[derive(Debug, clap::Args)]
@@ -32,6 +36,10 @@ pub struct CatArgs {
     /// One JSON object per line: topic, schema, log_time, sequence, message.
     #[arg(long)]
     pub json: bool,
+    /// On a damaged file (cut short, corrupt chunk), print the messages before the damage
+    /// and say on stderr what was dropped.
+    #[arg(long)]
+    pub allow_truncated: bool,
 }
 
 pub fn inspect_command(args: InspectArgs) -> Result<()> {
@@ -41,7 +49,7 @@ pub fn inspect_command(args: InspectArgs) -> Result<()> {
             "is a folder; inspect reads MCAP files",
         ));
     }
-    let report = inspect(&args.file, !args.scan)?;
+    let report = inspect(&args.file, !args.scan, args.allow_truncated)?;
     let mut out = std::io::stdout().lock();
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &report)
@@ -89,9 +97,13 @@ fn render_report(report: &McapReport) -> String {
         report.chunks.uncompressed_bytes
     );
     text += &format!(
-        "other:     {} attachments, {} metadata records\nchannels:\n",
+        "other:     {} attachments, {} metadata records\n",
         report.attachments, report.metadata
     );
+    if let Some(damage) = &report.damage {
+        text += &format!("damage:    {damage}\n");
+    }
+    text += "channels:\n";
     let topic_width = report
         .channels
         .iter()
@@ -124,7 +136,8 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let write_error = |e: std::io::Error| Error::io("writing to stdout", e);
-    scan(&args.file, |event| {
+    let mut printed = 0u64;
+    let visit = |event: Event<'_>| {
         let Event::Message {
             channel,
             header,
@@ -153,6 +166,7 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
             .map_err(&problem)?
             .decode(data)
             .map_err(&problem)?;
+        printed += 1;
         if args.json {
             let line = CatLine {
                 topic: &channel.topic,
@@ -168,8 +182,21 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
             serde_json::to_writer(&mut out, &message).map_err(|e| write_error(e.into()))?;
             writeln!(out).map_err(write_error)
         }
-    })?;
+    };
+    let damage = if args.allow_truncated {
+        scan_until_damage(&args.file, visit)?
+    } else {
+        scan(&args.file, visit)?;
+        None
+    };
     out.flush().map_err(write_error)?;
+    if let Some(damage) = damage {
+        eprintln!(
+            "warning: {}: {}; printed the {printed} messages before it",
+            args.file.display(),
+            describe_damage(&damage)
+        );
+    }
     let missing: Vec<&str> = wanted
         .iter()
         .filter(|t| !seen.contains(**t))

@@ -1,5 +1,6 @@
 //! Reading and writing files: Parquet tables, PNG images, atomic writes.
 
+pub mod demo_tables;
 pub mod fs;
 pub mod geotiff;
 pub mod mcap;

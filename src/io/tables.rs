@@ -13,7 +13,7 @@ use std::sync::Arc;
 use arrow::array::{
     Array, ArrayRef, AsArray, Float32Array, Float64Array, RecordBatch, StringArray, UInt32Array,
 };
-use arrow::datatypes::{DataType, Field, Float64Type, Schema, UInt32Type};
+use arrow::datatypes::{DataType, Field, Schema, UInt32Type};
 use parquet::arrow::ArrowWriter;
 use parquet::arrow::arrow_reader::ParquetRecordBatchReaderBuilder;
 use parquet::basic::Compression;
@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fs::write_atomic;
 use crate::error::{Error, Result, open_input};
-use crate::grid::{CellPath, Demonstration, FeatureStack, GeoRef, Grid, Layer, Map, Pose};
+use crate::grid::{CellPath, Demonstration, FeatureStack, GeoRef, Grid, Layer, Map};
 
 pub const SCHEMA_KEY: &str = "imitate.schema";
 const RASTER_KEY: &str = "imitate.raster";
@@ -138,12 +138,12 @@ fn write_table(
 }
 
 /// A table read back: its key-value metadata and its rows as one batch.
-struct ReadTable {
-    metadata: BTreeMap<String, String>,
-    batch: RecordBatch,
+pub(crate) struct ReadTable {
+    pub(crate) metadata: BTreeMap<String, String>,
+    pub(crate) batch: RecordBatch,
 }
 
-fn read_table(path: &Path, table: Table, allow_untagged: bool) -> Result<ReadTable> {
+pub(crate) fn read_table(path: &Path, table: Table, allow_untagged: bool) -> Result<ReadTable> {
     let file = open_input(path)?;
     let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| Error::input(path, format!("not a readable Parquet file: {e}")))?;
@@ -194,28 +194,6 @@ fn no_nulls(path: &Path, name: &str, array: &dyn Array) -> Result<()> {
         path,
         format!("record {record}: column '{name}' is null"),
     ))
-}
-
-/// A numeric column as f64 values (any integer or float type is accepted).
-fn f64_column(
-    path: &Path,
-    table: Table,
-    batch: &RecordBatch,
-    name: &str,
-) -> Result<Vec<Option<f64>>> {
-    let array = column(path, table, batch, name)?;
-    if !array.data_type().is_numeric() {
-        return Err(Error::input(
-            path,
-            format!(
-                "column '{name}' has type {}, expected a number",
-                array.data_type()
-            ),
-        ));
-    }
-    let cast = arrow::compute::cast(array, &DataType::Float64)
-        .map_err(|e| Error::input(path, format!("column '{name}': {e}")))?;
-    Ok(cast.as_primitive::<Float64Type>().iter().collect())
 }
 
 fn u32_column<'a>(
@@ -539,92 +517,6 @@ pub fn write_demonstrations(path: &Path, demos: &[Demonstration]) -> Result<()> 
     write_table(path, Table::DEMONSTRATIONS, &batch, Vec::new())
 }
 
-/// Reads demonstrations: rows of one episode are consecutive, with increasing time.
-/// Files without an `imitate.schema` tag are accepted when their columns fit, so that
-/// tables written by pandas or polars work as they are.
-pub fn read_demonstrations(path: &Path) -> Result<Vec<Demonstration>> {
-    let table = Table::DEMONSTRATIONS;
-    let ReadTable { batch, .. } = read_table(path, table, true)?;
-    let episodes = string_column(path, table, &batch, "episode")?;
-    let maps = string_column(path, table, &batch, "map")?;
-    let required = |name: &str| -> Result<Vec<f64>> {
-        let values = f64_column(path, table, &batch, name)?;
-        values
-            .iter()
-            .enumerate()
-            .map(|(i, v)| match v {
-                Some(v) if v.is_finite() => Ok(*v),
-                Some(v) => Err(Error::input(
-                    path,
-                    format!("record {i}: column '{name}' is {v}, expected a finite number"),
-                )),
-                None => Err(Error::input(
-                    path,
-                    format!("record {i}: column '{name}' is null"),
-                )),
-            })
-            .collect()
-    };
-    let (t, x, y) = (required("t")?, required("x")?, required("y")?);
-    let yaw = match batch.column_by_name("yaw") {
-        Some(_) => f64_column(path, table, &batch, "yaw")?,
-        None => vec![None; batch.num_rows()],
-    };
-    let mut demos: Vec<Demonstration> = Vec::new();
-    for i in 0..batch.num_rows() {
-        let pose = Pose {
-            t: t[i],
-            x: x[i],
-            y: y[i],
-            yaw: yaw[i],
-        };
-        match demos.last_mut() {
-            Some(d) if d.episode == episodes[i] => {
-                if d.map != maps[i] {
-                    return Err(Error::input(
-                        path,
-                        format!(
-                            "record {i}: episode '{}' changes map from '{}' to '{}'",
-                            d.episode, d.map, maps[i]
-                        ),
-                    ));
-                }
-                let last_t = d.poses.last().map_or(f64::NEG_INFINITY, |p| p.t);
-                if pose.t <= last_t {
-                    return Err(Error::input(
-                        path,
-                        format!(
-                            "record {i}: episode '{}' goes back in time (t {} after {last_t})",
-                            d.episode, pose.t
-                        ),
-                    ));
-                }
-                d.poses.push(pose);
-            }
-            _ => {
-                if demos.iter().any(|d| d.episode == episodes[i]) {
-                    return Err(Error::input(
-                        path,
-                        format!(
-                            "record {i}: rows of episode '{}' are not consecutive",
-                            episodes[i]
-                        ),
-                    ));
-                }
-                demos.push(Demonstration {
-                    episode: episodes[i].clone(),
-                    map: maps[i].clone(),
-                    poses: vec![pose],
-                });
-            }
-        }
-    }
-    if demos.is_empty() {
-        return Err(Error::input(path, "holds no demonstrations"));
-    }
-    Ok(demos)
-}
-
 /// A demonstration rasterised onto its map.
 #[derive(Debug, Clone, PartialEq)]
 pub struct EpisodePath {
@@ -698,7 +590,7 @@ pub fn read_paths(path: &Path) -> Result<Vec<EpisodePath>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::grid::Cell;
+    use crate::grid::{Cell, Pose};
 
     fn geo() -> GeoRef {
         GeoRef {
@@ -782,7 +674,10 @@ mod tests {
         ];
         let p = dir.path().join("demos.parquet");
         write_demonstrations(&p, &demos).unwrap();
-        assert_eq!(read_demonstrations(&p).unwrap(), demos);
+        assert_eq!(
+            crate::io::demo_tables::read_demonstrations(&p).unwrap(),
+            demos
+        );
 
         let paths = vec![
             EpisodePath {

@@ -13,13 +13,12 @@ use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, first_error_in_order};
 use crate::grid::{Demonstration, Map, PathError, rasterize};
+use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geotiff::read_geotiff;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
-use crate::io::tables::{
-    EpisodePath, read_demonstrations, read_map, write_demonstrations, write_map, write_paths,
-};
+use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, write_paths};
 
 pub const KIND: &str = "ingest";
 const VERSION: u32 = 2;
@@ -42,10 +41,22 @@ pub struct IngestParams {
     #[arg(long = "map", value_name = "FILE")]
     #[serde(default)]
     pub maps: Vec<PathBuf>,
-    /// Demonstrations as a Parquet table (episode, map, t, x, y[, yaw]).
+    /// Demonstrations as a Parquet table (columns episode, map, t, x, y[, yaw], or as
+    /// --column renames them).
     #[arg(long, value_name = "FILE")]
     #[serde(default)]
     pub demonstrations: Option<PathBuf>,
+    /// Which column of the demonstrations table (or LeRobot dataset) plays which role:
+    /// ROLE=COLUMN with roles episode, map, t, x, y, yaw; a list column's element as
+    /// COLUMN[i] (e.g. x=observation.state[0]). Repeat for several.
+    #[arg(long = "column", value_name = "ROLE=COLUMN")]
+    #[serde(default)]
+    pub columns: Vec<String>,
+    /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
+    /// is read from observation.state elements named x, y (yaw) unless --column says.
+    #[arg(long = "lerobot", value_name = "DIR")]
+    #[serde(default)]
+    pub lerobot: Vec<PathBuf>,
     /// Robot logs (MCAP) to take demonstrations (and maps) from; repeat for several.
     #[arg(long = "log", value_name = "FILE")]
     #[serde(default)]
@@ -77,11 +88,16 @@ pub struct IngestParams {
     #[arg(long, value_name = "X,Y,YAW", value_delimiter = ',', num_args = 3)]
     #[serde(default)]
     pub transform: Option<Vec<f64>>,
-    /// The map (by name) that the episodes of logs without a map topic lie on; default:
-    /// the only map given.
+    /// Ingest what precedes damage in a log (cut short, corrupt chunk) instead of failing;
+    /// a warning says where the damage is and how much was dropped.
+    #[arg(long)]
+    #[serde(default)]
+    pub allow_truncated: bool,
+    /// The map (by name) that episodes without one lie on (logs without a map topic,
+    /// tables without a map column, LeRobot datasets); default: the only map given.
     #[arg(long, value_name = "NAME")]
     #[serde(default)]
-    pub log_map: Option<String>,
+    pub default_map: Option<String>,
     /// The dataset folder to write.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -133,7 +149,37 @@ impl IngestParams {
             split: self.split,
             gap_seconds: self.gap_seconds,
             transform,
+            allow_truncated: self.allow_truncated,
         })
+    }
+
+    /// The map of episodes that name none: `default_map`, or the only map given.
+    fn default_map<'a>(&self, maps: &'a [Map]) -> Result<Option<&'a Map>> {
+        match &self.default_map {
+            Some(name) => Ok(Some(maps.iter().find(|m| &m.name == name).ok_or_else(
+                || Error::Usage(format!("default_map '{name}' is not among the maps given")),
+            )?)),
+            None if maps.len() == 1 => Ok(Some(&maps[0])),
+            None => Ok(None),
+        }
+    }
+
+    /// The demonstrations of the table and the LeRobot datasets.
+    fn read_tables(&self, maps: &[Map]) -> Result<Vec<(Demonstration, PathBuf)>> {
+        let default_map = self.default_map(maps)?.map(|m| m.name.as_str());
+        let mut demos = Vec::new();
+        if let Some(path) = &self.demonstrations {
+            let columns = Columns::default()
+                .with_overrides(&self.columns)
+                .map_err(Error::Usage)?;
+            let table = read_demonstrations_table(path, &columns, default_map)?;
+            demos.extend(table.into_iter().map(|d| (d, path.clone())));
+        }
+        for folder in &self.lerobot {
+            let dataset = read_lerobot(folder, &self.columns, default_map)?;
+            demos.extend(dataset.into_iter().map(|d| (d, folder.clone())));
+        }
+        Ok(demos)
     }
 
     /// The demonstrations and maps of every log, in the order the logs are given.
@@ -142,14 +188,9 @@ impl IngestParams {
             return Ok(Vec::new());
         }
         let mapping = self.mapping()?;
-        let fallback = match &self.log_map {
-            Some(name) => Some(maps.iter().find(|m| &m.name == name).ok_or_else(|| {
-                Error::Usage(format!("log_map '{name}' is not among the maps given"))
-            })?),
-            None if maps.len() == 1 => Some(&maps[0]),
-            None => None,
-        };
-        let fallback = fallback.map(|m| (m.name.as_str(), m.geo.frame.as_str()));
+        let fallback = self
+            .default_map(maps)?
+            .map(|m| (m.name.as_str(), m.geo.frame.as_str()));
         let results: Vec<Result<_>> = self
             .logs
             .par_iter()
@@ -176,6 +217,7 @@ impl Stage for IngestParams {
         let mut deps = self.maps.clone();
         deps.extend(self.demonstrations.clone());
         deps.extend(self.logs.iter().cloned());
+        deps.extend(self.lerobot.iter().cloned());
         deps
     }
 
@@ -184,28 +226,19 @@ impl Stage for IngestParams {
     }
 
     fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
-        if self.demonstrations.is_none() && self.logs.is_empty() {
+        if self.demonstrations.is_none() && self.logs.is_empty() && self.lerobot.is_empty() {
             return Err(Error::Usage(
-                "ingest needs demonstrations (a Parquet table) or logs (MCAP)".into(),
+                "ingest needs demonstrations: a Parquet table, LeRobot datasets or logs (MCAP)"
+                    .into(),
             ));
         }
         let mut maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
-        let mut sources: Vec<&Path> = self.maps.iter().map(PathBuf::as_path).collect();
-        let mut demos: Vec<(Demonstration, &Path)> = Vec::new();
-        if let Some(path) = &self.demonstrations {
-            demos.extend(
-                read_demonstrations(path)?
-                    .into_iter()
-                    .map(|d| (d, path.as_path())),
-            );
-        }
+        let mut sources: Vec<PathBuf> = self.maps.clone();
+        let mut demos = self.read_tables(&maps)?;
         for ((map, log_demos), log) in self.read_logs(&maps)?.into_iter().zip(&self.logs) {
             maps.extend(map);
-            sources.extend(std::iter::repeat_n(
-                log.as_path(),
-                maps.len() - sources.len(),
-            ));
-            demos.extend(log_demos.into_iter().map(|d| (d, log.as_path())));
+            sources.resize(maps.len(), log.clone());
+            demos.extend(log_demos.into_iter().map(|d| (d, log.clone())));
         }
         let mut names = BTreeSet::new();
         for (map, path) in maps.iter().zip(&sources) {

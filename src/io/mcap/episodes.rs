@@ -7,7 +7,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use super::frames::{FrameTree, Planar};
-use super::reader::{ChannelInfo, Event, scan};
+use super::inspect::describe_damage;
+use super::reader::{ChannelInfo, Event, scan, scan_until_damage};
 use super::ros2::{self, GRID_TYPES, POSE_TYPES, StampedPose};
 use super::{Decoders, Value};
 use crate::error::{Error, Result};
@@ -35,6 +36,8 @@ pub struct TopicMapping {
     pub gap_seconds: f64,
     /// Pose frame into map frame, used when the log has no /tf linking them.
     pub transform: Option<Planar>,
+    /// Keep what precedes damage in a log (warning on stderr) instead of failing.
+    pub allow_truncated: bool,
 }
 
 /// What a log gives: its map (the last one on the map topic) and its episodes.
@@ -100,7 +103,7 @@ pub fn read_log(
         .unwrap_or_default();
     let problem = |message: String| Error::input(path, message);
     // First pass over the channel list (summary when present, else a scan) to find topics.
-    let report = super::inspect::inspect(path, true)?;
+    let report = super::inspect::inspect(path, true, mapping.allow_truncated)?;
     let channels: Vec<(String, String)> = report
         .channels
         .iter()
@@ -153,7 +156,7 @@ pub fn read_log(
             .and_then(|d| d.decode(data))
             .map_err(|e| problem(format!("topic {} message {sequence}: {e}", channel.topic)))
     };
-    scan(path, |event| {
+    let visit = |event: Event<'_>| {
         let Event::Message {
             channel,
             header,
@@ -180,7 +183,18 @@ pub fn read_log(
             }
         }
         Ok(())
-    })?;
+    };
+    if mapping.allow_truncated {
+        if let Some(damage) = scan_until_damage(path, visit)? {
+            tracing::warn!(
+                "{}: {}; ingesting what came before it",
+                path.display(),
+                describe_damage(&damage)
+            );
+        }
+    } else {
+        scan(path, visit)?;
+    }
     frames.finish();
 
     let (map_name, target) = match (&map, fallback) {
@@ -318,6 +332,7 @@ mod tests {
             split,
             gap_seconds: 1.0,
             transform: None,
+            allow_truncated: false,
         }
     }
 

@@ -8,7 +8,7 @@ use std::path::Path;
 use mcap::records::Record;
 use serde::Serialize;
 
-use super::reader::{Event, scan};
+use super::reader::{Damage, Event, scan, scan_until_damage};
 use crate::error::{Error, Result, open_input};
 
 #[derive(Debug, Default, Serialize, PartialEq)]
@@ -47,6 +47,10 @@ pub struct McapReport {
     pub channels: Vec<ChannelReport>,
     pub attachments: u64,
     pub metadata: u64,
+    /// Where the file is damaged, when inspected with damage allowed; the report covers
+    /// what comes before it.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub damage: Option<String>,
 }
 
 fn compression_name(compression: &str) -> String {
@@ -59,7 +63,8 @@ fn compression_name(compression: &str) -> String {
 
 /// Reports on `path`, from its summary section when `use_summary` and the file has one
 /// (scanning gives the same report, slower; it is for files whose summary is suspect).
-pub fn inspect(path: &Path, use_summary: bool) -> Result<McapReport> {
+/// With `allow_damage`, a damaged file reports what precedes the damage instead of failing.
+pub fn inspect(path: &Path, use_summary: bool, allow_damage: bool) -> Result<McapReport> {
     let bytes = open_input(path)?
         .metadata()
         .map_err(|e| Error::io(format!("reading {}", path.display()), e))?
@@ -72,7 +77,7 @@ pub fn inspect(path: &Path, use_summary: bool) -> Result<McapReport> {
     };
     let mut report = match summary {
         Some(report) => report,
-        None => scan_report(path)?,
+        None => scan_report(path, allow_damage)?,
     };
     report.file = path.display().to_string();
     report.bytes = bytes;
@@ -96,6 +101,7 @@ fn empty_report(source: &'static str) -> McapReport {
         channels: Vec::new(),
         attachments: 0,
         metadata: 0,
+        damage: None,
     }
 }
 
@@ -210,10 +216,10 @@ fn read_summary(path: &Path, bytes: u64) -> Result<Option<McapReport>> {
 }
 
 /// The report from reading every record.
-fn scan_report(path: &Path) -> Result<McapReport> {
+fn scan_report(path: &Path, allow_damage: bool) -> Result<McapReport> {
     let mut report = empty_report("scan");
     let mut counts: BTreeMap<u16, u64> = BTreeMap::new();
-    scan(path, |event| {
+    let visit = |event: Event<'_>| {
         match event {
             Event::Channel(channel) => {
                 report.channels.push(ChannelReport {
@@ -257,10 +263,27 @@ fn scan_report(path: &Path) -> Result<McapReport> {
             Event::Header { .. } => {}
         }
         Ok(())
-    })?;
+    };
+    if allow_damage {
+        let damage = scan_until_damage(path, visit)?;
+        report.damage = damage.map(|d| describe_damage(&d));
+    } else {
+        scan(path, visit)?;
+    }
     for channel in &mut report.channels {
         channel.message_count = counts.get(&channel.id).copied().unwrap_or(0);
     }
     report.channels.sort_by_key(|c| c.id);
     Ok(report)
+}
+
+/// One line about damage: where, what, and how much of the file lies beyond it.
+pub fn describe_damage(damage: &Damage) -> String {
+    format!(
+        "at byte {}: {}; the last {} of {} bytes were not read",
+        damage.offset,
+        damage.problem,
+        damage.file_bytes.saturating_sub(damage.offset),
+        damage.file_bytes
+    )
 }

@@ -116,10 +116,41 @@ impl Decompressors {
     }
 }
 
+/// Where and how a file is damaged (cut short, corrupt chunk, ...).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Damage {
+    /// Byte offset of the damaged record (approximately: where reading stopped).
+    pub offset: u64,
+    pub file_bytes: u64,
+    pub problem: String,
+}
+
 /// Reads `path` from start to end, calling `visit` for each record of interest (channels
-/// that only the summary section declares included). Errors name the file and the byte
-/// offset.
-pub fn scan(path: &Path, mut visit: impl FnMut(Event<'_>) -> Result<()>) -> Result<()> {
+/// that only the summary section declares included). Damage is an input error naming
+/// the file and the byte offset.
+pub fn scan(path: &Path, visit: impl FnMut(Event<'_>) -> Result<()>) -> Result<()> {
+    match scan_inner(path, visit)? {
+        None => Ok(()),
+        Some(damage) => Err(Error::input(
+            path,
+            format!("at byte {}: {}", damage.offset, damage.problem),
+        )),
+    }
+}
+
+/// As [`scan`], but damage ends the pass quietly: every record before it was visited
+/// (whole chunks only), and the damage is returned for the caller to report.
+pub fn scan_until_damage(
+    path: &Path,
+    visit: impl FnMut(Event<'_>) -> Result<()>,
+) -> Result<Option<Damage>> {
+    scan_inner(path, visit)
+}
+
+fn scan_inner(
+    path: &Path,
+    mut visit: impl FnMut(Event<'_>) -> Result<()>,
+) -> Result<Option<Damage>> {
     let mut file = open_input(path)?;
     let file_bytes = file
         .metadata()
@@ -138,90 +169,105 @@ pub fn scan(path: &Path, mut visit: impl FnMut(Event<'_>) -> Result<()>) -> Resu
     let mut chunk = Vec::new();
     let mut offset: u64 = 0;
     let mut records = 0u64;
-    let fail =
-        |offset: u64, problem: String| Error::input(path, format!("at byte {offset}: {problem}"));
+    let damage = |offset: u64, problem: String| {
+        Ok(Some(Damage {
+            offset,
+            file_bytes,
+            problem,
+        }))
+    };
     while let Some(event) = reader.next_event() {
-        let event = event.map_err(|e| {
-            fail(
-                offset,
-                format!(
-                    "{} (after {records} records; the file may be cut short or not MCAP)",
-                    describe(&e)
-                ),
-            )
-        })?;
-        match event {
+        let event = match event {
+            Ok(event) => event,
+            Err(e) => {
+                return damage(
+                    offset,
+                    format!(
+                        "{} (after {records} records; the file may be cut short or not MCAP)",
+                        describe(&e)
+                    ),
+                );
+            }
+        };
+        let record = match event {
             LinearReadEvent::ReadRequest(need) => {
                 let read = file
                     .read(reader.insert(need))
                     .map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
                 reader.notify_read(read);
                 offset += read as u64;
+                continue;
             }
             LinearReadEvent::Record { opcode, data } => {
                 records += 1;
-                let record = mcap::parse_record(opcode, data)
-                    .map_err(|e| fail(offset, format!("record {records}: {}", describe(&e))))?;
-                match record {
-                    Record::Chunk { header, data } => {
-                        visit(Event::Chunk {
-                            compression: &header.compression,
-                            compressed: header.compressed_size,
-                            uncompressed: header.uncompressed_size,
-                        })?;
-                        let size = usize::try_from(header.uncompressed_size)
-                            .map_err(|_| fail(offset, "chunk too large".into()))?;
-                        decompressors
-                            .decompress(&header.compression, &data, size, &mut chunk)
-                            .map_err(|e| fail(offset, format!("chunk (record {records}): {e}")))?;
-                        for inner in mcap::read::LinearReader::sans_magic(&chunk) {
-                            let inner = inner.map_err(|e| {
-                                fail(
-                                    offset,
-                                    format!(
-                                        "inside the chunk of record {records}: {}",
-                                        describe(&e)
-                                    ),
-                                )
-                            })?;
-                            if registry
-                                .handle(inner, &mut visit)
-                                .map_err(|f| f.into_error(path, offset))?
-                                .is_break()
-                            {
-                                return Ok(());
-                            }
-                        }
-                    }
-                    other => {
-                        if registry
-                            .handle(other, &mut visit)
-                            .map_err(|f| f.into_error(path, offset))?
-                            .is_break()
-                        {
-                            return Ok(());
-                        }
-                    }
+                match mcap::parse_record(opcode, data) {
+                    Ok(record) => record,
+                    Err(e) => return damage(offset, format!("record {records}: {}", describe(&e))),
                 }
             }
+        };
+        let flow = match record {
+            Record::Chunk { header, data } => {
+                let size = usize::try_from(header.uncompressed_size).unwrap_or(usize::MAX);
+                if let Err(e) =
+                    decompressors.decompress(&header.compression, &data, size, &mut chunk)
+                {
+                    return damage(offset, format!("chunk (record {records}): {e}"));
+                }
+                if header.uncompressed_crc != 0 {
+                    let computed = crc32fast::hash(&chunk);
+                    if computed != header.uncompressed_crc {
+                        return damage(
+                            offset,
+                            format!(
+                                "chunk (record {records}) CRC mismatch: stored {:#010x}, \
+                                 computed {computed:#010x}",
+                                header.uncompressed_crc
+                            ),
+                        );
+                    }
+                }
+                visit(Event::Chunk {
+                    compression: &header.compression,
+                    compressed: header.compressed_size,
+                    uncompressed: header.uncompressed_size,
+                })?;
+                let mut flow = ControlFlow::Continue(());
+                for inner in mcap::read::LinearReader::sans_magic(&chunk) {
+                    let inner = match inner {
+                        Ok(inner) => inner,
+                        Err(e) => {
+                            return damage(
+                                offset,
+                                format!("inside the chunk of record {records}: {}", describe(&e)),
+                            );
+                        }
+                    };
+                    flow = registry.handle(inner, &mut visit);
+                    if !matches!(flow, ControlFlow::Continue(())) {
+                        break;
+                    }
+                }
+                flow
+            }
+            other => registry.handle(other, &mut visit),
+        };
+        match flow {
+            ControlFlow::Continue(()) => {}
+            ControlFlow::Break(Stop::End) => return Ok(None),
+            ControlFlow::Break(Stop::Visit(error)) => return Err(error),
+            ControlFlow::Break(Stop::Damage(problem)) => return damage(offset, problem),
         }
     }
-    Ok(())
+    Ok(None)
 }
 
-/// Why handling a record stopped: the visitor's own error, or a problem of the file.
-enum Failure {
+/// Why handling records stops early: the summary's footer, the visitor's own error, or
+/// a problem of the file.
+enum Stop {
+    End,
     Visit(Error),
-    File(String),
-}
-
-impl Failure {
-    fn into_error(self, path: &Path, offset: u64) -> Error {
-        match self {
-            Failure::Visit(error) => error,
-            Failure::File(problem) => Error::input(path, format!("at byte {offset}: {problem}")),
-        }
-    }
+    Damage(String),
 }
 
 fn describe(error: &mcap::McapError) -> String {
@@ -253,13 +299,24 @@ fn record_name(opcode: u8) -> String {
 }
 
 impl Registry {
-    /// Registers schemas and channels and hands events to `visit`; `Break` at the summary.
+    /// Registers schemas and channels and hands events to `visit`; breaks at the footer.
     fn handle(
         &mut self,
         record: Record<'_>,
         visit: &mut impl FnMut(Event<'_>) -> Result<()>,
-    ) -> std::result::Result<ControlFlow<()>, Failure> {
-        let mut visit = |event: Event<'_>| visit(event).map_err(Failure::Visit);
+    ) -> ControlFlow<Stop> {
+        match self.register(record, visit) {
+            Ok(()) => ControlFlow::Continue(()),
+            Err(stop) => ControlFlow::Break(stop),
+        }
+    }
+
+    fn register(
+        &mut self,
+        record: Record<'_>,
+        visit: &mut impl FnMut(Event<'_>) -> Result<()>,
+    ) -> std::result::Result<(), Stop> {
+        let mut visit = |event: Event<'_>| visit(event).map_err(Stop::Visit);
         match record {
             Record::Header(header) => visit(Event::Header {
                 profile: &header.profile,
@@ -277,12 +334,12 @@ impl Registry {
             }
             Record::Channel(channel) => {
                 if self.channels.contains_key(&channel.id) {
-                    return Ok(ControlFlow::Continue(()));
+                    return Ok(());
                 }
                 let schema = match channel.schema_id {
                     0 => None,
                     id => Some(self.schemas.get(&id).cloned().ok_or_else(|| {
-                        Failure::File(format!(
+                        Stop::Damage(format!(
                             "channel {} ('{}') refers to schema {id}, which has not appeared",
                             channel.id, channel.topic
                         ))
@@ -300,7 +357,7 @@ impl Registry {
             }
             Record::Message { header, data } => {
                 let channel = self.channels.get(&header.channel_id).ok_or_else(|| {
-                    Failure::File(format!(
+                    Stop::Damage(format!(
                         "a message on channel {} before that channel's record",
                         header.channel_id
                     ))
@@ -315,9 +372,9 @@ impl Registry {
             Record::Metadata(metadata) => visit(Event::Metadata {
                 name: &metadata.name,
             })?,
-            Record::Footer(_) => return Ok(ControlFlow::Break(())),
+            Record::Footer(_) => return Err(Stop::End),
             _ => {}
         }
-        Ok(ControlFlow::Continue(()))
+        Ok(())
     }
 }

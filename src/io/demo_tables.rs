@@ -1,0 +1,491 @@
+//! Demonstrations from other people's tables: Parquet with their own column names
+//! (elements of list columns included, e.g. `observation.state[0]`, integer episode ids),
+//! and LeRobot v2/v3 dataset folders (`meta/info.json`, `data/chunk-*/...parquet`).
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+use arrow::array::{Array, ArrayRef, AsArray, RecordBatch};
+use arrow::datatypes::{DataType, Float64Type};
+
+use super::tables::{Table, read_table};
+use crate::error::{Error, Result, read_input};
+use crate::grid::{Demonstration, Pose};
+
+/// A column, or one element of a list column: `name` or `name[index]`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Column {
+    pub name: String,
+    pub index: Option<usize>,
+}
+
+impl Column {
+    pub fn named(name: &str) -> Column {
+        Column {
+            name: name.to_string(),
+            index: None,
+        }
+    }
+}
+
+impl FromStr for Column {
+    type Err = String;
+
+    fn from_str(text: &str) -> std::result::Result<Self, String> {
+        let text = text.trim();
+        match text.strip_suffix(']').and_then(|t| t.rsplit_once('[')) {
+            Some((name, index)) => Ok(Column {
+                name: name.to_string(),
+                index: Some(
+                    index
+                        .parse()
+                        .map_err(|_| format!("'{text}': '{index}' is not an element index"))?,
+                ),
+            }),
+            None if !text.is_empty() => Ok(Column::named(text)),
+            None => Err("an empty column name".into()),
+        }
+    }
+}
+
+impl std::fmt::Display for Column {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self.index {
+            Some(i) => write!(f, "{}[{i}]", self.name),
+            None => f.write_str(&self.name),
+        }
+    }
+}
+
+/// Which column plays which role in a demonstrations table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Columns {
+    pub episode: Column,
+    /// `None`: every row lies on the default map.
+    pub map: Option<Column>,
+    pub t: Column,
+    pub x: Column,
+    pub y: Column,
+    pub yaw: Option<Column>,
+}
+
+impl Default for Columns {
+    /// The `demonstrations/1` table's own names.
+    fn default() -> Self {
+        Columns {
+            episode: Column::named("episode"),
+            map: Some(Column::named("map")),
+            t: Column::named("t"),
+            x: Column::named("x"),
+            y: Column::named("y"),
+            yaw: Some(Column::named("yaw")),
+        }
+    }
+}
+
+impl Columns {
+    /// Applies `role=column` overrides (roles: episode, map, t, x, y, yaw).
+    pub fn with_overrides(mut self, overrides: &[String]) -> std::result::Result<Self, String> {
+        for item in overrides {
+            let (role, column) = item
+                .split_once('=')
+                .ok_or_else(|| format!("column mapping '{item}' is not ROLE=COLUMN"))?;
+            let column: Column = column.parse()?;
+            match role.trim() {
+                "episode" => self.episode = column,
+                "map" => self.map = Some(column),
+                "t" => self.t = column,
+                "x" => self.x = column,
+                "y" => self.y = column,
+                "yaw" => self.yaw = Some(column),
+                other => {
+                    return Err(format!(
+                        "unknown column role '{other}' (roles: episode, map, t, x, y, yaw)"
+                    ));
+                }
+            }
+        }
+        Ok(self)
+    }
+}
+
+/// Finds a column of the batch, with an error naming the file.
+fn array<'a>(path: &Path, batch: &'a RecordBatch, column: &Column) -> Result<&'a ArrayRef> {
+    batch.column_by_name(&column.name).ok_or_else(|| {
+        let names: Vec<String> = batch
+            .schema()
+            .fields()
+            .iter()
+            .map(|f| f.name().clone())
+            .collect();
+        Error::input(
+            path,
+            format!(
+                "has no column '{}' (columns: {})",
+                column.name,
+                names.join(", ")
+            ),
+        )
+    })
+}
+
+/// Numbers of a column or of one element of a list column; nulls stay `None`.
+fn numbers(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<Option<f64>>> {
+    let values = array(path, batch, column)?;
+    let as_f64 = |array: &dyn Array| -> Result<Vec<Option<f64>>> {
+        if !array.data_type().is_numeric() {
+            return Err(Error::input(
+                path,
+                format!(
+                    "column '{column}' has type {}, expected numbers",
+                    array.data_type()
+                ),
+            ));
+        }
+        let cast = arrow::compute::cast(array, &DataType::Float64)
+            .map_err(|e| Error::input(path, format!("column '{column}': {e}")))?;
+        Ok(cast.as_primitive::<Float64Type>().iter().collect())
+    };
+    let Some(index) = column.index else {
+        return as_f64(values.as_ref());
+    };
+    let element = |row: usize, start: usize, length: usize, items: &[Option<f64>]| {
+        if index >= length {
+            return Err(Error::input(
+                path,
+                format!(
+                    "record {row}: column '{}' holds {length} values, no element {index}",
+                    column.name
+                ),
+            ));
+        }
+        Ok(items[start + index])
+    };
+    match values.data_type() {
+        DataType::FixedSizeList(_, length) => {
+            let list = values.as_fixed_size_list();
+            let items = as_f64(list.values().as_ref())?;
+            let length = *length as usize;
+            (0..list.len())
+                .map(|row| {
+                    if list.is_null(row) {
+                        Ok(None)
+                    } else {
+                        element(row, row * length, length, &items)
+                    }
+                })
+                .collect()
+        }
+        DataType::List(_) => {
+            let list = values.as_list::<i32>();
+            let items = as_f64(list.values().as_ref())?;
+            let offsets = list.value_offsets();
+            (0..list.len())
+                .map(|row| {
+                    let (start, end) = (offsets[row] as usize, offsets[row + 1] as usize);
+                    if list.is_null(row) {
+                        Ok(None)
+                    } else {
+                        element(row, start, end - start, &items)
+                    }
+                })
+                .collect()
+        }
+        other => Err(Error::input(
+            path,
+            format!(
+                "column '{}' has type {other}; '{column}' needs a list column",
+                column.name
+            ),
+        )),
+    }
+}
+
+/// Episode ids as text: string columns as they are, integer ids in decimal.
+fn labels(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<String>> {
+    let values = array(path, batch, column)?;
+    if let Some(row) = (0..values.len()).find(|&i| values.is_null(i)) {
+        return Err(Error::input(
+            path,
+            format!("record {row}: column '{column}' is null"),
+        ));
+    }
+    match values.data_type() {
+        DataType::Utf8 | DataType::LargeUtf8 | DataType::Utf8View => {
+            let cast = arrow::compute::cast(values, &DataType::Utf8)
+                .map_err(|e| Error::input(path, format!("column '{column}': {e}")))?;
+            Ok(cast
+                .as_string::<i32>()
+                .iter()
+                .map(|s| s.unwrap_or_default().to_string())
+                .collect())
+        }
+        t if t.is_integer() => {
+            let cast = arrow::compute::cast(values, &DataType::Int64)
+                .map_err(|e| Error::input(path, format!("column '{column}': {e}")))?;
+            Ok(cast
+                .as_primitive::<arrow::datatypes::Int64Type>()
+                .iter()
+                .map(|v| v.unwrap_or_default().to_string())
+                .collect())
+        }
+        other => Err(Error::input(
+            path,
+            format!("column '{column}' has type {other}, expected text or integers"),
+        )),
+    }
+}
+
+/// Demonstrations from the rows of `batch` (read from `path`): rows of an episode are
+/// consecutive, in increasing time. Rows without a map column lie on `default_map`.
+/// Episode names get `prefix` in front.
+pub fn demonstrations_from_rows(
+    path: &Path,
+    batch: &RecordBatch,
+    columns: &Columns,
+    default_map: Option<&str>,
+    prefix: &str,
+) -> Result<Vec<Demonstration>> {
+    let episodes = labels(path, batch, &columns.episode)?;
+    // A map column that is named but absent falls back to the default map, if any.
+    let map_column = columns
+        .map
+        .as_ref()
+        .filter(|c| batch.column_by_name(&c.name).is_some() || default_map.is_none());
+    let maps = match (map_column, default_map) {
+        (Some(column), _) => labels(path, batch, column)?,
+        (None, Some(map)) => vec![map.to_string(); batch.num_rows()],
+        (None, None) => {
+            return Err(Error::input(
+                path,
+                "has no map column and no default map is given (default_map)",
+            ));
+        }
+    };
+    let required = |column: &Column| -> Result<Vec<f64>> {
+        numbers(path, batch, column)?
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| match v {
+                Some(v) if v.is_finite() => Ok(v),
+                Some(v) => Err(Error::input(
+                    path,
+                    format!("record {i}: column '{column}' is {v}, expected a finite number"),
+                )),
+                None => Err(Error::input(
+                    path,
+                    format!("record {i}: column '{column}' is null"),
+                )),
+            })
+            .collect()
+    };
+    let (t, x, y) = (
+        required(&columns.t)?,
+        required(&columns.x)?,
+        required(&columns.y)?,
+    );
+    let yaw = match &columns.yaw {
+        Some(column) if batch.column_by_name(&column.name).is_some() => {
+            numbers(path, batch, column)?
+        }
+        _ => vec![None; batch.num_rows()],
+    };
+    let mut demos: Vec<Demonstration> = Vec::new();
+    for i in 0..batch.num_rows() {
+        let pose = Pose {
+            t: t[i],
+            x: x[i],
+            y: y[i],
+            yaw: yaw[i],
+        };
+        let episode = format!("{prefix}{}", episodes[i]);
+        match demos.last_mut() {
+            Some(d) if d.episode == episode => {
+                if d.map != maps[i] {
+                    return Err(Error::input(
+                        path,
+                        format!(
+                            "record {i}: episode '{}' changes map from '{}' to '{}'",
+                            d.episode, d.map, maps[i]
+                        ),
+                    ));
+                }
+                let last_t = d.poses.last().map_or(f64::NEG_INFINITY, |p| p.t);
+                if pose.t <= last_t {
+                    return Err(Error::input(
+                        path,
+                        format!(
+                            "record {i}: episode '{}' goes back in time (t {} after {last_t})",
+                            d.episode, pose.t
+                        ),
+                    ));
+                }
+                d.poses.push(pose);
+            }
+            _ => {
+                if demos.iter().any(|d| d.episode == episode) {
+                    return Err(Error::input(
+                        path,
+                        format!("record {i}: rows of episode '{episode}' are not consecutive"),
+                    ));
+                }
+                demos.push(Demonstration {
+                    episode,
+                    map: maps[i].clone(),
+                    poses: vec![pose],
+                });
+            }
+        }
+    }
+    if demos.is_empty() {
+        return Err(Error::input(path, "holds no demonstrations"));
+    }
+    Ok(demos)
+}
+
+/// Reads a demonstrations table. Files without an `imitate.schema` tag are accepted when
+/// their columns fit, so that tables written by pandas or polars work as they are.
+pub fn read_demonstrations_table(
+    path: &Path,
+    columns: &Columns,
+    default_map: Option<&str>,
+) -> Result<Vec<Demonstration>> {
+    let table = read_table(path, Table::DEMONSTRATIONS, true)?;
+    demonstrations_from_rows(path, &table.batch, columns, default_map, "")
+}
+
+/// Reads a `demonstrations/1` table (or any table with its column names).
+pub fn read_demonstrations(path: &Path) -> Result<Vec<Demonstration>> {
+    read_demonstrations_table(path, &Columns::default(), None)
+}
+
+/// The LeRobot names for the pose inside `observation.state`, when `meta/info.json` names
+/// its elements: x, y and yaw (or theta, heading).
+fn lerobot_columns(info: &serde_json::Value) -> Option<Columns> {
+    let names = info.pointer("/features/observation.state/names")?;
+    let names: Vec<&str> = match names {
+        serde_json::Value::Array(items) => items.iter().filter_map(|n| n.as_str()).collect(),
+        serde_json::Value::Object(map) => map
+            .values()
+            .next()?
+            .as_array()?
+            .iter()
+            .filter_map(|n| n.as_str())
+            .collect(),
+        _ => return None,
+    };
+    let element = |wanted: &[&str]| {
+        names
+            .iter()
+            .position(|n| wanted.contains(&n.to_ascii_lowercase().as_str()))
+            .map(|index| Column {
+                name: "observation.state".into(),
+                index: Some(index),
+            })
+    };
+    Some(Columns {
+        episode: Column::named("episode_index"),
+        map: None,
+        t: Column::named("timestamp"),
+        x: element(&["x"])?,
+        y: element(&["y"])?,
+        yaw: element(&["yaw", "theta", "heading"]),
+    })
+}
+
+/// Reads a LeRobot dataset folder (codebase v2.x: one file per episode; v3.x: files of
+/// several episodes). Episodes are named `<folder>-episode-<index>`; the pose comes from
+/// `observation.state` elements named x, y (and yaw) in `meta/info.json`, unless
+/// `overrides` (`role=column`) say otherwise.
+pub fn read_lerobot(
+    folder: &Path,
+    overrides: &[String],
+    default_map: Option<&str>,
+) -> Result<Vec<Demonstration>> {
+    let info_path = folder.join("meta/info.json");
+    let info: serde_json::Value = serde_json::from_slice(&read_input(&info_path)?)
+        .map_err(|e| Error::input(&info_path, format!("not JSON: {e}")))?;
+    let version = info
+        .get("codebase_version")
+        .and_then(|v| v.as_str())
+        .unwrap_or_default();
+    if !(version.starts_with("v2") || version.starts_with("v3")) {
+        return Err(Error::input(
+            &info_path,
+            format!("codebase_version '{version}': LeRobot v2.x and v3.x datasets are read"),
+        ));
+    }
+    let base = lerobot_columns(&info).unwrap_or_else(|| Columns {
+        episode: Column::named("episode_index"),
+        map: None,
+        t: Column::named("timestamp"),
+        x: Column::named("x"),
+        y: Column::named("y"),
+        yaw: None,
+    });
+    let columns = base
+        .with_overrides(overrides)
+        .map_err(|e| Error::Usage(e.to_string()))?;
+    let pattern = folder.join("data/**/*.parquet");
+    let mut files: Vec<PathBuf> = glob::glob(&pattern.to_string_lossy())
+        .map_err(|e| Error::input(folder, e.to_string()))?
+        .filter_map(|entry| entry.ok())
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(Error::input(folder, "has no data/**/*.parquet files"));
+    }
+    let prefix = format!(
+        "{}-episode-",
+        folder
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    );
+    let mut demos: Vec<Demonstration> = Vec::new();
+    let mut seen: BTreeMap<String, PathBuf> = BTreeMap::new();
+    for file in &files {
+        let table = read_table(file, Table::DEMONSTRATIONS, true)?;
+        for demo in demonstrations_from_rows(file, &table.batch, &columns, default_map, &prefix)? {
+            if let Some(first) = seen.insert(demo.episode.clone(), file.clone()) {
+                return Err(Error::input(
+                    file,
+                    format!(
+                        "episode '{}' continues from {}; episodes must not span files",
+                        demo.episode,
+                        first.display()
+                    ),
+                ));
+            }
+            demos.push(demo);
+        }
+    }
+    Ok(demos)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_columns_and_overrides() {
+        assert_eq!(
+            "observation.state[2]".parse::<Column>().unwrap(),
+            Column {
+                name: "observation.state".into(),
+                index: Some(2)
+            }
+        );
+        assert!("a[x]".parse::<Column>().is_err());
+        let columns = Columns::default()
+            .with_overrides(&["t=timestamp".into(), "x=pos[0]".into()])
+            .unwrap();
+        assert_eq!(columns.t, Column::named("timestamp"));
+        assert_eq!(columns.x.to_string(), "pos[0]");
+        let err = Columns::default()
+            .with_overrides(&["z=h".into()])
+            .unwrap_err();
+        assert!(err.contains("unknown column role 'z'"), "{err}");
+    }
+}

@@ -1,0 +1,265 @@
+//! `imitate ingest` from other people's tables: renamed columns, list elements, integer
+//! episode ids, LeRobot v2 and v3 dataset folders.
+
+mod common;
+
+use std::path::Path;
+use std::sync::Arc;
+
+use arrow::array::{
+    ArrayRef, FixedSizeListArray, Float32Array, Float64Array, Int64Array, RecordBatch,
+};
+use arrow::datatypes::{DataType, Field, Schema};
+use common::*;
+use imitate::grid::Demonstration;
+
+/// terrain-000's teacher episodes from the committed world.
+fn terrain_000() -> Vec<Demonstration> {
+    imitate::io::demo_tables::read_demonstrations(
+        &repo().join("testdata/world/demonstrations.parquet"),
+    )
+    .unwrap()
+    .into_iter()
+    .filter(|d| d.map == "terrain-000")
+    .collect()
+}
+
+fn write_parquet(path: &Path, batch: &RecordBatch) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let file = std::fs::File::create(path).unwrap();
+    let mut writer = parquet::arrow::ArrowWriter::try_new(file, batch.schema(), None).unwrap();
+    writer.write(batch).unwrap();
+    writer.close().unwrap();
+}
+
+/// LeRobot-style rows: episode_index, frame_index, timestamp, observation.state [x, y, yaw].
+fn lerobot_rows(demos: &[(i64, &Demonstration)]) -> RecordBatch {
+    let rows: Vec<(i64, usize, &imitate::grid::Pose)> = demos
+        .iter()
+        .flat_map(|(i, d)| d.poses.iter().enumerate().map(move |(k, p)| (*i, k, p)))
+        .collect();
+    let state: Vec<f32> = rows
+        .iter()
+        .flat_map(|(_, _, p)| [p.x as f32, p.y as f32, p.yaw.unwrap_or(0.0) as f32])
+        .collect();
+    let item = Arc::new(Field::new("item", DataType::Float32, true));
+    let state = FixedSizeListArray::new(item.clone(), 3, Arc::new(Float32Array::from(state)), None);
+    let schema = Schema::new(vec![
+        Field::new("observation.state", DataType::FixedSizeList(item, 3), false),
+        Field::new("timestamp", DataType::Float32, false),
+        Field::new("frame_index", DataType::Int64, false),
+        Field::new("episode_index", DataType::Int64, false),
+    ]);
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(state),
+        Arc::new(Float32Array::from_iter_values(
+            rows.iter().map(|r| r.2.t as f32),
+        )),
+        Arc::new(Int64Array::from_iter_values(
+            rows.iter().map(|r| r.1 as i64),
+        )),
+        Arc::new(Int64Array::from_iter_values(rows.iter().map(|r| r.0))),
+    ];
+    RecordBatch::try_new(Arc::new(schema), columns).unwrap()
+}
+
+fn write_info(dir: &Path, version: &str) {
+    let info = serde_json::json!({
+        "codebase_version": version,
+        "fps": 1,
+        "features": {
+            "observation.state": {"dtype": "float32", "shape": [3], "names": ["x", "y", "yaw"]},
+            "timestamp": {"dtype": "float32", "shape": [1], "names": null},
+        },
+    });
+    std::fs::create_dir_all(dir.join("meta")).unwrap();
+    std::fs::write(dir.join("meta/info.json"), info.to_string()).unwrap();
+}
+
+/// The cell paths of an ingested dataset, in episode order.
+fn cells(dataset: &Path) -> Vec<Vec<imitate::grid::Cell>> {
+    imitate::io::tables::read_paths(&dataset.join("paths.parquet"))
+        .unwrap()
+        .into_iter()
+        .map(|p| p.cells.to_vec())
+        .collect()
+}
+
+fn ingest(dir: &Path, args: &[&str]) -> std::process::Output {
+    let map = repo().join("testdata/world/maps/terrain-000.parquet");
+    let mut all = vec!["ingest", "--map", map.to_str().unwrap()];
+    all.extend_from_slice(args);
+    imitate(dir, &all)
+}
+
+#[test]
+fn lerobot_v2_and_v3_datasets_ingest_like_the_original_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let demos = terrain_000();
+    let indexed: Vec<(i64, &Demonstration)> = demos
+        .iter()
+        .enumerate()
+        .map(|(i, d)| (i as i64, d))
+        .collect();
+
+    let v2 = dir.path().join("drive_v2");
+    write_info(&v2, "v2.1");
+    for (i, demo) in &indexed {
+        write_parquet(
+            &v2.join(format!("data/chunk-000/episode_{i:06}.parquet")),
+            &lerobot_rows(&[(*i, *demo)]),
+        );
+    }
+    let v3 = dir.path().join("drive_v3");
+    write_info(&v3, "v3.0");
+    let (first, second) = indexed.split_at(7);
+    write_parquet(
+        &v3.join("data/chunk-000/file-000.parquet"),
+        &lerobot_rows(first),
+    );
+    write_parquet(
+        &v3.join("data/chunk-000/file-001.parquet"),
+        &lerobot_rows(second),
+    );
+
+    let table = dir.path().join("table");
+    let out = ingest(
+        dir.path(),
+        &[
+            "--demonstrations",
+            repo()
+                .join("testdata/world/demonstrations.parquet")
+                .to_str()
+                .unwrap(),
+            "--default-map",
+            "terrain-000",
+            "--out",
+            table.to_str().unwrap(),
+        ],
+    );
+    // The world's table holds other maps' episodes too: they are refused by name.
+    assert_input_error(&out, &["terrain-001", "not among the maps given"]);
+
+    let one_map = dir.path().join("one_map.parquet");
+    imitate::io::tables::write_demonstrations(&one_map, &demos).unwrap();
+    let out = ingest(
+        dir.path(),
+        &[
+            "--demonstrations",
+            one_map.to_str().unwrap(),
+            "--out",
+            table.to_str().unwrap(),
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+
+    for (name, folder) in [("v2", &v2), ("v3", &v3)] {
+        let dataset = dir.path().join(format!("from_{name}"));
+        let out = ingest(
+            dir.path(),
+            &[
+                "--lerobot",
+                folder.to_str().unwrap(),
+                "--out",
+                dataset.to_str().unwrap(),
+            ],
+        );
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        assert_eq!(cells(&dataset), cells(&table), "{name}");
+        let names: Vec<String> =
+            imitate::io::demo_tables::read_demonstrations(&dataset.join("demonstrations.parquet"))
+                .unwrap()
+                .into_iter()
+                .map(|d| d.episode)
+                .collect();
+        assert_eq!(names[3], format!("drive_{name}-episode-3"));
+    }
+}
+
+#[test]
+fn renamed_columns_and_a_default_map_read_other_peoples_tables() {
+    let dir = tempfile::tempdir().unwrap();
+    let demos = terrain_000();
+    let rows: Vec<(i64, &imitate::grid::Pose)> = demos
+        .iter()
+        .enumerate()
+        .flat_map(|(i, d)| d.poses.iter().map(move |p| (i as i64, p)))
+        .collect();
+    let schema = Schema::new(vec![
+        Field::new("trajectory", DataType::Int64, false),
+        Field::new("time_s", DataType::Float64, false),
+        Field::new("px", DataType::Float64, false),
+        Field::new("py", DataType::Float64, false),
+    ]);
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(Int64Array::from_iter_values(rows.iter().map(|r| r.0))),
+        Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.1.t))),
+        Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.1.x))),
+        Arc::new(Float64Array::from_iter_values(rows.iter().map(|r| r.1.y))),
+    ];
+    let table = dir.path().join("theirs.parquet");
+    write_parquet(
+        &table,
+        &RecordBatch::try_new(Arc::new(schema), columns).unwrap(),
+    );
+    let table = table.to_str().unwrap();
+
+    let out = ingest(dir.path(), &["--demonstrations", table, "--out", "ds"]);
+    assert_input_error(
+        &out,
+        &[
+            "theirs.parquet",
+            "no column 'episode'",
+            "trajectory, time_s, px, py",
+        ],
+    );
+
+    let renamed = [
+        "--column",
+        "episode=trajectory",
+        "--column",
+        "t=time_s",
+        "--column",
+        "x=px",
+        "--column",
+        "y=py",
+    ];
+    let out = ingest(
+        dir.path(),
+        &[&["--demonstrations", table, "--out", "ds"], &renamed[..]].concat(),
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("1 maps, 16 demonstrations"),
+        "{}",
+        stderr(&out)
+    );
+
+    let list_of_px = [&renamed[..6], &["--column", "x=px[0]"]].concat();
+    let out = ingest(
+        dir.path(),
+        &[
+            &["--demonstrations", table, "--out", "ds2"],
+            &list_of_px[..],
+        ]
+        .concat(),
+    );
+    assert_input_error(&out, &["theirs.parquet", "needs a list column"]);
+    let out = ingest(
+        dir.path(),
+        &[
+            "--demonstrations",
+            table,
+            "--column",
+            "speed=v",
+            "--out",
+            "ds2",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        stderr(&out).contains("unknown column role 'speed'"),
+        "{}",
+        stderr(&out)
+    );
+}

@@ -1,0 +1,212 @@
+//! Damaged and malformed MCAP files: each ends with exit code 2 and a message naming the
+//! file, the topic and message where it can, and what was expected; never a panic, never
+//! a silent partial result.
+
+mod common;
+
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+
+use common::*;
+
+const STRING_SCHEMA: &str = "string data\n";
+
+/// CDR of a `std_msgs/msg/String`.
+fn string_message(text: &str) -> Vec<u8> {
+    let mut data = vec![0, 1, 0, 0];
+    data.extend_from_slice(&(text.len() as u32 + 1).to_le_bytes());
+    data.extend_from_slice(text.as_bytes());
+    data.push(0);
+    data
+}
+
+struct Channel<'a> {
+    topic: &'a str,
+    schema: &'a str,
+    schema_encoding: &'a str,
+    schema_text: &'a str,
+    message_encoding: &'a str,
+}
+
+const CHATTER: Channel = Channel {
+    topic: "/chatter",
+    schema: "std_msgs/msg/String",
+    schema_encoding: "ros2msg",
+    schema_text: STRING_SCHEMA,
+    message_encoding: "cdr",
+};
+
+/// Writes an MCAP file with the `mcap` crate itself (uncompressed 4 KiB chunks, chunk
+/// CRCs).
+fn write_mcap(path: &Path, channel: &Channel, messages: &[Vec<u8>]) {
+    let file = std::fs::File::create(path).unwrap();
+    let mut writer = mcap::WriteOptions::new()
+        .compression(None)
+        .chunk_size(Some(4096))
+        .profile("ros2")
+        .create(BufWriter::new(file))
+        .unwrap();
+    let schema = writer
+        .add_schema(
+            channel.schema,
+            channel.schema_encoding,
+            channel.schema_text.as_bytes(),
+        )
+        .unwrap();
+    let id = writer
+        .add_channel(
+            schema,
+            channel.topic,
+            channel.message_encoding,
+            &Default::default(),
+        )
+        .unwrap();
+    for (i, data) in messages.iter().enumerate() {
+        let header = mcap::records::MessageHeader {
+            channel_id: id,
+            sequence: i as u32,
+            log_time: 1_000 + i as u64,
+            publish_time: 1_000 + i as u64,
+        };
+        writer.write_to_known_channel(&header, data).unwrap();
+    }
+    writer.finish().unwrap();
+}
+
+fn chatter(dir: &Path, name: &str, count: usize) -> PathBuf {
+    let path = dir.join(name);
+    let messages: Vec<_> = (0..count)
+        .map(|i| string_message(&format!("hello number {i:04}")))
+        .collect();
+    write_mcap(&path, &CHATTER, &messages);
+    path
+}
+
+fn cat(dir: &Path, file: &Path, extra: &[&str]) -> std::process::Output {
+    let mut args = vec!["cat", "--json", file.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    imitate(dir, &args)
+}
+
+#[test]
+fn a_well_formed_crafted_file_reads() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = chatter(dir.path(), "ok.mcap", 3);
+    let out = cat(dir.path(), &file, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(stdout(&out).lines().count(), 3);
+    assert!(stdout(&out).contains("hello number 0002"));
+}
+
+#[test]
+fn a_corrupt_chunk_fails_its_crc() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = chatter(dir.path(), "flipped.mcap", 3);
+    let mut bytes = std::fs::read(&file).unwrap();
+    let at = bytes
+        .windows(17)
+        .position(|w| w == b"hello number 0001")
+        .unwrap();
+    bytes[at] = b'j';
+    std::fs::write(&file, bytes).unwrap();
+    let out = cat(dir.path(), &file, &[]);
+    assert_input_error(&out, &["flipped.mcap", "CRC mismatch"]);
+    assert!(
+        stdout(&out).is_empty(),
+        "no message of a corrupt chunk is printed"
+    );
+}
+
+#[test]
+fn a_cut_file_fails_unless_truncation_is_allowed() {
+    let dir = tempfile::tempdir().unwrap();
+    let whole = chatter(dir.path(), "whole.mcap", 2000);
+    // Small chunks: cut inside the data section, after some complete chunks.
+    let bytes = std::fs::read(&whole).unwrap();
+    let cut = dir.path().join("cut.mcap");
+    std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+    let out = cat(dir.path(), &cut, &[]);
+    assert_input_error(&out, &["cut.mcap", "at byte"]);
+
+    let out = cat(dir.path(), &cut, &["--allow-truncated"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let printed = stdout(&out).lines().count();
+    assert!(
+        printed > 0 && printed < 2000,
+        "{printed}: the chunks before the cut"
+    );
+    let err = stderr(&out);
+    assert!(err.contains("warning") && err.contains("cut.mcap"), "{err}");
+    assert!(
+        err.contains(&format!("printed the {printed} messages")),
+        "{err}"
+    );
+    assert!(err.contains("bytes were not read"), "{err}");
+}
+
+#[test]
+fn an_unknown_encoding_names_the_topic_and_the_encoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("cbor.mcap");
+    let channel = Channel {
+        message_encoding: "cbor",
+        ..CHATTER
+    };
+    write_mcap(&file, &channel, &[vec![1, 2, 3]]);
+    let out = cat(dir.path(), &file, &[]);
+    assert_input_error(&out, &["cbor.mcap", "/chatter", "message 0", "'cbor'"]);
+}
+
+#[test]
+fn a_schema_that_does_not_parse_names_the_schema_and_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("schema.mcap");
+    let channel = Channel {
+        schema_text: "string data\nint32[0] broken\n",
+        ..CHATTER
+    };
+    write_mcap(&file, &channel, &[string_message("x")]);
+    let out = cat(dir.path(), &file, &[]);
+    assert_input_error(
+        &out,
+        &[
+            "schema.mcap",
+            "std_msgs/msg/String",
+            "line 2",
+            "invalid size",
+        ],
+    );
+}
+
+#[test]
+fn a_message_shorter_than_its_schema_names_the_field() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("short.mcap");
+    let mut short = string_message("hello");
+    short.truncate(9);
+    write_mcap(&file, &CHATTER, &[string_message("fine"), short]);
+    let out = cat(dir.path(), &file, &[]);
+    assert_input_error(
+        &out,
+        &[
+            "short.mcap",
+            "/chatter",
+            "message 1",
+            "field data",
+            "does not fit",
+        ],
+    );
+}
+
+#[test]
+fn bad_magic_is_not_mcap() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = chatter(dir.path(), "magic.mcap", 1);
+    let mut bytes = std::fs::read(&file).unwrap();
+    bytes[1] = b'X';
+    std::fs::write(&file, bytes).unwrap();
+    for command in ["cat", "inspect"] {
+        let out = imitate(dir.path(), &[command, "magic.mcap"]);
+        assert_input_error(&out, &["magic.mcap", "not an MCAP file"]);
+    }
+}
