@@ -2,9 +2,12 @@
 
 mod bench;
 mod bench_ingest;
+mod diff;
+mod export;
 mod log;
 mod mcap;
 mod plan;
+mod report;
 mod testdata;
 
 use std::path::PathBuf;
@@ -77,6 +80,14 @@ pub enum Command {
     Inspect(mcap::InspectArgs),
     /// Decoded messages of an MCAP file (ROS 2 CDR, JSON, protobuf), one per line.
     Cat(mcap::CatArgs),
+    /// What changed between two artifacts (folders or stored versions); thresholds set
+    /// the exit code for CI.
+    Diff(diff::DiffArgs),
+    /// A costmap artifact as PNG (with a colour bar), GeoTIFF and MCAP (for Foxglove).
+    Export(export::ExportArgs),
+    /// A report on a costmap artifact: markdown and self-contained HTML with previews,
+    /// learning curves and metrics.
+    Report(report::ReportArgs),
     /// Plan the cheapest path between two points on a costmap.
     Plan(plan::PlanArgs),
     /// Generate synthetic test data.
@@ -171,6 +182,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Log(args) => log::run(args),
         Command::Inspect(args) => mcap::inspect_command(args),
         Command::Cat(args) => mcap::cat_command(args),
+        Command::Diff(args) => diff::run(args),
+        Command::Export(args) => export::run(args),
+        Command::Report(args) => report::run(args),
     }
 }
 

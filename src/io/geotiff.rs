@@ -170,6 +170,52 @@ fn geotransform<R: std::io::Read + std::io::Seek>(
     }
 }
 
+/// Writes one float32 band as a north-up GeoTIFF: pixel scale and tiepoint tags, the
+/// EPSG code when the frame is `EPSG:<code>`, and NaN as the GDAL nodata value.
+pub fn write_geotiff(path: &Path, geo: &GeoRef, values: &[f32]) -> Result<()> {
+    let (width, height) = (geo.width as usize, geo.height as usize);
+    // Our row 0 is the south edge; GeoTIFF rows run from the north.
+    let mut north_up = Vec::with_capacity(values.len());
+    for row in (0..height).rev() {
+        north_up.extend_from_slice(&values[row * width..(row + 1) * width]);
+    }
+    let top = geo.origin[1] + geo.resolution * f64::from(geo.height);
+    let epsg = geo
+        .frame
+        .strip_prefix("EPSG:")
+        .and_then(|code| code.parse::<u16>().ok());
+    // GeoKeyDirectory: header (version 1.1.0, key count), then (id, location, count, value).
+    let mut keys: Vec<u16> = vec![1, 1, 0, 0];
+    keys.extend_from_slice(&[1024, 0, 1, if epsg.is_some() { 1 } else { 0 }]); // model type
+    keys.extend_from_slice(&[GT_RASTER_TYPE, 0, 1, 1]); // PixelIsArea
+    if let Some(code) = epsg {
+        keys.extend_from_slice(&[PROJECTED_CRS, 0, 1, code]);
+    }
+    keys[3] = (keys.len() / 4 - 1) as u16;
+    let failed = |e: tiff::TiffError| Error::Failed(format!("writing {}: {e}", path.display()));
+    crate::io::fs::write_atomic_seekable(path, |out| {
+        let mut encoder = tiff::encoder::TiffEncoder::new(out).map_err(failed)?;
+        let mut image = encoder
+            .new_image::<tiff::encoder::colortype::Gray32Float>(geo.width, geo.height)
+            .map_err(failed)?;
+        let tags = image.encoder();
+        tags.write_tag(
+            Tag::ModelPixelScaleTag,
+            &[geo.resolution, geo.resolution, 0.0][..],
+        )
+        .map_err(failed)?;
+        tags.write_tag(
+            Tag::ModelTiepointTag,
+            &[0.0, 0.0, 0.0, geo.origin[0], top, 0.0][..],
+        )
+        .map_err(failed)?;
+        tags.write_tag(Tag::GeoKeyDirectoryTag, &keys[..])
+            .map_err(failed)?;
+        tags.write_tag(Tag::GdalNodata, "nan").map_err(failed)?;
+        image.write_data(&north_up).map_err(failed)
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -225,6 +271,27 @@ mod tests {
         assert_eq!(&v[..2], &[1.41, 1.23]);
         assert!(v[2].is_nan());
         assert_eq!(&v[3..], &[0.32, -0.23, -1.88]);
+    }
+
+    #[test]
+    fn written_geotiffs_read_back_with_their_georeference() {
+        let dir = tempfile::tempdir().unwrap();
+        let geo = GeoRef {
+            width: 3,
+            height: 2,
+            resolution: 2.5,
+            origin: [500.0, 1000.0],
+            frame: "EPSG:32633".into(),
+        };
+        let values = [1.0, 2.0, f32::NAN, 4.0, 5.0, 6.5];
+        let path = dir.path().join("c.tif");
+        write_geotiff(&path, &geo, &values).unwrap();
+        let map = read_geotiff(&path, "c").unwrap();
+        assert_eq!(map.geo, geo);
+        let back = &map.layers[0].values;
+        assert_eq!(&back[..2], &values[..2]);
+        assert!(back[2].is_nan());
+        assert_eq!(&back[3..], &values[3..]);
     }
 
     #[test]

@@ -1,5 +1,9 @@
-//! What people look at: preview pictures and summaries.
+//! What people look at: preview pictures, diffs between artifacts, reports.
 
+pub mod costmap_artifact;
+pub mod diff;
+pub mod export;
+pub mod picture;
 mod preview;
 
 pub use preview::{COLOUR_BOTH, COLOUR_DEMONSTRATION, COLOUR_PLAN, Preview, render_preview};

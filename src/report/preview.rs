@@ -22,7 +22,7 @@ const VIRIDIS: [[f32; 3]; 9] = [
     [253.0, 231.0, 37.0],
 ];
 
-fn viridis(t: f32) -> [u8; 3] {
+pub(crate) fn viridis(t: f32) -> [u8; 3] {
     let t = if t.is_finite() {
         t.clamp(0.0, 1.0)
     } else {
@@ -52,15 +52,8 @@ pub fn render_preview(preview: &Preview<'_>, scale: u32) -> Rgb {
         .iter()
         .map(|c| c.max(f32::MIN_POSITIVE).ln())
         .collect();
-    let mut sorted: Vec<f32> = log.iter().copied().filter(|v| v.is_finite()).collect();
-    sorted.sort_by(f32::total_cmp);
-    let pick = |q: f32| {
-        sorted
-            .get(((sorted.len().saturating_sub(1)) as f32 * q) as usize)
-            .copied()
-    };
-    let (lo, hi) = (pick(0.02).unwrap_or(0.0), pick(0.98).unwrap_or(1.0));
-    let span = (hi - lo).max(1e-6);
+    let (lo, hi) = super::picture::log_cost_range(&[preview.costs]);
+    let span = hi - lo;
 
     let mut marks = vec![[false; 2]; geo.cell_count()];
     for path in &preview.demonstrations {

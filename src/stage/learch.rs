@@ -16,12 +16,14 @@ use crate::error::{Error, Result};
 use crate::grid::{FeatureStack, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::io::png::write_png;
-use crate::io::tables::{read_costmap, read_features, read_paths, write_costmap};
+use crate::io::tables::{
+    EpisodePath, read_costmap, read_features, read_paths, write_costmap, write_paths,
+};
 use crate::ioc::{self, Example, ExampleEvaluation, LearchConfig, StepSchedule};
 use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 mod defaults {
     pub fn rounds() -> usize {
@@ -290,6 +292,17 @@ impl Stage for LearchParams {
                 &picture,
             )?;
         }
+        // The demonstrations themselves, so that diff, export and report need nothing
+        // but the artifact: training examples first, then the held-out ones.
+        let example_paths: Vec<EpisodePath> = all
+            .iter()
+            .map(|e| EpisodePath {
+                episode: e.id.clone(),
+                map: map_names[e.map].clone(),
+                cells: e.path.clone(),
+            })
+            .collect();
+        write_paths(&out.file("paths.parquet", "paths")?, &example_paths)?;
         let holdout_summary = ioc::summarize(holdout_eval);
         let training_summary = ioc::summarize(train_eval);
         let metrics = serde_json::json!({

@@ -140,3 +140,182 @@ impl Decoders {
             .clone()
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use std::collections::BTreeMap;
+
+    use prost::Message;
+    use prost_reflect::Value as P;
+
+    use super::super::reader::SchemaInfo;
+    use super::super::ros2;
+    use super::*;
+
+    fn channel(name: &str, encoding: &str, schema_encoding: &str, data: Vec<u8>) -> ChannelInfo {
+        ChannelInfo {
+            id: 1,
+            topic: "/t".into(),
+            message_encoding: encoding.into(),
+            schema: Some(Arc::new(SchemaInfo {
+                id: 1,
+                name: name.into(),
+                encoding: schema_encoding.into(),
+                data,
+            })),
+            metadata: BTreeMap::new(),
+        }
+    }
+
+    fn build(pool: &DescriptorPool, name: &str, fields: Vec<(&str, P)>) -> DynamicMessage {
+        let mut message = DynamicMessage::new(pool.get_message_by_name(name).unwrap());
+        for (field, value) in fields {
+            message.set_field_by_name(field, value);
+        }
+        message
+    }
+
+    fn pose(pool: &DescriptorPool, x: f64, y: f64) -> P {
+        let position = build(
+            pool,
+            "foxglove.Vector3",
+            vec![("x", P::F64(x)), ("y", P::F64(y))],
+        );
+        let orientation = build(pool, "foxglove.Quaternion", vec![("w", P::F64(1.0))]);
+        P::Message(build(
+            pool,
+            "foxglove.Pose",
+            vec![
+                ("position", P::Message(position)),
+                ("orientation", P::Message(orientation)),
+            ],
+        ))
+    }
+
+    #[test]
+    fn protobuf_channels_decode_foxglove_poses_and_grids() {
+        let schemas = super::super::foxglove::file_descriptor_set();
+        let pool = DescriptorPool::decode(schemas.as_slice()).unwrap();
+        let stamp = build(
+            &pool,
+            "google.protobuf.Timestamp",
+            vec![("seconds", P::I64(12)), ("nanos", P::I32(500))],
+        );
+
+        let decoder = MessageDecoder::for_channel(&channel(
+            "foxglove.PoseInFrame",
+            "protobuf",
+            "protobuf",
+            schemas.clone(),
+        ))
+        .unwrap();
+        let message = build(
+            &pool,
+            "foxglove.PoseInFrame",
+            vec![
+                ("timestamp", P::Message(stamp.clone())),
+                ("frame_id", P::String("map".into())),
+                ("pose", pose(&pool, 3.5, -1.0)),
+            ],
+        );
+        let value = decoder.decode(&message.encode_to_vec()).unwrap();
+        let poses = ros2::poses("foxglove.PoseInFrame", &value, 0).unwrap();
+        assert_eq!(poses.len(), 1);
+        assert_eq!(
+            (
+                poses[0].time,
+                poses[0].frame.as_str(),
+                poses[0].x,
+                poses[0].y,
+                poses[0].yaw
+            ),
+            (12_000_000_500, "map", 3.5, -1.0, 0.0)
+        );
+
+        // A 3 × 2 grid of (uint8 class, float32 height) cells, rows padded to 12 bytes.
+        let mut data = Vec::new();
+        for row in 0..2u8 {
+            for col in 0..3u8 {
+                data.push(row * 3 + col);
+                data.extend_from_slice(&(f32::from(col) * 0.5).to_le_bytes());
+            }
+            data.extend_from_slice(&[0, 0, 0]);
+        }
+        let element = |name: &str, offset: u32, numeric: i32| {
+            P::Message(build(
+                &pool,
+                "foxglove.PackedElementField",
+                vec![
+                    ("name", P::String(name.into())),
+                    ("offset", P::U32(offset)),
+                    ("type", P::EnumNumber(numeric)),
+                ],
+            ))
+        };
+        let cell_size = build(
+            &pool,
+            "foxglove.Vector2",
+            vec![("x", P::F64(0.25)), ("y", P::F64(0.25))],
+        );
+        let grid = build(
+            &pool,
+            "foxglove.Grid",
+            vec![
+                ("timestamp", P::Message(stamp)),
+                ("frame_id", P::String("map".into())),
+                ("pose", pose(&pool, 1.0, 2.0)),
+                ("column_count", P::U32(3)),
+                ("cell_size", P::Message(cell_size)),
+                ("row_stride", P::U32(18)),
+                ("cell_stride", P::U32(5)),
+                (
+                    "fields",
+                    P::List(vec![element("class", 0, 1), element("height", 1, 7)]),
+                ),
+                ("data", P::Bytes(data.into())),
+            ],
+        );
+        let decoder =
+            MessageDecoder::for_channel(&channel("foxglove.Grid", "protobuf", "protobuf", schemas))
+                .unwrap();
+        let value = decoder.decode(&grid.encode_to_vec()).unwrap();
+        let map = ros2::grid("foxglove.Grid", &value, "g").unwrap();
+        assert_eq!(
+            (map.geo.width, map.geo.height, map.geo.resolution),
+            (3, 2, 0.25)
+        );
+        assert_eq!(map.geo.origin, [1.0, 2.0]);
+        assert_eq!(map.layers[0].values, vec![0.0, 1.0, 2.0, 3.0, 4.0, 5.0]);
+        assert_eq!(map.layers[1].values, vec![0.0, 0.5, 1.0, 0.0, 0.5, 1.0]);
+    }
+
+    #[test]
+    fn json_channels_decode_with_or_without_a_schema() {
+        let decoder = MessageDecoder::for_channel(&channel(
+            "foxglove.PoseInFrame",
+            "json",
+            "jsonschema",
+            b"{}".to_vec(),
+        ))
+        .unwrap();
+        let text = br#"{"timestamp": {"sec": 1, "nsec": 0}, "frame_id": "map",
+            "pose": {"position": {"x": 1, "y": 2.5, "z": 0}, "orientation": {"x": 0, "y": 0, "z": 0, "w": 1}}}"#;
+        let value = decoder.decode(text).unwrap();
+        assert_eq!(
+            value.path("pose.position.y").and_then(Value::as_f64),
+            Some(2.5)
+        );
+        let poses = ros2::poses("foxglove.PoseInFrame", &value, 7).unwrap();
+        assert_eq!((poses[0].time, poses[0].x), (1_000_000_000, 1.0));
+        assert!(
+            decoder
+                .decode(b"{not json")
+                .unwrap_err()
+                .contains("not JSON")
+        );
+        let err = MessageDecoder::for_channel(&channel("x", "cbor", "", Vec::new()))
+            .err()
+            .unwrap();
+        assert!(err.contains("'cbor'"), "{err}");
+    }
+}

@@ -4,6 +4,7 @@
 pub mod cdr;
 pub mod decode;
 pub mod episodes;
+pub mod foxglove;
 pub mod frames;
 pub mod inspect;
 pub mod reader;

@@ -70,6 +70,18 @@ float64 z
         format!("std_msgs/Header header\ngeometry_msgs/Pose pose\n{HEADER}{POSE}")
     }
 
+    pub fn path() -> String {
+        format!(
+            "std_msgs/Header header
+geometry_msgs/PoseStamped[] poses
+================================================================================
+MSG: geometry_msgs/PoseStamped
+std_msgs/Header header
+Pose pose
+{HEADER}{POSE}"
+        )
+    }
+
     pub fn occupancy_grid() -> String {
         format!(
             "std_msgs/Header header
@@ -194,6 +206,28 @@ pub fn pose_stamped(ns: u64, frame: &str, x: f64, y: f64, yaw: f64) -> Value {
     record(vec![
         ("header", header(ns, frame)),
         ("pose", pose(x, y, yaw)),
+    ])
+}
+
+/// A `nav_msgs/msg/Path` through `points` (x, y), each pose heading to the next.
+pub fn path(ns: u64, frame: &str, points: &[(f64, f64)]) -> Value {
+    let poses = points
+        .iter()
+        .enumerate()
+        .map(|(i, &(x, y))| {
+            let (nx, ny) = points.get(i + 1).copied().unwrap_or((x, y));
+            let heading = if (nx, ny) == (x, y) && i > 0 {
+                let (px, py) = points[i - 1];
+                (y - py).atan2(x - px)
+            } else {
+                (ny - y).atan2(nx - x)
+            };
+            pose_stamped(ns, frame, x, y, heading)
+        })
+        .collect();
+    record(vec![
+        ("header", header(ns, frame)),
+        ("poses", Value::List(poses)),
     ])
 }
 
@@ -371,17 +405,21 @@ fn yaw_of(q: &Value) -> Result<f64, String> {
     Ok((2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)))
 }
 
-/// Header stamp in nanoseconds (ROS `std_msgs/Header`, or foxglove's `timestamp`).
+/// Header stamp in nanoseconds (ROS `std_msgs/Header`, or Foxglove's `timestamp`).
 fn stamp(value: &Value) -> Result<u64, String> {
     let (sec, nanos) = if let Some(stamp) = value.path("header.stamp") {
         (number(stamp, "sec")?, number(stamp, "nanosec")?)
     } else if let Some(stamp) = value.get("timestamp") {
-        (number(stamp, "seconds")?, number(stamp, "nanos")?)
+        // Foxglove: protobuf's Timestamp (seconds, nanos), or JSON's (sec, nsec).
+        match (stamp.get("seconds"), stamp.get("sec")) {
+            (Some(_), _) => (number(stamp, "seconds")?, number(stamp, "nanos")?),
+            _ => (number(stamp, "sec")?, number(stamp, "nsec")?),
+        }
     } else {
         return Ok(0);
     };
-    if sec < 0.0 {
-        return Err(format!("header stamp {sec} s is before 1970"));
+    if !(0.0..1.8e10).contains(&sec) || !(0.0..1e9).contains(&nanos) {
+        return Err(format!("stamp of {sec} s and {nanos} ns is not a time"));
     }
     Ok(sec as u64 * 1_000_000_000 + nanos as u64)
 }

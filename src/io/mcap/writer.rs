@@ -14,7 +14,8 @@ use crate::io::fs::write_atomic_seekable;
 
 pub struct LogWriter<W: Write + Seek> {
     inner: mcap::Writer<W>,
-    channels: Vec<(u16, Schema, u32)>,
+    /// Per channel: id, the ros2msg schema when the channel is CDR, next sequence.
+    channels: Vec<(u16, Option<Schema>, u32)>,
     path: String,
 }
 
@@ -51,15 +52,47 @@ impl<W: Write + Seek> LogWriter<W> {
             .inner
             .add_channel(schema_id, topic, "cdr", &BTreeMap::new())
             .map_err(|e| failed(&self.path, e))?;
-        self.channels.push((id, schema, 0));
+        self.channels.push((id, Some(schema), 0));
         Ok(self.channels.len() - 1)
     }
 
-    /// Encodes and writes one message; `log_time` in nanoseconds.
+    /// Declares a topic whose messages the caller encodes (e.g. protobuf).
+    pub fn raw_channel(
+        &mut self,
+        topic: &str,
+        schema_name: &str,
+        schema_encoding: &str,
+        schema_data: &[u8],
+        message_encoding: &str,
+    ) -> Result<usize> {
+        let schema_id = self
+            .inner
+            .add_schema(schema_name, schema_encoding, schema_data)
+            .map_err(|e| failed(&self.path, e))?;
+        let id = self
+            .inner
+            .add_channel(schema_id, topic, message_encoding, &BTreeMap::new())
+            .map_err(|e| failed(&self.path, e))?;
+        self.channels.push((id, None, 0));
+        Ok(self.channels.len() - 1)
+    }
+
+    /// Encodes and writes one message of a CDR channel; `log_time` in nanoseconds.
     pub fn write(&mut self, channel: usize, log_time: u64, message: &Value) -> Result<()> {
-        let (id, schema, sequence) = &mut self.channels[channel];
+        let Some(schema) = &self.channels[channel].1 else {
+            return Err(Error::Failed(format!(
+                "writing {}: channel {channel} takes encoded messages",
+                self.path
+            )));
+        };
         let data = cdr::encode(schema, message)
             .map_err(|e| Error::Failed(format!("encoding for {}: {e}", schema.root().name)))?;
+        self.write_raw(channel, log_time, &data)
+    }
+
+    /// Writes one already encoded message.
+    pub fn write_raw(&mut self, channel: usize, log_time: u64, data: &[u8]) -> Result<()> {
+        let (id, _, sequence) = &mut self.channels[channel];
         let header = mcap::records::MessageHeader {
             channel_id: *id,
             sequence: *sequence,
@@ -68,7 +101,7 @@ impl<W: Write + Seek> LogWriter<W> {
         };
         *sequence += 1;
         self.inner
-            .write_to_known_channel(&header, &data)
+            .write_to_known_channel(&header, data)
             .map_err(|e| failed(&self.path, e))
     }
 

@@ -1,0 +1,337 @@
+//! `imitate diff A B`: what changed between two artifacts, as text, JSON or markdown
+//! (with pictures, ready for a pull-request comment); `--fail-if` thresholds set the
+//! exit code for CI.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::error::{Error, Result};
+use crate::io::png::write_png;
+use crate::report::costmap_artifact::{CostmapArtifact, read_any_manifest};
+use crate::report::diff::{
+    CostmapDiff, FileChanges, Threshold, costmap_diff, file_changes, summary,
+};
+use crate::report::picture::{log_cost_range, paint_costs, paint_difference, side_by_side};
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Format {
+    Text,
+    Json,
+    Markdown,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct DiffArgs {
+    /// The old artifact: a folder, or a stored version's digest (prefix) in this
+    /// workspace's output cache (`imitate log` lists them).
+    pub old: String,
+    /// The new artifact, the same way.
+    pub new: String,
+    #[arg(long, value_enum, default_value = "text")]
+    pub format: Format,
+    /// Fail (exit code 1) when the summary crosses this threshold, e.g.
+    /// 'max_abs_log_cost > 0.1' or 'changed_paths > 0' (repeat for several).
+    #[arg(long = "fail-if", value_name = "NAME OP NUMBER", value_parser = parse_threshold)]
+    pub fail_if: Vec<Threshold>,
+    /// Cells whose log-cost moved more than this count as changed.
+    #[arg(long, default_value_t = 0.01)]
+    pub tolerance: f64,
+    /// With --format markdown: write the pictures (old, new, difference per map) here;
+    /// the markdown links them by this path.
+    #[arg(long, value_name = "DIR", default_value = "imitate-diff")]
+    pub images: PathBuf,
+}
+
+fn parse_threshold(text: &str) -> std::result::Result<Threshold, String> {
+    text.parse()
+}
+
+/// A folder, or the one stored version whose digest starts with `reference`.
+fn resolve(reference: &str) -> Result<PathBuf> {
+    let path = PathBuf::from(reference);
+    if path.is_dir() {
+        return Ok(path);
+    }
+    let prefix = reference.strip_prefix("blake3:").unwrap_or(reference);
+    let outputs = Path::new(".imitate/cache/outputs");
+    let hex = prefix.len() >= 4 && prefix.bytes().all(|b| b.is_ascii_hexdigit());
+    if !hex {
+        return Err(Error::input(&path, "no such artifact folder"));
+    }
+    let mut found: Vec<PathBuf> = std::fs::read_dir(outputs)
+        .into_iter()
+        .flatten()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with(prefix))
+        .map(|e| e.path())
+        .collect();
+    found.sort();
+    match found.len() {
+        1 => Ok(found.remove(0)),
+        0 => Err(Error::Usage(format!(
+            "'{reference}' is neither a folder nor a stored version in {} (imitate log lists them)",
+            outputs.display()
+        ))),
+        n => Err(Error::Usage(format!(
+            "'{reference}' matches {n} stored versions; give more digits"
+        ))),
+    }
+}
+
+#[derive(Serialize)]
+struct DiffReport<'a> {
+    schema: &'static str,
+    old: String,
+    new: String,
+    kind: &'a str,
+    files: &'a FileChanges,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    costmaps: Option<&'a CostmapDiff>,
+    summary: &'a BTreeMap<String, f64>,
+    failed: &'a [String],
+}
+
+pub fn run(args: DiffArgs) -> Result<()> {
+    let (old_dir, new_dir) = (resolve(&args.old)?, resolve(&args.new)?);
+    let (old_manifest, new_manifest) = (read_any_manifest(&old_dir)?, read_any_manifest(&new_dir)?);
+    if old_manifest.kind != new_manifest.kind {
+        return Err(Error::Usage(format!(
+            "cannot diff a '{}' artifact ({}) with a '{}' artifact ({})",
+            old_manifest.kind,
+            old_dir.display(),
+            new_manifest.kind,
+            new_dir.display()
+        )));
+    }
+    let major = |v: &str| v.split('.').next().unwrap_or_default().to_string();
+    if (&old_manifest.schema, major(&old_manifest.schema_version))
+        != (&new_manifest.schema, major(&new_manifest.schema_version))
+    {
+        return Err(Error::Usage(format!(
+            "incompatible schemas: {} {} and {} {}",
+            old_manifest.schema,
+            old_manifest.schema_version,
+            new_manifest.schema,
+            new_manifest.schema_version
+        )));
+    }
+    let files = file_changes(&old_manifest, &new_manifest);
+    let costmaps = if old_manifest.kind == "costmap" {
+        let (old, new) = (
+            CostmapArtifact::load(&old_dir)?,
+            CostmapArtifact::load(&new_dir)?,
+        );
+        let diff = costmap_diff(&old, &new, args.tolerance);
+        if args.format == Format::Markdown {
+            write_pictures(&old, &new, &diff, &args.images)?;
+        }
+        Some(diff)
+    } else {
+        None
+    };
+    let numbers = summary(&files, costmaps.as_ref());
+    let mut failed = Vec::new();
+    for threshold in &args.fail_if {
+        if let Some(reason) = threshold.crossed(&numbers).map_err(Error::Usage)? {
+            failed.push(reason);
+        }
+    }
+    let report = DiffReport {
+        schema: "imitate.diff/1",
+        old: old_dir.display().to_string(),
+        new: new_dir.display().to_string(),
+        kind: &old_manifest.kind,
+        files: &files,
+        costmaps: costmaps.as_ref(),
+        summary: &numbers,
+        failed: &failed,
+    };
+    let text = match args.format {
+        Format::Json => serde_json::to_string_pretty(&report).expect("reports serialise") + "\n",
+        Format::Text => render_text(&report),
+        Format::Markdown => render_markdown(&report, &args.images),
+    };
+    print!("{text}");
+    if failed.is_empty() {
+        Ok(())
+    } else {
+        Err(Error::Stale(format!(
+            "diff threshold crossed: {}",
+            failed.join("; ")
+        )))
+    }
+}
+
+fn write_pictures(
+    old: &CostmapArtifact,
+    new: &CostmapArtifact,
+    diff: &CostmapDiff,
+    dir: &Path,
+) -> Result<()> {
+    for m in &diff.maps {
+        let (a, b) = (
+            old.costmap(&m.map).expect("compared maps exist in both"),
+            new.costmap(&m.map).expect("compared maps exist in both"),
+        );
+        let scale = (256 / a.geo.width.max(a.geo.height)).clamp(1, 8);
+        let range = log_cost_range(&[a, b]);
+        let picture = side_by_side(
+            &[
+                &paint_costs(a, range, scale),
+                &paint_costs(b, range, scale),
+                &paint_difference(a, b, None, scale),
+            ],
+            8,
+        );
+        write_png(&dir.join(format!("{}.png", m.map)), &picture)?;
+    }
+    Ok(())
+}
+
+fn verdict(report: &DiffReport<'_>) -> String {
+    if report.failed.is_empty() {
+        "thresholds: all passed".to_string()
+    } else {
+        format!("thresholds crossed: {}", report.failed.join("; "))
+    }
+}
+
+fn render_text(report: &DiffReport<'_>) -> String {
+    let mut t = String::new();
+    let f = report.files;
+    let _ = writeln!(
+        t,
+        "{} artifact: {} -> {}\nfiles: {} changed, {} added, {} removed, {} unchanged",
+        report.kind,
+        report.old,
+        report.new,
+        f.changed.len(),
+        f.added.len(),
+        f.removed.len(),
+        f.unchanged
+    );
+    if let Some(d) = report.costmaps {
+        for m in &d.maps {
+            let _ = writeln!(
+                t,
+                "map {}: |Δ log-cost| mean {:.4} max {:.4}, {:.1}% of cells changed, rank correlation {:.4}",
+                m.map,
+                m.mean_abs_log_cost,
+                m.max_abs_log_cost,
+                100.0 * m.changed_share,
+                m.rank_correlation
+            );
+        }
+        for (what, maps) in [
+            ("added", &d.maps_added),
+            ("removed", &d.maps_removed),
+            ("with another raster", &d.maps_regridded),
+        ] {
+            if !maps.is_empty() {
+                let _ = writeln!(t, "maps {what}: {}", maps.join(", "));
+            }
+        }
+        let changed: Vec<_> = d.paths.iter().filter(|p| p.changed).collect();
+        let _ = writeln!(
+            t,
+            "plans on {} reference pairs: {} changed",
+            d.paths.len(),
+            changed.len()
+        );
+        for p in changed {
+            let _ = writeln!(
+                t,
+                "  {} ({}): Hausdorff {:.1} cells, cost ratio {:.4}",
+                p.example, p.map, p.hausdorff_cells, p.cost_ratio
+            );
+        }
+        for m in &d.metrics {
+            if let (Some(a), Some(b)) = (m.old, m.new) {
+                let _ = writeln!(t, "{}: {a:.4} -> {b:.4} ({:+.4})", m.metric, b - a);
+            }
+        }
+    }
+    let _ = writeln!(t, "{}", verdict(report));
+    t
+}
+
+fn render_markdown(report: &DiffReport<'_>, images: &Path) -> String {
+    let mut t = String::new();
+    let f = report.files;
+    let _ = writeln!(
+        t,
+        "### imitate diff: {} artifact\n\n`{}` → `{}`: {} files changed, {} added, {} removed.\n",
+        report.kind,
+        report.old,
+        report.new,
+        f.changed.len(),
+        f.added.len(),
+        f.removed.len()
+    );
+    if let Some(d) = report.costmaps {
+        let _ = writeln!(
+            t,
+            "| map | mean \\|Δ log-cost\\| | max \\|Δ log-cost\\| | cells changed | rank correlation |\n|---|---|---|---|---|"
+        );
+        for m in &d.maps {
+            let _ = writeln!(
+                t,
+                "| {} | {:.4} | {:.4} | {:.1} % | {:.4} |",
+                m.map,
+                m.mean_abs_log_cost,
+                m.max_abs_log_cost,
+                100.0 * m.changed_share,
+                m.rank_correlation
+            );
+        }
+        let changed = d.paths.iter().filter(|p| p.changed).count();
+        let _ = writeln!(
+            t,
+            "\n**Plans** on {} reference start/goal pairs: **{changed} changed**.\n",
+            d.paths.len()
+        );
+        if changed > 0 {
+            let _ = writeln!(
+                t,
+                "| example | map | Hausdorff (cells) | cost ratio |\n|---|---|---|---|"
+            );
+            for p in d.paths.iter().filter(|p| p.changed) {
+                let _ = writeln!(
+                    t,
+                    "| {} | {} | {:.1} | {:.4} |",
+                    p.example, p.map, p.hausdorff_cells, p.cost_ratio
+                );
+            }
+            t.push('\n');
+        }
+        let deltas: Vec<_> = d.metrics.iter().filter(|m| m.delta.is_some()).collect();
+        if !deltas.is_empty() {
+            let _ = writeln!(t, "| metric | old | new | Δ |\n|---|---|---|---|");
+            for m in deltas {
+                let _ = writeln!(
+                    t,
+                    "| {} | {:.4} | {:.4} | {:+.4} |",
+                    m.metric,
+                    m.old.unwrap_or_default(),
+                    m.new.unwrap_or_default(),
+                    m.delta.unwrap_or_default()
+                );
+            }
+            t.push('\n');
+        }
+        for m in &d.maps {
+            let _ = writeln!(
+                t,
+                "**{}**: old, new, difference (red: costlier, blue: cheaper)\n\n![{}]({})\n",
+                m.map,
+                m.map,
+                images.join(format!("{}.png", m.map)).display()
+            );
+        }
+    }
+    let _ = writeln!(t, "{}", verdict(report));
+    t
+}

@@ -1,0 +1,208 @@
+//! `imitate report COSTMAP --out DIR`: a report people read: `report.md` (pictures as
+//! files beside it) and a self-contained `report.html` (pictures inline), with the
+//! previews, learning curves and the metrics table.
+
+use std::fmt::Write as _;
+use std::path::PathBuf;
+
+use base64::Engine;
+
+use crate::error::{Error, Result, read_input};
+use crate::io::fs::write_bytes_atomic;
+use crate::io::png::write_png;
+use crate::report::costmap_artifact::CostmapArtifact;
+use crate::report::picture::{line_plot, side_by_side};
+
+#[derive(Debug, clap::Args)]
+pub struct ReportArgs {
+    /// A costmap artifact folder.
+    pub costmap: PathBuf,
+    /// The folder to write report.md, report.html and the pictures into.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+}
+
+const LOSS_COLOUR: [u8; 3] = [200, 40, 40];
+const AGREEMENT_COLOUR: [u8; 3] = [40, 90, 200];
+
+/// Per round: training loss and held-out agreement.
+fn curves(artifact: &CostmapArtifact) -> (Vec<f64>, Vec<f64>) {
+    let rounds = artifact
+        .metrics
+        .get("rounds")
+        .and_then(|r| r.as_array())
+        .cloned()
+        .unwrap_or_default();
+    let series = |pointer: &str| {
+        rounds
+            .iter()
+            .map(|r| {
+                r.pointer(pointer)
+                    .and_then(|v| v.as_f64())
+                    .unwrap_or(f64::NAN)
+            })
+            .collect::<Vec<_>>()
+    };
+    (series("/training_loss"), series("/holdout/within_radius"))
+}
+
+fn number(value: Option<&serde_json::Value>) -> String {
+    match value {
+        Some(serde_json::Value::Number(n)) => match n.as_f64() {
+            Some(v) if v.fract() != 0.0 => format!("{v:.4}"),
+            _ => n.to_string(),
+        },
+        Some(serde_json::Value::String(s)) => s.clone(),
+        Some(other) => other.to_string(),
+        None => "–".into(),
+    }
+}
+
+pub fn run(args: ReportArgs) -> Result<()> {
+    let artifact = CostmapArtifact::load(&args.costmap)?;
+    let manifest = &artifact.manifest;
+    let (loss, agreement) = curves(&artifact);
+    let mut pictures: Vec<(String, PathBuf, String)> = Vec::new();
+    if !loss.is_empty() {
+        let plot = side_by_side(
+            &[
+                &line_plot(&[(loss.clone(), LOSS_COLOUR)], 360, 220),
+                &line_plot(&[(agreement.clone(), AGREEMENT_COLOUR)], 360, 220),
+            ],
+            12,
+        );
+        let path = args.out.join("learning-curves.png");
+        write_png(&path, &plot)?;
+        pictures.push((
+            "Learning curves".into(),
+            path,
+            format!(
+                "per round, left: training loss (red, {:.4} → {:.4}); right: share of held-out \
+                 planned cells within 2 cells of the demonstration (blue, {:.3} → {:.3})",
+                loss.first().copied().unwrap_or(f64::NAN),
+                loss.last().copied().unwrap_or(f64::NAN),
+                agreement.first().copied().unwrap_or(f64::NAN),
+                agreement.last().copied().unwrap_or(f64::NAN)
+            ),
+        ));
+    }
+    for file in manifest.files_with_role("preview") {
+        let name = std::path::Path::new(&file.path)
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let target = args.out.join(format!("preview-{name}.png"));
+        let bytes = read_input(&artifact.dir.join(&file.path))?;
+        write_bytes_atomic(&target, &bytes)?;
+        pictures.push((
+            format!("Map {name}"),
+            target,
+            "learned costmap (dark: cheap, yellow: costly; north up), demonstrations red, \
+             plans on the learned costmap green, both white"
+                .into(),
+        ));
+    }
+
+    let mut rows = Vec::new();
+    for (set, label) in [("training", "training"), ("holdout", "held out")] {
+        let summary = artifact.metrics.pointer(&format!("/{set}/summary"));
+        rows.push([
+            label.to_string(),
+            number(summary.and_then(|s| s.get("examples"))),
+            number(summary.and_then(|s| s.get("within_radius"))),
+            number(summary.and_then(|s| s.get("mean_reference_cost_ratio"))),
+            number(summary.and_then(|s| s.get("max_reference_cost_ratio"))),
+        ]);
+    }
+    let header = [
+        "examples",
+        "examples",
+        "planned cells within 2 cells",
+        "mean reference cost ratio",
+        "max reference cost ratio",
+    ];
+    let lineage = &manifest.lineage;
+    let params = serde_json::to_string(&lineage.params).unwrap_or_default();
+
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "# Costmap report: {}\n\nArtifact `{}` ({}), made by `{}` v{} with imitate {}.\n\nParameters: `{params}`\n",
+        args.costmap.display(),
+        manifest.digest,
+        manifest.kind,
+        lineage.stage,
+        lineage.stage_version,
+        lineage.tool_version,
+    );
+    let _ = writeln!(
+        md,
+        "| set | {} | {} | {} | {} |",
+        header[1], header[2], header[3], header[4]
+    );
+    let _ = writeln!(md, "|---|---|---|---|---|");
+    for r in &rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} |",
+            r[0], r[1], r[2], r[3], r[4]
+        );
+    }
+    md.push('\n');
+    let mut html = format!(
+        "<!doctype html><meta charset=\"utf-8\"><title>Costmap report</title>\
+         <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto}}\
+         table{{border-collapse:collapse}}td,th{{border:1px solid #bbb;padding:.3em .6em}}\
+         img{{image-rendering:pixelated;max-width:100%}}</style>\
+         <h1>Costmap report: {}</h1><p>Artifact <code>{}</code> ({}), made by <code>{}</code> v{} \
+         with imitate {}.</p><p>Parameters: <code>{}</code></p><table><tr><th>set</th>",
+        escape(&args.costmap.display().to_string()),
+        manifest.digest,
+        escape(&manifest.kind),
+        escape(&lineage.stage),
+        lineage.stage_version,
+        escape(&lineage.tool_version),
+        escape(&params)
+    );
+    for h in &header[1..] {
+        let _ = write!(html, "<th>{h}</th>");
+    }
+    html.push_str("</tr>");
+    for r in &rows {
+        html.push_str("<tr>");
+        for cell in r {
+            let _ = write!(html, "<td>{}</td>", escape(cell));
+        }
+        html.push_str("</tr>");
+    }
+    html.push_str("</table>");
+    for (title, path, caption) in &pictures {
+        let file = path
+            .file_name()
+            .map(|f| f.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let _ = writeln!(md, "## {title}\n\n![{title}]({file})\n\n{caption}\n");
+        let png =
+            std::fs::read(path).map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
+        let _ = write!(
+            html,
+            "<h2>{}</h2><img alt=\"{}\" src=\"data:image/png;base64,{}\"><p>{}</p>",
+            escape(title),
+            escape(title),
+            base64::engine::general_purpose::STANDARD.encode(png),
+            escape(caption)
+        );
+    }
+    write_bytes_atomic(&args.out.join("report.md"), md.as_bytes())?;
+    write_bytes_atomic(&args.out.join("report.html"), html.as_bytes())?;
+    println!("{}", args.out.join("report.md").display());
+    println!("{}", args.out.join("report.html").display());
+    Ok(())
+}
+
+fn escape(text: &str) -> String {
+    text.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}

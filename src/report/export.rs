@@ -1,0 +1,120 @@
+//! A costmap artifact into the tools people already use: a PNG with a colour bar, a
+//! GeoTIFF keeping the georeference, and an MCAP log that opens in Foxglove (the costmap
+//! as `nav_msgs/msg/OccupancyGrid` and `foxglove.Grid`, demonstrated and planned paths
+//! as `nav_msgs/msg/Path`).
+
+use std::path::Path;
+
+use super::costmap_artifact::CostmapArtifact;
+use super::picture::{colour_bar, log_cost_range, paint_costs, side_by_side};
+use crate::error::Result;
+use crate::grid::{Cell, Grid};
+use crate::io::geotiff::write_geotiff;
+use crate::io::mcap::{foxglove, ros2, writer::write_log};
+use crate::io::png::write_png;
+use crate::plan::shortest_path;
+
+/// The costmap in viridis (north up) with a colour bar on its right, cheap at the bottom;
+/// colours span the 2nd to 98th percentile of log-cost.
+pub fn export_png(costs: &Grid<f32>, path: &Path) -> Result<()> {
+    let scale = (512 / costs.geo.width.max(costs.geo.height)).clamp(1, 16);
+    let picture = paint_costs(costs, log_cost_range(&[costs]), scale);
+    let bar = colour_bar(16.max(picture.width / 24), picture.height);
+    write_png(path, &side_by_side(&[&picture, &bar], 6))
+}
+
+/// The costs as a float32 GeoTIFF; blocked (infinite) cells become nodata.
+pub fn export_geotiff(costs: &Grid<f32>, path: &Path) -> Result<()> {
+    let values: Vec<f32> = costs
+        .data
+        .iter()
+        .map(|&c| if c.is_finite() { c } else { f32::NAN })
+        .collect();
+    write_geotiff(path, &costs.geo, &values)
+}
+
+/// Occupancy 0–100 spanning the 2nd–98th percentile of log-cost; blocked cells 100.
+fn occupancy(costs: &Grid<f32>) -> Vec<i8> {
+    let (lo, hi) = log_cost_range(&[costs]);
+    costs
+        .data
+        .iter()
+        .map(|&c| {
+            if !c.is_finite() {
+                return 100;
+            }
+            let t = (c.max(f32::MIN_POSITIVE).ln() - lo) / (hi - lo);
+            (100.0 * t.clamp(0.0, 1.0)).round() as i8
+        })
+        .collect()
+}
+
+fn centres(costs: &Grid<f32>, cells: &[Cell]) -> Vec<(f64, f64)> {
+    cells.iter().map(|&c| costs.geo.center_of(c)).collect()
+}
+
+/// One map of the artifact as an MCAP log: `/map` (OccupancyGrid), `/costmap`
+/// (foxglove.Grid with float32 `cost` and `log_cost`), `/demonstrations` and `/plans`
+/// (one `nav_msgs/msg/Path` per example on this map, the plan from its start to its goal
+/// on the costmap).
+pub fn export_mcap(
+    artifact: &CostmapArtifact,
+    map: &str,
+    costs: &Grid<f32>,
+    path: &Path,
+) -> Result<()> {
+    let log_costs: Vec<f32> = costs
+        .data
+        .iter()
+        .map(|c| c.max(f32::MIN_POSITIVE).ln())
+        .collect();
+    let examples: Vec<_> = artifact.paths.iter().filter(|p| p.map == map).collect();
+    let frame = costs.geo.frame.as_str();
+    write_log(path, |log| {
+        let occupancy_channel = log.channel(
+            "/map",
+            "nav_msgs/msg/OccupancyGrid",
+            &ros2::schemas::occupancy_grid(),
+        )?;
+        let grid_channel = log.raw_channel(
+            "/costmap",
+            "foxglove.Grid",
+            "protobuf",
+            &foxglove::file_descriptor_set(),
+            "protobuf",
+        )?;
+        let path_schema = ros2::schemas::path();
+        let demo_channel = log.channel("/demonstrations", "nav_msgs/msg/Path", &path_schema)?;
+        let plan_channel = log.channel("/plans", "nav_msgs/msg/Path", &path_schema)?;
+        log.write(
+            occupancy_channel,
+            0,
+            &ros2::occupancy_grid(0, &costs.geo, occupancy(costs)),
+        )?;
+        let grid = foxglove::grid_message(
+            0,
+            &costs.geo,
+            &[("cost", &costs.data), ("log_cost", &log_costs)],
+        );
+        log.write_raw(grid_channel, 0, &grid)?;
+        for (k, example) in examples.iter().enumerate() {
+            let t = (k as u64 + 1) * 1_000_000_000;
+            log.write(
+                demo_channel,
+                t,
+                &ros2::path(t, frame, &centres(costs, &example.cells)),
+            )?;
+            let (Some(&start), Some(&goal)) = (example.cells.first(), example.cells.last()) else {
+                continue;
+            };
+            if let Some(route) = shortest_path(costs, start, goal) {
+                log.write(
+                    plan_channel,
+                    t,
+                    &ros2::path(t, frame, &centres(costs, &route.cells)),
+                )?;
+            }
+        }
+        Ok(())
+    })
+}

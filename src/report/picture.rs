@@ -1,0 +1,220 @@
+//! Pictures people read: costmaps on a shared colour scale, signed difference heat maps,
+//! colour bars, pictures side by side and simple line plots. All north up.
+
+use crate::grid::Grid;
+use crate::io::png::Rgb;
+
+use super::preview::viridis;
+
+/// The log-cost range a picture's colours span: the 2nd to 98th percentile over every
+/// given costmap, so that two costmaps drawn with it compare colour for colour.
+pub fn log_cost_range(costmaps: &[&Grid<f32>]) -> (f32, f32) {
+    let mut sorted: Vec<f32> = costmaps
+        .iter()
+        .flat_map(|g| g.data.iter())
+        .map(|c| c.max(f32::MIN_POSITIVE).ln())
+        .filter(|v| v.is_finite())
+        .collect();
+    sorted.sort_by(f32::total_cmp);
+    let pick = |q: f32| {
+        sorted
+            .get(((sorted.len().saturating_sub(1)) as f32 * q) as usize)
+            .copied()
+    };
+    let (lo, hi) = (pick(0.02).unwrap_or(0.0), pick(0.98).unwrap_or(1.0));
+    (lo, hi.max(lo + 1e-6))
+}
+
+/// Paints one colour per cell, `scale` pixels square, north up.
+fn paint(width: u32, height: u32, scale: u32, colour: impl Fn(usize) -> [u8; 3]) -> Rgb {
+    let mut picture = Rgb::new(width * scale, height * scale);
+    for row in 0..height {
+        for col in 0..width {
+            let c = colour((row * width + col) as usize);
+            let top = (height - 1 - row) * scale;
+            for y in top..top + scale {
+                for x in col * scale..(col + 1) * scale {
+                    picture.put(x, y, c);
+                }
+            }
+        }
+    }
+    picture
+}
+
+/// A costmap in viridis over `range` of log-cost (blocked cells: the top colour).
+pub fn paint_costs(costs: &Grid<f32>, range: (f32, f32), scale: u32) -> Rgb {
+    let (lo, hi) = range;
+    paint(costs.geo.width, costs.geo.height, scale, |i| {
+        viridis((costs.data[i].max(f32::MIN_POSITIVE).ln() - lo) / (hi - lo))
+    })
+}
+
+/// Blue where `new` is cheaper than `old`, red where costlier, white where equal; full
+/// colour at `span` log units (the largest difference when `None`).
+pub fn paint_difference(old: &Grid<f32>, new: &Grid<f32>, span: Option<f32>, scale: u32) -> Rgb {
+    let delta: Vec<f32> = old
+        .data
+        .iter()
+        .zip(&new.data)
+        .map(|(a, b)| {
+            let d = b.max(f32::MIN_POSITIVE).ln() - a.max(f32::MIN_POSITIVE).ln();
+            if d.is_finite() { d } else { 0.0 }
+        })
+        .collect();
+    let span = span
+        .unwrap_or_else(|| delta.iter().fold(0.0f32, |m, d| m.max(d.abs())))
+        .max(1e-6);
+    paint(old.geo.width, old.geo.height, scale, |i| {
+        let t = (delta[i] / span).clamp(-1.0, 1.0);
+        let fade = |full: f32| (255.0 - t.abs() * (255.0 - full)).round() as u8;
+        if t >= 0.0 {
+            [255, fade(30.0), fade(30.0)]
+        } else {
+            [fade(30.0), fade(60.0), 255]
+        }
+    })
+}
+
+/// A vertical viridis colour bar, cheap at the bottom.
+pub fn colour_bar(width: u32, height: u32) -> Rgb {
+    let mut bar = Rgb::new(width, height);
+    for y in 0..height {
+        let c = viridis(1.0 - y as f32 / (height.max(2) - 1) as f32);
+        for x in 0..width {
+            bar.put(x, y, c);
+        }
+    }
+    bar
+}
+
+/// Pictures left to right on white, `gap` pixels apart, tops aligned.
+pub fn side_by_side(pictures: &[&Rgb], gap: u32) -> Rgb {
+    let width = pictures.iter().map(|p| p.width).sum::<u32>()
+        + gap * pictures.len().saturating_sub(1) as u32;
+    let height = pictures.iter().map(|p| p.height).max().unwrap_or(0);
+    let mut out = Rgb::new(width, height);
+    for y in 0..height {
+        for x in 0..width {
+            out.put(x, y, [255, 255, 255]);
+        }
+    }
+    let mut left = 0;
+    for picture in pictures {
+        for y in 0..picture.height {
+            for x in 0..picture.width {
+                out.put(left + x, y, picture.get(x, y));
+            }
+        }
+        left += picture.width + gap;
+    }
+    out
+}
+
+/// Lines of `series` (values, colour) over a shared x (their index) and y range, on a
+/// white canvas with a grey frame and quarter grid lines.
+pub fn line_plot(series: &[(Vec<f64>, [u8; 3])], width: u32, height: u32) -> Rgb {
+    let mut plot = Rgb::new(width, height);
+    let margin = 8;
+    let (w, h) = (width - 2 * margin, height - 2 * margin);
+    for y in 0..height {
+        for x in 0..width {
+            let frame = x == margin || x == margin + w || y == margin || y == margin + h;
+            let grid = (1..4).any(|k| y == margin + h * k / 4) && x > margin && x < margin + w;
+            let c = if frame {
+                [120, 120, 120]
+            } else if grid {
+                [225, 225, 225]
+            } else {
+                [255, 255, 255]
+            };
+            plot.put(x, y, c);
+        }
+    }
+    let values = series
+        .iter()
+        .flat_map(|(v, _)| v.iter().copied())
+        .filter(|v| v.is_finite());
+    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+        (lo.min(v), hi.max(v))
+    });
+    if !lo.is_finite() {
+        return plot;
+    }
+    let span = (hi - lo).max(1e-12);
+    let longest = series
+        .iter()
+        .map(|(v, _)| v.len())
+        .max()
+        .unwrap_or(1)
+        .max(2);
+    let at = |i: usize, v: f64| {
+        let x = margin as f64 + w as f64 * i as f64 / (longest - 1) as f64;
+        let y = (margin + h) as f64 - h as f64 * (v - lo) / span;
+        (x, y)
+    };
+    for (values, colour) in series {
+        for (i, pair) in values.windows(2).enumerate() {
+            if !(pair[0].is_finite() && pair[1].is_finite()) {
+                continue;
+            }
+            let (x0, y0) = at(i, pair[0]);
+            let (x1, y1) = at(i + 1, pair[1]);
+            let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
+            for s in 0..=steps {
+                let f = s as f64 / steps as f64;
+                let (x, y) = (x0 + f * (x1 - x0), y0 + f * (y1 - y0));
+                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
+                    let (px, py) = (x.round() as u32 + dx, y.round() as u32 + dy);
+                    if px < width && py < height {
+                        plot.put(px, py, *colour);
+                    }
+                }
+            }
+        }
+    }
+    plot
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GeoRef;
+
+    fn grid(values: Vec<f32>) -> Grid<f32> {
+        let geo = GeoRef {
+            width: 2,
+            height: 2,
+            resolution: 1.0,
+            origin: [0.0, 0.0],
+            frame: "m".into(),
+        };
+        Grid::from_vec(geo, values)
+    }
+
+    #[test]
+    fn difference_is_red_where_costlier_blue_where_cheaper_white_where_equal() {
+        let old = grid(vec![1.0, 1.0, 1.0, 1.0]);
+        let new = grid(vec![1.0, 4.0, 0.25, 1.0]);
+        let picture = paint_difference(&old, &new, None, 1);
+        // Row 0 (south) is the bottom picture row.
+        assert_eq!(picture.get(0, 1), [255, 255, 255]);
+        assert_eq!(picture.get(1, 1), [255, 30, 30]);
+        assert_eq!(picture.get(0, 0), [30, 60, 255]);
+    }
+
+    #[test]
+    fn the_colour_bar_is_costly_at_the_top_and_plots_draw_their_lines() {
+        let bar = colour_bar(4, 50);
+        assert!(bar.get(0, 0)[1] > bar.get(0, 49)[1] + 100);
+        let plot = line_plot(&[(vec![0.0, 1.0, 2.0], [200, 0, 0])], 60, 40);
+        let red = (0..60)
+            .flat_map(|x| (0..40).map(move |y| (x, y)))
+            .filter(|&(x, y)| plot.get(x, y) == [200, 0, 0])
+            .count();
+        assert!(red > 40, "{red}");
+        // Rising line: red in the bottom-left and the top-right corners.
+        assert_eq!(plot.get(9, 32), [200, 0, 0]);
+        assert_eq!(plot.get(52, 9), [200, 0, 0]);
+    }
+}
