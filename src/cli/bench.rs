@@ -52,6 +52,9 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// Inverse optimal control methods on the GPIRL objectworld benchmark: expected value
+    /// difference per method and number of demonstrations, over seeds.
+    Objectworld(super::bench_objectworld::ObjectworldArgs),
     /// Decode and ingest a large robot log (MCAP: 100 Hz odometry, 10 Hz 512×512
     /// occupancy grids, zstd chunks): throughput and peak memory.
     Ingest(super::bench_ingest::IngestBenchArgs),
@@ -106,6 +109,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
             json,
         } => movingai(map, scen, planner, json),
         BenchCommand::Ingest(args) => super::bench_ingest::run(args),
+        BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
         BenchCommand::Hash {
             file,
             size_mib,

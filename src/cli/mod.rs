@@ -2,6 +2,7 @@
 
 mod bench;
 mod bench_ingest;
+mod bench_objectworld;
 mod diff;
 mod export;
 mod log;

@@ -58,6 +58,17 @@ impl Table {
         major: 1,
     };
 
+    /// `imitate bench objectworld --export`: a world's states (x, y, features, true reward).
+    pub const OBJECTWORLD: Table = Table {
+        name: "objectworld",
+        major: 1,
+    };
+    /// A reward learned on a tabular MDP, per state, with its optimal policy's action.
+    pub const LEARNED_REWARD: Table = Table {
+        name: "learned-reward",
+        major: 1,
+    };
+
     pub fn tag(&self) -> String {
         format!("{}/{}", self.name, self.major)
     }
@@ -135,6 +146,21 @@ fn write_table(
         writer.close().map_err(what)?;
         Ok(())
     })
+}
+
+/// Writes columns of f64 numbers as a tagged table.
+pub fn write_numeric_table(path: &Path, table: Table, columns: &[(&str, &[f64])]) -> Result<()> {
+    let fields: Vec<Field> = columns
+        .iter()
+        .map(|(name, _)| Field::new(*name, DataType::Float64, false))
+        .collect();
+    let arrays: Vec<ArrayRef> = columns
+        .iter()
+        .map(|(_, values)| Arc::new(Float64Array::from(values.to_vec())) as ArrayRef)
+        .collect();
+    let batch = RecordBatch::try_new(Arc::new(Schema::new(fields)), arrays)
+        .map_err(|e| Error::Failed(format!("building {}: {e}", path.display())))?;
+    write_table(path, table, &batch, Vec::new())
 }
 
 /// A table read back: its key-value metadata and its rows as one batch.

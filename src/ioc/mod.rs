@@ -3,6 +3,8 @@
 mod learch;
 mod metrics;
 mod model;
+pub mod objectworld;
+pub mod tabular;
 
 pub use learch::{
     Example, LearchConfig, RoundMetrics, StepSchedule, TrainedLearch, evaluate as learch_evaluate,

@@ -1,5 +1,7 @@
 //! Weak learners and regressors. In-memory only; they never touch files.
 
 mod ridge;
+mod tree;
 
 pub use ridge::{RidgeAccumulator, solve_spd};
+pub use tree::{Node, RegressionTree, TreeConfig};

@@ -104,6 +104,8 @@ impl TabularMdp {
             .zip(self.prob[range].iter().copied())
     }
 
+    /// Q(s, a) from state values (the tests check sweeps against it).
+    #[cfg(test)]
     fn q(&self, s: usize, a: usize, reward: f64, discount: f64, values: &[f64]) -> f64 {
         if !self.available(s, a) {
             return f64::NEG_INFINITY;
@@ -137,6 +139,28 @@ pub fn value_iteration(
     tolerance: f64,
     max_iterations: usize,
 ) -> Values {
+    value_iteration_from(
+        mdp,
+        reward,
+        discount,
+        backup,
+        tolerance,
+        max_iterations,
+        None,
+    )
+}
+
+/// [`value_iteration`] starting from `initial` values (e.g. the last solution of a
+/// slightly different reward, which learners solve round after round) instead of zeros.
+pub fn value_iteration_from(
+    mdp: &TabularMdp,
+    reward: &[f64],
+    discount: f64,
+    backup: Backup,
+    tolerance: f64,
+    max_iterations: usize,
+    initial: Option<&[f64]>,
+) -> Values {
     assert_eq!(
         reward.len(),
         mdp.states * mdp.actions,
@@ -144,27 +168,53 @@ pub fn value_iteration(
     );
     assert!((0.0..1.0).contains(&discount), "discount must be in [0, 1)");
     let a_count = mdp.actions;
-    let mut values = vec![0.0f64; mdp.states];
+    let mut values = match initial {
+        Some(v) if v.len() == mdp.states => v.to_vec(),
+        _ => vec![0.0f64; mdp.states],
+    };
     let mut q = vec![0.0f64; mdp.states * a_count];
+    let mut next = vec![0.0f64; mdp.states];
     let mut iterations = 0;
     let mut converged = false;
+    // Small MDPs sweep on one thread: splitting a sweep of a few thousand pairs costs
+    // more than it saves, and callers (learners, benchmarks) parallelise above us.
+    let parallel = mdp.states * a_count >= 1 << 16;
     while iterations < max_iterations {
         iterations += 1;
-        q.par_chunks_mut(a_count).enumerate().for_each(|(s, row)| {
-            for (a, out) in row.iter_mut().enumerate() {
-                *out = mdp.q(s, a, reward[s * a_count + a], discount, &values);
+        let sweep = |(s, (row, out)): (usize, (&mut [f64], &mut f64))| {
+            for (a, q_sa) in row.iter_mut().enumerate() {
+                let k = s * a_count + a;
+                let range = mdp.offsets[k]..mdp.offsets[k + 1];
+                *q_sa = if range.is_empty() {
+                    f64::NEG_INFINITY
+                } else {
+                    let expected: f64 = mdp.next[range.clone()]
+                        .iter()
+                        .zip(&mdp.prob[range])
+                        .map(|(&n, &p)| p * values[n as usize])
+                        .sum();
+                    reward[k] + discount * expected
+                };
             }
-        });
-        let next: Vec<f64> = q
-            .par_chunks(a_count)
-            .map(|row| backup_value(row, backup))
-            .collect();
+            *out = backup_value(row, backup);
+        };
+        if parallel {
+            q.par_chunks_mut(a_count)
+                .zip(next.par_iter_mut())
+                .enumerate()
+                .for_each(sweep);
+        } else {
+            q.chunks_mut(a_count)
+                .zip(next.iter_mut())
+                .enumerate()
+                .for_each(sweep);
+        }
         let change = next
             .iter()
             .zip(&values)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        values = next;
+        std::mem::swap(&mut values, &mut next);
         if change <= tolerance {
             converged = true;
             break;

@@ -13,4 +13,4 @@ pub use grid::{
     Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
     loss_augmented, path_cost, shortest_path, visitation,
 };
-pub use mdp::{Backup, TabularMdp, Values, value_iteration};
+pub use mdp::{Backup, TabularMdp, Values, value_iteration, value_iteration_from};
