@@ -347,4 +347,28 @@ mod tests {
             assert!(evd < flat, "{}: EVD {evd} vs flat {flat}", method.name());
         }
     }
+
+    #[test]
+    fn every_method_recovers_a_reward_that_is_linear_in_the_features() {
+        // Features that are the true reward's own indicators: every learner's model class
+        // holds the truth, so each must find a policy as good as the expert's.
+        let world = ObjectWorld::generate(32, FeatureKind::Discrete, 1);
+        let demos = world.demonstrations(64, 7);
+        let features: Vec<f64> = world
+            .true_reward
+            .iter()
+            .flat_map(|&r| [f64::from(r == 5.0), f64::from(r == -10.0), 1.0])
+            .collect();
+        let problem = TabularProblem {
+            mdp: &world.mdp,
+            features: &features,
+            dims: 3,
+            demonstrations: &demos,
+        };
+        for method in Method::ALL {
+            let reward = learn(&problem, method, &TabularConfig::default_for(method));
+            let evd = expected_value_difference(&world, &reward);
+            assert!(evd < 0.5, "{}: EVD {evd}", method.name());
+        }
+    }
 }
