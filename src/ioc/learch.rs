@@ -3,8 +3,11 @@
 //!
 //! Each round t, for every example i: plan on the loss-augmented costmap
 //! exp(s_t(F_i)) − l_i, compare the planned visitation μ* with the demonstration's μ,
-//! and emit (f(s), sign(μ*−μ), |μ*−μ|) at the cells where they disagree. A ridge
-//! regressor h_t fitted to all examples' points gives s_{t+1} = s_t + α_t h_t.
+//! and emit (f(s), sign(μ*−μ), |μ*−μ|) at the cells where they disagree. A weak learner
+//! h_t (ridge regression or a regression tree) fitted to all examples' points gives
+//! s_{t+1} = s_t + α_t h_t. With validation examples and a patience, training stops when
+//! their agreement has not improved for that many rounds and keeps the best round; the
+//! held-out examples are only ever measured.
 //!
 //! Examples are planned in parallel; each returns its own sufficient statistics, and
 //! they are merged in example order, so the result does not depend on the thread count.
@@ -15,10 +18,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::metrics::{Agreement, evaluate_example, summarize};
-use super::model::{LogLinearCost, WeakLearner};
+use super::model::{LogCostModel, WeakLearner};
 use crate::error::first_error_in_order;
+use crate::features::distance_transform;
 use crate::grid::{CellPath, FeatureStack, Grid};
-use crate::learn::RidgeAccumulator;
+use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
 use crate::plan::{loss_augmented, path_cost, shortest_path};
 
 /// Augmented costs never drop below this, so every cell stays passable.
@@ -40,6 +44,27 @@ pub enum StepSchedule {
     Constant,
     /// α_t = step_size / √(t + 1)
     InverseSqrt,
+    /// α_t = step_size / (t + 1 + schedule_offset)
+    InverseLinear,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum WeakLearnerKind {
+    /// Ridge regression on the scaled features: a log-linear cost.
+    Ridge,
+    /// Depth-limited regression trees: a nonlinear cost.
+    Tree,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum LossKind {
+    /// Every cell off the demonstration.
+    Hamming,
+    /// 1 − exp(−d²/σ²) at distance d (cells) from the demonstration: near misses cost
+    /// little.
+    Dilated,
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -54,6 +79,26 @@ pub struct LearchConfig {
     /// demonstration by a margin. Relative to the cost so that it does not depend on
     /// the cost's overall scale; 0 turns augmentation off.
     pub loss: f64,
+    pub loss_kind: LossKind,
+    /// σ of the dilated loss, in cells.
+    pub loss_sigma: f64,
+    /// k of the inverse-linear schedule.
+    pub schedule_offset: f64,
+    pub weak_learner: WeakLearnerKind,
+    pub tree: TreeConfig,
+    /// Stop when validation agreement has not improved for this many rounds.
+    pub patience: Option<usize>,
+}
+
+impl LearchConfig {
+    fn step(&self, t: usize) -> f64 {
+        let t = t as f64;
+        match self.schedule {
+            StepSchedule::Constant => self.step_size,
+            StepSchedule::InverseSqrt => self.step_size / (t + 1.0).sqrt(),
+            StepSchedule::InverseLinear => self.step_size / (t + 1.0 + self.schedule_offset),
+        }
+    }
 }
 
 /// What one round did.
@@ -69,28 +114,71 @@ pub struct RoundMetrics {
     /// Agreement of plans on the updated costmap with the held-out demonstrations.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub holdout: Option<Agreement>,
+    /// Agreement with the validation demonstrations, which early stopping watches.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub validation: Option<Agreement>,
 }
 
 #[derive(Debug, Clone)]
 pub struct TrainedLearch {
-    pub model: LogLinearCost,
+    pub model: LogCostModel,
     pub rounds: Vec<RoundMetrics>,
+    /// The round whose model was kept (the last, or the best on validation when early
+    /// stopping is on).
+    pub kept_round: usize,
 }
 
-/// Per-example contribution to a round.
+/// Per-example contribution to a round: the ridge statistics, or the points for a tree.
 struct ExampleGradient {
     data: RidgeAccumulator,
+    points: Vec<(Vec<f64>, f64, f64)>,
     loss: f64,
     disagreeing_cells: usize,
 }
 
+/// Per cell of the example's map, the share of the learned cost its loss takes off:
+/// 0 on the demonstration, up to 1 away from it.
+fn loss_shares(stack: &FeatureStack, ex: &Example, config: &LearchConfig) -> Vec<f32> {
+    let geo = &stack.geo;
+    let mut on_path = vec![false; geo.cell_count()];
+    for &cell in &ex.path {
+        on_path[geo.index(cell)] = true;
+    }
+    match config.loss_kind {
+        LossKind::Hamming => on_path
+            .iter()
+            .map(|&on| if on { 0.0 } else { 1.0 })
+            .collect(),
+        LossKind::Dilated => {
+            let mut distance = vec![0.0f32; geo.cell_count()];
+            let (w, h) = (geo.width as usize, geo.height as usize);
+            distance_transform(
+                &on_path,
+                w,
+                h,
+                1.0,
+                f64::from(geo.width + geo.height),
+                &mut distance,
+            );
+            let sigma2 = config.loss_sigma.max(1e-6).powi(2);
+            distance
+                .iter()
+                .map(|&d| (1.0 - (-f64::from(d).powi(2) / sigma2).exp()) as f32)
+                .collect()
+        }
+    }
+}
+
 /// Runs LEARCH. `stacks[i]` are the features of map `i` (named `map_names[i]`); the
 /// optional `references` are costmaps to score plans against (e.g. a synthetic world's
-/// true costs). `on_round` sees each round's metrics as soon as they exist.
+/// true costs). `validation` examples steer early stopping; `holdout` ones are only
+/// measured. `on_round` sees each round's metrics as soon as they exist.
+#[allow(clippy::too_many_arguments)]
 pub fn train(
     stacks: &[FeatureStack],
     map_names: &[String],
     training: &[Example],
+    validation: &[Example],
     holdout: &[Example],
     references: Option<&[Grid<f32>]>,
     config: &LearchConfig,
@@ -106,49 +194,94 @@ pub fn train(
             names, bad.names
         ));
     }
-    let mut model = LogLinearCost::zero(names, feature_scales(stacks));
+    let mut model = LogCostModel::zero(names, feature_scales(stacks));
+    let shares: Vec<Vec<f32>> = training
+        .par_iter()
+        .map(|ex| loss_shares(&stacks[ex.map], ex, config))
+        .collect();
     let mut rounds = Vec::with_capacity(config.rounds);
+    let mut best: Option<(f64, usize)> = None;
     for t in 0..config.rounds {
         let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
         let gradients: Vec<Result<ExampleGradient, String>> = training
             .par_iter()
-            .map(|ex| example_gradient(&model, &stacks[ex.map], &costmaps[ex.map], ex, config.loss))
+            .zip(&shares)
+            .map(|(ex, share)| {
+                example_gradient(
+                    &model,
+                    &stacks[ex.map],
+                    &costmaps[ex.map],
+                    ex,
+                    share,
+                    config,
+                )
+            })
             .collect::<Vec<_>>();
         let gradients = first_error_in_order(gradients)?;
-        let mut data = RidgeAccumulator::new(model.feature_names.len());
-        for g in &gradients {
-            data.merge(&g.data);
-        }
-        let step = match config.schedule {
-            StepSchedule::Constant => config.step_size,
-            StepSchedule::InverseSqrt => config.step_size / ((t + 1) as f64).sqrt(),
+        let step = config.step(t);
+        let learner = match config.weak_learner {
+            WeakLearnerKind::Ridge => {
+                let mut data = RidgeAccumulator::new(model.feature_names.len());
+                for g in &gradients {
+                    data.merge(&g.data);
+                }
+                WeakLearner::ridge(step, data.solve(config.ridge_lambda))
+            }
+            WeakLearnerKind::Tree => {
+                let dims = model.feature_names.len();
+                let points = gradients.iter().flat_map(|g| &g.points);
+                let (mut x, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
+                for (row, target, weight) in points {
+                    x.extend_from_slice(row);
+                    y.push(*target);
+                    w.push(*weight);
+                }
+                WeakLearner::tree(step, RegressionTree::fit(&x, dims, &y, &w, &config.tree))
+            }
         };
-        model.push(WeakLearner {
-            kind: "ridge".into(),
-            step,
-            weights: data.solve(config.ridge_lambda),
-        });
-        let holdout_agreement = (!holdout.is_empty())
-            .then(|| evaluate(&model, stacks, map_names, holdout, references))
-            .transpose()?
-            .map(|evaluations| summarize(&evaluations));
+        model.push(learner);
+        let agreement_on = |examples: &[Example]| {
+            (!examples.is_empty())
+                .then(|| evaluate(&model, stacks, map_names, examples, references))
+                .transpose()
+                .map(|e| e.map(|evaluations| summarize(&evaluations)))
+        };
+        let holdout_agreement = agreement_on(holdout)?;
+        let validation_agreement = agreement_on(validation)?;
         let metrics = RoundMetrics {
             round: t + 1,
             step,
             training_loss: gradients.iter().map(|g| g.loss).sum::<f64>() / gradients.len() as f64,
             disagreeing_cells: gradients.iter().map(|g| g.disagreeing_cells).sum(),
             holdout: holdout_agreement,
+            validation: validation_agreement,
         };
         tracing::debug!(round = t + 1, weights = ?model.raw_weights, "learch model");
         on_round(&metrics);
+        let agreement = metrics.validation.as_ref().map(|v| v.within_radius);
         rounds.push(metrics);
+        if let (Some(patience), Some(agreement)) = (config.patience, agreement) {
+            if best.is_none_or(|(b, _)| agreement > b) {
+                best = Some((agreement, t + 1));
+            }
+            if let Some((_, round)) = best
+                && t + 1 - round >= patience
+            {
+                break;
+            }
+        }
     }
-    Ok(TrainedLearch { model, rounds })
+    let kept_round = best.map_or(rounds.len(), |(_, round)| round);
+    Ok(TrainedLearch {
+        model: model.truncated(kept_round),
+        rounds,
+        kept_round,
+    })
 }
 
 /// Plans every example on the model's costmap and compares with its demonstration.
 pub fn evaluate(
-    model: &LogLinearCost,
+    model: &LogCostModel,
     stacks: &[FeatureStack],
     map_names: &[String],
     examples: &[Example],
@@ -181,12 +314,14 @@ fn unreachable(ex: &Example) -> String {
 }
 
 fn example_gradient(
-    model: &LogLinearCost,
+    model: &LogCostModel,
     stack: &FeatureStack,
     costs: &Grid<f32>,
     ex: &Example,
-    loss: f64,
+    shares: &[f32],
+    config: &LearchConfig,
 ) -> Result<ExampleGradient, String> {
+    let loss = config.loss;
     let geo = &stack.geo;
     // μ: how often the demonstration visits each cell.
     let mut visits: BTreeMap<usize, i64> = BTreeMap::new();
@@ -194,15 +329,9 @@ fn example_gradient(
         *visits.entry(geo.index(cell)).or_default() -= 1;
     }
     let augmented = if loss > 0.0 {
-        // Hamming loss off the demonstration, as a share of each cell's cost.
+        // The loss off the demonstration, as a share of each cell's cost.
         let per_cell: Vec<f32> = (0..costs.data.len())
-            .map(|i| {
-                if visits.contains_key(&i) {
-                    0.0
-                } else {
-                    loss as f32 * costs.data[i]
-                }
-            })
+            .map(|i| loss as f32 * shares[i] * costs.data[i])
             .collect();
         std::borrow::Cow::Owned(loss_augmented(costs, &per_cell, LOSS_FLOOR))
     } else {
@@ -217,6 +346,7 @@ fn example_gradient(
         *visits.entry(geo.index(cell)).or_default() += 1;
     }
     let mut data = RidgeAccumulator::new(stack.dim());
+    let mut points = Vec::new();
     let mut raw = vec![0.0f32; stack.dim()];
     let mut x = vec![0.0; stack.dim()];
     let mut disagreeing_cells = 0;
@@ -227,14 +357,15 @@ fn example_gradient(
         disagreeing_cells += 1;
         stack.cell_into(i, &mut raw);
         model.scaled(&raw, &mut x);
-        data.add(
-            &x,
-            difference.signum() as f64,
-            difference.unsigned_abs() as f64,
-        );
+        let (target, weight) = (difference.signum() as f64, difference.unsigned_abs() as f64);
+        match config.weak_learner {
+            WeakLearnerKind::Ridge => data.add(&x, target, weight),
+            WeakLearnerKind::Tree => points.push((x.clone(), target, weight)),
+        }
     }
     Ok(ExampleGradient {
         data,
+        points,
         loss: ((demo_cost - route.cost) / demo_cost.max(f64::MIN_POSITIVE)).max(0.0),
         disagreeing_cells,
     })
@@ -325,6 +456,12 @@ mod tests {
             schedule: StepSchedule::InverseSqrt,
             ridge_lambda: 1e-3,
             loss: 0.3,
+            loss_kind: LossKind::Hamming,
+            loss_sigma: 2.0,
+            schedule_offset: 1.0,
+            weak_learner: WeakLearnerKind::Ridge,
+            tree: TreeConfig::default(),
+            patience: None,
         }
     }
 
@@ -344,6 +481,7 @@ mod tests {
             &stacks,
             &names,
             &training,
+            &[],
             &holdout,
             Some(&truth),
             &config(),
@@ -377,6 +515,78 @@ mod tests {
     }
 
     #[test]
+    fn tree_learners_learn_and_early_stopping_keeps_the_best_round() {
+        let (stacks, names, examples, truth) = small_world();
+        let (mut training, mut holdout) = (Vec::new(), Vec::new());
+        for (i, example) in examples.into_iter().enumerate() {
+            if i % 4 == 0 {
+                holdout.push(example)
+            } else {
+                training.push(example)
+            }
+        }
+        let config = LearchConfig {
+            weak_learner: WeakLearnerKind::Tree,
+            loss_kind: LossKind::Dilated,
+            patience: Some(4),
+            rounds: 30,
+            ..config()
+        };
+        // Validation steers the stopping; the held-out examples stay unseen.
+        let validation = training.split_off(training.len() * 3 / 4);
+        let trained = train(
+            &stacks,
+            &names,
+            &training,
+            &validation,
+            &holdout,
+            Some(&truth),
+            &config,
+            |_| {},
+        )
+        .unwrap();
+        assert!(trained.model.learners.iter().all(|l| l.tree.is_some()));
+        assert_eq!(trained.model.learners.len(), trained.kept_round);
+        let best = trained
+            .rounds
+            .iter()
+            .map(|r| r.validation.as_ref().unwrap().within_radius)
+            .fold(0.0, f64::max);
+        let kept = &trained.rounds[trained.kept_round - 1];
+        assert_eq!(kept.validation.as_ref().unwrap().within_radius, best);
+        assert!(best >= 0.9, "{best}");
+        // The kept model evaluates to what was measured at that round.
+        let again = evaluate(&trained.model, &stacks, &names, &holdout, Some(&truth)).unwrap();
+        assert_eq!(
+            summarize(&again).within_radius,
+            kept.holdout.as_ref().unwrap().within_radius
+        );
+    }
+
+    #[test]
+    fn the_dilated_loss_grows_with_distance_from_the_demonstration() {
+        let (stacks, _, examples, _) = small_world();
+        let ex = &examples[0];
+        let stack = &stacks[ex.map];
+        let shares = loss_shares(
+            stack,
+            ex,
+            &LearchConfig {
+                loss_kind: LossKind::Dilated,
+                ..config()
+            },
+        );
+        let geo = &stack.geo;
+        for &cell in &ex.path {
+            assert_eq!(shares[geo.index(cell)], 0.0);
+        }
+        let hamming = loss_shares(stack, ex, &config());
+        let off = (0..geo.cell_count()).find(|&i| hamming[i] == 1.0).unwrap();
+        assert!(shares[off] > 0.0 && shares[off] <= 1.0);
+        assert!(shares.iter().all(|s| (0.0..=1.0).contains(s)));
+    }
+
+    #[test]
     fn the_model_does_not_depend_on_the_thread_count() {
         let (stacks, names, examples, _) = small_world();
         let config = LearchConfig {
@@ -389,7 +599,7 @@ mod tests {
                 .build()
                 .unwrap();
             pool.install(|| {
-                train(&stacks, &names, &examples, &[], None, &config, |_| {})
+                train(&stacks, &names, &examples, &[], &[], None, &config, |_| {})
                     .unwrap()
                     .model
             })
@@ -414,7 +624,17 @@ mod tests {
                 }
             }
         }
-        let err = train(&stacks, &names, &[example], &[], None, &config(), |_| {}).unwrap_err();
+        let err = train(
+            &stacks,
+            &names,
+            &[example],
+            &[],
+            &[],
+            None,
+            &config(),
+            |_| {},
+        )
+        .unwrap_err();
         assert!(err.contains("no path"), "{err}");
     }
 }

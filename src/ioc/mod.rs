@@ -7,8 +7,8 @@ pub mod objectworld;
 pub mod tabular;
 
 pub use learch::{
-    Example, LearchConfig, RoundMetrics, StepSchedule, TrainedLearch, evaluate as learch_evaluate,
-    train,
+    Example, LearchConfig, LossKind, RoundMetrics, StepSchedule, TrainedLearch, WeakLearnerKind,
+    evaluate as learch_evaluate, train,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
-pub use model::{LogLinearCost, WeakLearner};
+pub use model::{LogCostModel, WeakLearner};

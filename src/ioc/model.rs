@@ -1,40 +1,66 @@
-//! The learned cost function: c(f) = exp(s(f)), s a sum of weighted linear weak learners.
+//! The learned cost function: c(f) = exp(s(f)), s a sum of weighted weak learners
+//! (linear ridge regressors or regression trees) of the scaled features.
 
 use serde::{Deserialize, Serialize};
 
 use crate::grid::{FeatureStack, Grid};
+use crate::learn::RegressionTree;
 
 /// Log-costs are clamped to this range so that exp() stays a finite, positive f32.
 const LOG_COST_LIMIT: f64 = 40.0;
 
-/// One boosting round's regressor h_t on standardised features, and its step α_t.
+/// One boosting round's regressor h_t on scaled features, and its step α_t: `kind`
+/// "ridge" with `weights`, or "tree" with `tree`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct WeakLearner {
     pub kind: String,
     pub step: f64,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub weights: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tree: Option<RegressionTree>,
 }
 
-/// s(f) = Σ_t α_t h_t(f / scale), kept both as the list of learners (what LEARCH
-/// produced) and collapsed into one function of the raw features (what is evaluated).
+impl WeakLearner {
+    pub fn ridge(step: f64, weights: Vec<f64>) -> Self {
+        WeakLearner {
+            kind: "ridge".into(),
+            step,
+            weights,
+            tree: None,
+        }
+    }
+
+    pub fn tree(step: f64, tree: RegressionTree) -> Self {
+        WeakLearner {
+            kind: "tree".into(),
+            step,
+            weights: Vec::new(),
+            tree: Some(tree),
+        }
+    }
+}
+
+/// s(f) = Σ_t α_t h_t(f / scale), kept as the list of learners (what LEARCH produced),
+/// with the linear ones also collapsed into weights on the raw features.
 ///
 /// Features are scaled but not centred: a round whose data hold a feature at zero then
 /// leaves that feature's weight alone, where centring would make it collinear with the
 /// bias and let the ridge penalty move it at random.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct LogLinearCost {
+pub struct LogCostModel {
     pub feature_names: Vec<String>,
     pub scale: Vec<f64>,
     pub learners: Vec<WeakLearner>,
-    /// s(f) = Σ_j raw_weights[j] · f_j
+    /// The linear learners' part of s: Σ_j raw_weights[j] · f_j.
     pub raw_weights: Vec<f64>,
 }
 
-impl LogLinearCost {
+impl LogCostModel {
     /// The zero log-cost (cost 1 everywhere) over scaled features.
     pub fn zero(feature_names: Vec<String>, scale: Vec<f64>) -> Self {
         let dim = feature_names.len();
-        LogLinearCost {
+        LogCostModel {
             feature_names,
             scale,
             learners: Vec::new(),
@@ -42,12 +68,29 @@ impl LogLinearCost {
         }
     }
 
-    /// Appends α h (h's weights on scaled features) and refolds the raw form.
+    /// Appends α h; a linear h is folded into the raw weights.
     pub fn push(&mut self, learner: WeakLearner) {
-        for j in 0..self.raw_weights.len() {
-            self.raw_weights[j] += learner.step * learner.weights[j] / self.scale[j];
+        if learner.tree.is_none() {
+            for j in 0..self.raw_weights.len() {
+                self.raw_weights[j] += learner.step * learner.weights[j] / self.scale[j];
+            }
         }
         self.learners.push(learner);
+    }
+
+    /// The model of the first `rounds` learners (what early stopping keeps).
+    pub fn truncated(&self, rounds: usize) -> Self {
+        let mut model = LogCostModel::zero(self.feature_names.clone(), self.scale.clone());
+        for learner in self.learners.iter().take(rounds) {
+            model.push(learner.clone());
+        }
+        model
+    }
+
+    fn trees(&self) -> impl Iterator<Item = (f64, &RegressionTree)> {
+        self.learners
+            .iter()
+            .filter_map(|l| l.tree.as_ref().map(|t| (l.step, t)))
     }
 
     /// Scales a raw feature vector the way the weak learners see it.
@@ -58,11 +101,19 @@ impl LogLinearCost {
     }
 
     pub fn log_cost(&self, raw: &[f32]) -> f64 {
-        let s: f64 = raw
+        let mut s: f64 = raw
             .iter()
             .zip(&self.raw_weights)
             .map(|(&f, &w)| f64::from(f) * w)
             .sum::<f64>();
+        if self.trees().next().is_some() {
+            let mut x = vec![0.0; raw.len()];
+            self.scaled(raw, &mut x);
+            s += self
+                .trees()
+                .map(|(step, tree)| step * tree.predict(&x))
+                .sum::<f64>();
+        }
         s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT)
     }
 
@@ -73,6 +124,17 @@ impl LogLinearCost {
         for (&w, plane) in self.raw_weights.iter().zip(stack.planes()) {
             for (s, &f) in log_cost.iter_mut().zip(plane) {
                 *s += f64::from(f) * w;
+            }
+        }
+        if self.trees().next().is_some() {
+            let (mut raw, mut x) = (vec![0.0f32; stack.dim()], vec![0.0; stack.dim()]);
+            for (i, s) in log_cost.iter_mut().enumerate() {
+                stack.cell_into(i, &mut raw);
+                self.scaled(&raw, &mut x);
+                *s += self
+                    .trees()
+                    .map(|(step, tree)| step * tree.predict(&x))
+                    .sum::<f64>();
             }
         }
         let data = log_cost
@@ -89,17 +151,9 @@ mod tests {
 
     #[test]
     fn collapsed_form_equals_sum_of_learners() {
-        let mut model = LogLinearCost::zero(vec!["a".into(), "b".into()], vec![2.0, 0.5]);
-        model.push(WeakLearner {
-            kind: "ridge".into(),
-            step: 0.5,
-            weights: vec![1.0, -1.0],
-        });
-        model.push(WeakLearner {
-            kind: "ridge".into(),
-            step: 0.25,
-            weights: vec![0.2, 3.0],
-        });
+        let mut model = LogCostModel::zero(vec!["a".into(), "b".into()], vec![2.0, 0.5]);
+        model.push(WeakLearner::ridge(0.5, vec![1.0, -1.0]));
+        model.push(WeakLearner::ridge(0.25, vec![0.2, 3.0]));
         let raw = [3.0f32, 1.0];
         let mut z = [0.0; 2];
         model.scaled(&raw, &mut z);

@@ -19,11 +19,14 @@ use crate::io::png::write_png;
 use crate::io::tables::{
     EpisodePath, read_costmap, read_features, read_paths, write_costmap, write_paths,
 };
-use crate::ioc::{self, Example, ExampleEvaluation, LearchConfig, StepSchedule};
+use crate::ioc::{
+    self, Example, ExampleEvaluation, LearchConfig, LossKind, StepSchedule, WeakLearnerKind,
+};
+use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
-const VERSION: u32 = 2;
+const VERSION: u32 = 3;
 
 mod defaults {
     pub fn rounds() -> usize {
@@ -46,6 +49,21 @@ mod defaults {
     }
     pub fn preview_scale() -> u32 {
         4
+    }
+    pub fn weak_learner() -> crate::ioc::WeakLearnerKind {
+        crate::ioc::WeakLearnerKind::Ridge
+    }
+    pub fn tree_depth() -> usize {
+        3
+    }
+    pub fn loss_kind() -> crate::ioc::LossKind {
+        crate::ioc::LossKind::Hamming
+    }
+    pub fn loss_sigma() -> f64 {
+        2.0
+    }
+    pub fn schedule_offset() -> f64 {
+        1.0
     }
 }
 
@@ -73,15 +91,47 @@ pub struct LearchParams {
     #[arg(long, value_enum, default_value_t = defaults::schedule())]
     #[serde(default = "defaults::schedule")]
     pub schedule: StepSchedule,
+    /// k of the inverse-linear schedule α / (t + 1 + k).
+    #[arg(long, default_value_t = defaults::schedule_offset())]
+    #[serde(default = "defaults::schedule_offset")]
+    pub schedule_offset: f64,
+    /// The weak learner: ridge regression (a log-linear cost) or regression trees (a
+    /// nonlinear one).
+    #[arg(long, value_enum, default_value_t = defaults::weak_learner())]
+    #[serde(default = "defaults::weak_learner")]
+    pub weak_learner: WeakLearnerKind,
+    /// Depth of the regression trees.
+    #[arg(long, default_value_t = defaults::tree_depth())]
+    #[serde(default = "defaults::tree_depth")]
+    pub tree_depth: usize,
     /// Ridge penalty of the linear weak learner (standardised features).
     #[arg(long, default_value_t = defaults::ridge_lambda())]
     #[serde(default = "defaults::ridge_lambda")]
     pub ridge_lambda: f64,
-    /// Hamming loss augmentation: cells off a demonstration are made this fraction
+    /// Loss augmentation: cells off a demonstration are made up to this fraction
     /// cheaper while training; 0 turns it off.
     #[arg(long, default_value_t = defaults::loss())]
     #[serde(default = "defaults::loss")]
     pub loss: f64,
+    /// Hamming (every cell off the demonstration) or dilated (1 − exp(−d²/σ²) at
+    /// distance d cells from it).
+    #[arg(long, value_enum, default_value_t = defaults::loss_kind())]
+    #[serde(default = "defaults::loss_kind")]
+    pub loss_kind: LossKind,
+    /// σ of the dilated loss, in cells.
+    #[arg(long, default_value_t = defaults::loss_sigma())]
+    #[serde(default = "defaults::loss_sigma")]
+    pub loss_sigma: f64,
+    /// Fraction of the (not held-out) demonstrations set aside for validation, which
+    /// early stopping watches.
+    #[arg(long, default_value_t = 0.0)]
+    #[serde(default)]
+    pub validation: f64,
+    /// Early stopping: end when validation agreement has not improved for this many
+    /// rounds, and keep the best round's model.
+    #[arg(long)]
+    #[serde(default)]
+    pub patience: Option<usize>,
     /// Fraction of demonstrations held out for validation.
     #[arg(long, default_value_t = defaults::holdout())]
     #[serde(default = "defaults::holdout")]
@@ -118,6 +168,24 @@ impl LearchParams {
         }
         if !(0.0..1.0).contains(&self.holdout) {
             return bad("holdout must be in [0, 1)");
+        }
+        if !(self.loss_sigma.is_finite() && self.loss_sigma > 0.0) {
+            return bad("loss_sigma must be a positive number");
+        }
+        if !(self.schedule_offset.is_finite() && self.schedule_offset >= 0.0) {
+            return bad("schedule_offset must be >= 0");
+        }
+        if self.tree_depth == 0 || self.tree_depth > 16 {
+            return bad("tree_depth must be in 1..=16");
+        }
+        if self.patience == Some(0) {
+            return bad("patience must be at least 1");
+        }
+        if !(0.0..1.0).contains(&self.validation) {
+            return bad("validation must be in [0, 1)");
+        }
+        if self.patience.is_some() != (self.validation > 0.0) {
+            return bad("patience and validation go together (early stopping watches validation)");
         }
         if !(1..=64).contains(&self.preview_scale) {
             return bad("preview_scale must be in 1..=64");
@@ -227,12 +295,22 @@ impl Stage for LearchParams {
             ));
         }
         let (training, holdout) = split(examples, self.holdout, self.seed);
+        let (training, validation) = split(training, self.validation, self.seed.wrapping_add(1));
         let config = LearchConfig {
             rounds: self.rounds,
             step_size: self.step_size,
             schedule: self.schedule,
             ridge_lambda: self.ridge_lambda,
             loss: self.loss,
+            loss_kind: self.loss_kind,
+            loss_sigma: self.loss_sigma,
+            schedule_offset: self.schedule_offset,
+            weak_learner: self.weak_learner,
+            tree: TreeConfig {
+                max_depth: self.tree_depth,
+                ..TreeConfig::default()
+            },
+            patience: self.patience,
         };
         let progress =
             indicatif::ProgressBar::new(self.rounds as u64).with_message("learch rounds");
@@ -240,6 +318,7 @@ impl Stage for LearchParams {
             &stacks,
             &map_names,
             &training,
+            &validation,
             &holdout,
             references.as_deref(),
             &config,
@@ -252,11 +331,17 @@ impl Stage for LearchParams {
         progress.finish_and_clear();
 
         let model = &trained.model;
-        let all: Vec<Example> = training.iter().chain(&holdout).cloned().collect();
+        let all: Vec<Example> = training
+            .iter()
+            .chain(&validation)
+            .chain(&holdout)
+            .cloned()
+            .collect();
         let evaluations =
             ioc::learch_evaluate(model, &stacks, &map_names, &all, references.as_deref())
                 .map_err(Error::Failed)?;
-        let (train_eval, holdout_eval) = evaluations.split_at(training.len());
+        let (train_eval, rest) = evaluations.split_at(training.len());
+        let (validation_eval, holdout_eval) = rest.split_at(validation.len());
 
         let mut out = ArtifactBuilder::new(&self.out)?;
         let model_json = serde_json::json!({ "kind": "learch", "feature_spec": feature_spec, "feature_names": model.feature_names, "cost": model });
@@ -293,7 +378,7 @@ impl Stage for LearchParams {
             )?;
         }
         // The demonstrations themselves, so that diff, export and report need nothing
-        // but the artifact: training examples first, then the held-out ones.
+        // but the artifact: training, then validation, then held-out examples.
         let example_paths: Vec<EpisodePath> = all
             .iter()
             .map(|e| EpisodePath {
@@ -308,7 +393,9 @@ impl Stage for LearchParams {
         let metrics = serde_json::json!({
             "schema": "imitate.learch-metrics/1",
             "rounds": trained.rounds,
+            "kept_round": trained.kept_round,
             "training": { "summary": training_summary, "examples": train_eval },
+            "validation": { "summary": ioc::summarize(validation_eval), "examples": validation_eval },
             "holdout": { "summary": holdout_summary, "examples": holdout_eval },
         });
         write_bytes_atomic(
@@ -318,14 +405,23 @@ impl Stage for LearchParams {
         let final_loss = trained.rounds.last().map(|r| r.training_loss);
         let summary_metrics = serde_json::json!({
             "rounds": self.rounds,
+            "kept_round": trained.kept_round,
             "training_examples": training.len(),
             "holdout_examples": holdout.len(),
             "final_training_loss": final_loss,
             "holdout": holdout_summary,
         });
+        let rounds_run = trained.rounds.len();
+        let rounds = if rounds_run < self.rounds || trained.kept_round < rounds_run {
+            format!(
+                "stopped early after {rounds_run} of {} rounds, kept round {}",
+                self.rounds, trained.kept_round
+            )
+        } else {
+            format!("{} rounds", self.rounds)
+        };
         let mut summary = format!(
-            "{} rounds, {} training / {} held-out demonstrations; held-out: {:.1}% of planned cells within {} cells",
-            self.rounds,
+            "{rounds}, {} training / {} held-out demonstrations; held-out: {:.1}% of planned cells within {} cells",
             training.len(),
             holdout.len(),
             100.0 * holdout_summary.within_radius,
