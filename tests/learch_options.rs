@@ -85,3 +85,104 @@ fn tree_learch_with_early_stopping_writes_what_it_kept() {
     );
     assert!(!ws.path().join("d").exists());
 }
+
+/// A workspace with the quickstart's dataset and features, made by the CLI.
+fn prepared() -> tempfile::TempDir {
+    let ws = quickstart_workspace();
+    let mut ingest = vec![
+        "ingest",
+        "--demonstrations",
+        "testdata/world/demonstrations.parquet",
+    ];
+    let maps: Vec<String> = (0..4)
+        .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
+        .collect();
+    for map in &maps {
+        ingest.extend(["--map", map.as_str()]);
+    }
+    ingest.extend(["--out", "ds"]);
+    assert!(imitate(ws.path(), &ingest).status.success());
+    assert!(
+        imitate(ws.path(), &["features", "--dataset", "ds", "--out", "fs"])
+            .status
+            .success()
+    );
+    ws
+}
+
+const LONG_RUN: [&str; 10] = [
+    "learch",
+    "--dataset",
+    "ds",
+    "--features",
+    "fs",
+    "--rounds",
+    "60",
+    "--weak-learner",
+    "tree",
+    "--out",
+];
+
+fn digest(output: &std::process::Output) -> String {
+    assert!(output.status.success(), "{}", stderr(output));
+    stdout(output)
+        .split('\t')
+        .nth(2)
+        .unwrap()
+        .trim()
+        .to_string()
+}
+
+#[test]
+fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
+    let uninterrupted = prepared();
+    let expected = digest(&imitate(
+        uninterrupted.path(),
+        &[&LONG_RUN[..], &["c"]].concat(),
+    ));
+    // The checkpoint is gone once the artifact is in place.
+    let checkpoints = uninterrupted.path().join(".imitate/checkpoints");
+    assert_eq!(
+        std::fs::read_dir(&checkpoints)
+            .map(|d| d.count())
+            .unwrap_or(0),
+        0
+    );
+
+    let ws = prepared();
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_imitate"))
+        .current_dir(ws.path())
+        .args([&LONG_RUN[..], &["c"]].concat())
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    // Kill it once a few rounds are checkpointed.
+    let rounds_done = || -> usize {
+        let dir = ws.path().join(".imitate/checkpoints");
+        let Some(file) = std::fs::read_dir(&dir).ok().and_then(|mut d| d.next()) else {
+            return 0;
+        };
+        std::fs::read(file.unwrap().path())
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .and_then(|v| v["rounds"].as_array().map(|r| r.len()))
+            .unwrap_or(0)
+    };
+    let started = std::time::Instant::now();
+    while rounds_done() < 5 && child.try_wait().unwrap().is_none() {
+        assert!(started.elapsed().as_secs() < 120, "no checkpoint appeared");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    let done = rounds_done();
+    assert!(done >= 5, "{done} rounds checkpointed");
+    assert!(!ws.path().join("c/manifest.json").exists() || done == 60);
+
+    let resumed = imitate(
+        ws.path(),
+        &[&LONG_RUN[..], &["c", "--resume", "-v"]].concat(),
+    );
+    assert_eq!(digest(&resumed), expected);
+}

@@ -102,7 +102,7 @@ impl LearchConfig {
 }
 
 /// What one round did.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RoundMetrics {
     pub round: usize,
     pub step: f64,
@@ -117,6 +117,14 @@ pub struct RoundMetrics {
     /// Agreement with the validation demonstrations, which early stopping watches.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub validation: Option<Agreement>,
+}
+
+/// Training so far: what a checkpoint holds and a resumed run starts from. Training is
+/// deterministic given it, so a resumed run ends where an uninterrupted one would.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct Progress {
+    pub learners: Vec<WeakLearner>,
+    pub rounds: Vec<RoundMetrics>,
 }
 
 #[derive(Debug, Clone)]
@@ -172,7 +180,8 @@ fn loss_shares(stack: &FeatureStack, ex: &Example, config: &LearchConfig) -> Vec
 /// Runs LEARCH. `stacks[i]` are the features of map `i` (named `map_names[i]`); the
 /// optional `references` are costmaps to score plans against (e.g. a synthetic world's
 /// true costs). `validation` examples steer early stopping; `holdout` ones are only
-/// measured. `on_round` sees each round's metrics as soon as they exist.
+/// measured. Training continues from `resume` (an earlier run's progress) when given.
+/// `on_round` sees the progress after each round, e.g. to write a checkpoint.
 #[allow(clippy::too_many_arguments)]
 pub fn train(
     stacks: &[FeatureStack],
@@ -182,7 +191,8 @@ pub fn train(
     holdout: &[Example],
     references: Option<&[Grid<f32>]>,
     config: &LearchConfig,
-    mut on_round: impl FnMut(&RoundMetrics),
+    resume: Option<Progress>,
+    mut on_round: impl FnMut(&Progress),
 ) -> Result<TrainedLearch, String> {
     if training.is_empty() {
         return Err("no training examples".into());
@@ -195,13 +205,40 @@ pub fn train(
         ));
     }
     let mut model = LogCostModel::zero(names, feature_scales(stacks));
+    let Progress {
+        learners: resumed,
+        rounds: resumed_rounds,
+    } = resume.unwrap_or_default();
+    if resumed.len() != resumed_rounds.len() || resumed.len() > config.rounds {
+        return Err(format!(
+            "the checkpoint holds {} learners and {} rounds, this run has {} rounds",
+            resumed.len(),
+            resumed_rounds.len(),
+            config.rounds
+        ));
+    }
+    for learner in resumed {
+        model.push(learner);
+    }
     let shares: Vec<Vec<f32>> = training
         .par_iter()
         .map(|ex| loss_shares(&stacks[ex.map], ex, config))
         .collect();
-    let mut rounds = Vec::with_capacity(config.rounds);
     let mut best: Option<(f64, usize)> = None;
-    for t in 0..config.rounds {
+    let improves =
+        |best: Option<(f64, usize)>, agreement: f64| best.is_none_or(|(b, _)| agreement > b);
+    for (t, metrics) in resumed_rounds.iter().enumerate() {
+        if let Some(v) = &metrics.validation
+            && improves(best, v.within_radius)
+        {
+            best = Some((v.within_radius, t + 1));
+        }
+    }
+    let mut progress = Progress {
+        learners: Vec::new(),
+        rounds: resumed_rounds,
+    };
+    for t in progress.rounds.len()..config.rounds {
         let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
         let gradients: Vec<Result<ExampleGradient, String>> = training
             .par_iter()
@@ -257,11 +294,12 @@ pub fn train(
             validation: validation_agreement,
         };
         tracing::debug!(round = t + 1, weights = ?model.raw_weights, "learch model");
-        on_round(&metrics);
         let agreement = metrics.validation.as_ref().map(|v| v.within_radius);
-        rounds.push(metrics);
+        progress.rounds.push(metrics);
+        progress.learners.clone_from(&model.learners);
+        on_round(&progress);
         if let (Some(patience), Some(agreement)) = (config.patience, agreement) {
-            if best.is_none_or(|(b, _)| agreement > b) {
+            if improves(best, agreement) {
                 best = Some((agreement, t + 1));
             }
             if let Some((_, round)) = best
@@ -271,10 +309,10 @@ pub fn train(
             }
         }
     }
-    let kept_round = best.map_or(rounds.len(), |(_, round)| round);
+    let kept_round = best.map_or(progress.rounds.len(), |(_, round)| round);
     Ok(TrainedLearch {
         model: model.truncated(kept_round),
-        rounds,
+        rounds: progress.rounds,
         kept_round,
     })
 }
@@ -485,6 +523,7 @@ mod tests {
             &holdout,
             Some(&truth),
             &config(),
+            None,
             |_| {},
         )
         .unwrap();
@@ -542,6 +581,7 @@ mod tests {
             &holdout,
             Some(&truth),
             &config,
+            None,
             |_| {},
         )
         .unwrap();
@@ -599,9 +639,19 @@ mod tests {
                 .build()
                 .unwrap();
             pool.install(|| {
-                train(&stacks, &names, &examples, &[], &[], None, &config, |_| {})
-                    .unwrap()
-                    .model
+                train(
+                    &stacks,
+                    &names,
+                    &examples,
+                    &[],
+                    &[],
+                    None,
+                    &config,
+                    None,
+                    |_| {},
+                )
+                .unwrap()
+                .model
             })
         };
         assert_eq!(run(1), run(2));
@@ -632,6 +682,7 @@ mod tests {
             &[],
             None,
             &config(),
+            None,
             |_| {},
         )
         .unwrap_err();

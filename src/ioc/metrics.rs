@@ -1,7 +1,7 @@
 //! How well a learned costmap imitates: plans between a demonstration's ends compared
 //! with the demonstration itself.
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::grid::{Cell, Grid};
 use crate::plan::{path_cost, shortest_path};
@@ -26,7 +26,7 @@ pub struct ExampleEvaluation {
 }
 
 /// Aggregate agreement over a set of examples.
-#[derive(Debug, Clone, Serialize, PartialEq)]
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct Agreement {
     pub examples: usize,
     /// Pooled share of planned cells within `AGREEMENT_RADIUS` of their demonstration.

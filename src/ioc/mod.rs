@@ -7,8 +7,8 @@ pub mod objectworld;
 pub mod tabular;
 
 pub use learch::{
-    Example, LearchConfig, LossKind, RoundMetrics, StepSchedule, TrainedLearch, WeakLearnerKind,
-    evaluate as learch_evaluate, train,
+    Example, LearchConfig, LossKind, Progress, RoundMetrics, StepSchedule, TrainedLearch,
+    WeakLearnerKind, evaluate as learch_evaluate, train,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
 pub use model::{LogCostModel, WeakLearner};

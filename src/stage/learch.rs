@@ -145,6 +145,12 @@ pub struct LearchParams {
     #[arg(long = "reference", value_name = "FILE")]
     #[serde(default)]
     pub references: Vec<PathBuf>,
+    /// Continue from this run's checkpoint (written after every round under
+    /// .imitate/checkpoints, for the same inputs and parameters) instead of starting
+    /// over; the artifact is the one an uninterrupted run writes.
+    #[arg(long)]
+    #[serde(skip)]
+    pub resume: bool,
     /// Pixels per cell in the previews.
     #[arg(long, default_value_t = defaults::preview_scale())]
     #[serde(default = "defaults::preview_scale")]
@@ -314,6 +320,17 @@ impl Stage for LearchParams {
         };
         let progress =
             indicatif::ProgressBar::new(self.rounds as u64).with_message("learch rounds");
+        let checkpoint = checkpoint_path(&super::lineage(self, extra_deps)?.stage_key);
+        let resume = if self.resume {
+            read_checkpoint(&checkpoint)?
+        } else {
+            None
+        };
+        if let Some(resumed) = &resume {
+            tracing::info!("resuming after round {}", resumed.rounds.len());
+            progress.inc(resumed.rounds.len() as u64);
+        }
+        let mut checkpoint_error = None;
         let trained = ioc::train(
             &stacks,
             &map_names,
@@ -322,13 +339,21 @@ impl Stage for LearchParams {
             &holdout,
             references.as_deref(),
             &config,
-            |m| {
-                tracing::debug!(round = m.round, loss = m.training_loss, "learch round");
+            resume,
+            |state| {
                 progress.inc(1);
+                if checkpoint_error.is_none()
+                    && let Err(e) = write_bytes_atomic(&checkpoint, &to_json_bytes(state))
+                {
+                    checkpoint_error = Some(e);
+                }
             },
         )
         .map_err(Error::Failed)?;
         progress.finish_and_clear();
+        if let Some(e) = checkpoint_error {
+            return Err(e);
+        }
 
         let model = &trained.model;
         let all: Vec<Example> = training
@@ -430,7 +455,34 @@ impl Stage for LearchParams {
         if let Some(ratio) = holdout_summary.mean_reference_cost_ratio {
             summary.push_str(&format!(", reference cost ratio {ratio:.3}"));
         }
-        commit_artifact(self, extra_deps, out, "costmap", summary_metrics, summary)
+        let report = commit_artifact(self, extra_deps, out, "costmap", summary_metrics, summary)?;
+        // The artifact is in place: the checkpoint has served.
+        let _ = std::fs::remove_file(&checkpoint);
+        Ok(report)
+    }
+}
+
+/// Where the checkpoint of a run with this stage key lives (in the workspace, beside the
+/// output cache): the key covers inputs, parameters and version, so a checkpoint never
+/// resumes a different run.
+fn checkpoint_path(stage_key: &str) -> PathBuf {
+    let hex = stage_key.strip_prefix("blake3:").unwrap_or(stage_key);
+    PathBuf::from(".imitate/checkpoints").join(format!("learch-{hex}.json"))
+}
+
+fn read_checkpoint(path: &std::path::Path) -> Result<Option<ioc::Progress>> {
+    match std::fs::read(path) {
+        Ok(bytes) => serde_json::from_slice(&bytes)
+            .map(Some)
+            .map_err(|e| Error::input(path, format!("not a learch checkpoint: {e}"))),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => {
+            tracing::warn!(
+                "no checkpoint of this run to resume ({}): starting over",
+                path.display()
+            );
+            Ok(None)
+        }
+        Err(e) => Err(Error::io(format!("reading {}", path.display()), e)),
     }
 }
 
