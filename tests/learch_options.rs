@@ -186,3 +186,30 @@ fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
     );
     assert_eq!(digest(&resumed), expected);
 }
+
+#[test]
+fn the_round_benchmark_runs_on_small_maps() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = imitate(
+        dir.path(),
+        &[
+            "bench",
+            "learch",
+            "--size",
+            "48",
+            "--examples",
+            "8",
+            "--repeat",
+            "1",
+            "--json",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(report["examples"], 8);
+    assert_eq!(report["features"], 16);
+    let first = &report["timings"][0];
+    assert_eq!(first["threads"], 1);
+    let share = first["planning_share"].as_f64().unwrap();
+    assert!(share > 0.0, "{report}");
+}

@@ -55,6 +55,9 @@ pub enum BenchCommand {
     /// Inverse optimal control methods on the GPIRL objectworld benchmark: expected value
     /// difference per method and number of demonstrations, over seeds.
     Objectworld(super::bench_objectworld::ObjectworldArgs),
+    /// One LEARCH round on many large examples, on 1 and on all threads, with the share
+    /// spent planning.
+    Learch(super::bench_learch::LearchBenchArgs),
     /// Decode and ingest a large robot log (MCAP: 100 Hz odometry, 10 Hz 512×512
     /// occupancy grids, zstd chunks): throughput and peak memory.
     Ingest(super::bench_ingest::IngestBenchArgs),
@@ -109,6 +112,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
             json,
         } => movingai(map, scen, planner, json),
         BenchCommand::Ingest(args) => super::bench_ingest::run(args),
+        BenchCommand::Learch(args) => super::bench_learch::run(args),
         BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
         BenchCommand::Hash {
             file,

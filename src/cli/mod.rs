@@ -2,6 +2,7 @@
 
 mod bench;
 mod bench_ingest;
+mod bench_learch;
 mod bench_objectworld;
 mod diff;
 mod export;
