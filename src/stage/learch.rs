@@ -253,7 +253,22 @@ impl Stage for LearchParams {
         let mut stacks: Vec<FeatureStack> = Vec::new();
         let mut feature_spec = serde_json::Value::Null;
         for f in features.files_with_role("features") {
-            let (name, stack, spec) = read_features(&self.features.join(&f.path))?;
+            let path = self.features.join(&f.path);
+            let (name, stack, spec) = read_features(&path)?;
+            for (j, plane) in stack.planes().enumerate() {
+                if let Some(i) = plane.iter().position(|v| !v.is_finite()) {
+                    return Err(Error::input(
+                        &path,
+                        format!(
+                            "feature '{}' is {} at cell {} of map '{name}': features must be finite \
+                             (the features stage fills no-data cells)",
+                            stack.names[j],
+                            plane[i],
+                            stack.geo.cell_at(i)
+                        ),
+                    ));
+                }
+            }
             map_names.push(name);
             stacks.push(stack);
             feature_spec = spec;
@@ -349,7 +364,9 @@ impl Stage for LearchParams {
                 }
             },
         )
-        .map_err(Error::Failed)?;
+        // Everything train refuses is about what it was given (no examples, stacks
+        // that disagree, a demonstration whose goal cannot be reached).
+        .map_err(|e| Error::input(&self.dataset, e))?;
         progress.finish_and_clear();
         if let Some(e) = checkpoint_error {
             return Err(e);
@@ -364,7 +381,7 @@ impl Stage for LearchParams {
             .collect();
         let evaluations =
             ioc::learch_evaluate(model, &stacks, &map_names, &all, references.as_deref())
-                .map_err(Error::Failed)?;
+                .map_err(|e| Error::input(&self.dataset, e))?;
         let (train_eval, rest) = evaluations.split_at(training.len());
         let (validation_eval, holdout_eval) = rest.split_at(validation.len());
 
