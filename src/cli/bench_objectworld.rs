@@ -11,7 +11,8 @@ use super::bench::emit;
 use crate::error::{Error, Result};
 use crate::io::tables::{Table, write_numeric_table};
 use crate::ioc::objectworld::{
-    ACTIONS, FeatureKind, ObjectWorld, expected_value_difference, optimal_policy, policy_values,
+    ACTIONS, DISCOUNT, FeatureKind, ObjectWorld, expected_value_difference, optimal_policy,
+    policy_values,
 };
 use crate::ioc::tabular::{Method, TabularConfig, TabularProblem, learn};
 
@@ -138,6 +139,7 @@ pub fn run(args: ObjectworldArgs) -> Result<()> {
             let demos = world.demonstrations(n, seed * 1_000_003 + n as u64);
             let problem = TabularProblem {
                 mdp: &world.mdp,
+                discount: DISCOUNT,
                 features: &world.features,
                 dims: world.dims,
                 demonstrations: &demos,

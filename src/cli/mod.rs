@@ -18,7 +18,7 @@ use clap::{Parser, Subcommand};
 
 use crate::error::{Error, Result};
 use crate::pipeline::RunOptions;
-use crate::stage::{Stage, StageReport, features, ingest, learch};
+use crate::stage::{Stage, StageReport, features, ingest, ioc, learch};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -76,6 +76,8 @@ pub enum Command {
     Features(features::FeaturesParams),
     /// Learn a costmap with LEARCH.
     Learch(learch::LearchParams),
+    /// Learn a reward on a tabular MDP from Parquet (LEARCH, MMP or MaxEnt).
+    Ioc(ioc::IocParams),
     /// The stored versions of an artifact, with what changed between them.
     Log(log::LogArgs),
     /// What an MCAP file holds: channels, schemas, counts, time range, chunks.
@@ -178,6 +180,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Ingest(params) => run_stage(&params),
         Command::Features(params) => run_stage(&params),
         Command::Learch(params) => run_stage(&params),
+        Command::Ioc(params) => run_stage(&params),
         Command::Testdata(command) => testdata::run(command),
         Command::Bench(command) => bench::run(command),
         Command::Plan(args) => plan::run(args),

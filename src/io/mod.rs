@@ -4,6 +4,7 @@ pub mod demo_tables;
 pub mod fs;
 pub mod geotiff;
 pub mod mcap;
+pub mod mdp_tables;
 pub mod movingai;
 pub mod png;
 pub mod tables;

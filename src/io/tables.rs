@@ -163,6 +163,22 @@ pub fn write_numeric_table(path: &Path, table: Table, columns: &[(&str, &[f64])]
     write_table(path, table, &batch, Vec::new())
 }
 
+/// Reads the named f64 columns of a table written by [`write_numeric_table`].
+pub fn read_numeric_table(path: &Path, table: Table, columns: &[&str]) -> Result<Vec<Vec<f64>>> {
+    let batch = read_table(path, table, false)?.batch;
+    columns
+        .iter()
+        .map(|name| {
+            let array = column(path, table, &batch, name)?;
+            no_nulls(path, name, array.as_ref())?;
+            let values = array
+                .as_primitive_opt::<arrow::datatypes::Float64Type>()
+                .ok_or_else(|| Error::input(path, format!("column '{name}' is not float64")))?;
+            Ok(values.values().to_vec())
+        })
+        .collect()
+}
+
 /// A table read back: its key-value metadata and its rows as one batch.
 pub(crate) struct ReadTable {
     pub(crate) metadata: BTreeMap<String, String>,

@@ -6,7 +6,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::objectworld::{ACTIONS, DISCOUNT, Trajectory, state_action_reward};
+use super::objectworld::{Trajectory, state_action_reward};
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
 use crate::plan::{Backup, TabularMdp, value_iteration_from};
 
@@ -37,9 +37,11 @@ impl Method {
     }
 }
 
-/// An IOC problem: the MDP, state features (row-major, `dims` wide), demonstrations.
+/// An IOC problem: the MDP and its discount, state features (row-major, `dims` wide),
+/// demonstrations.
 pub struct TabularProblem<'a> {
     pub mdp: &'a TabularMdp,
+    pub discount: f64,
     pub features: &'a [f64],
     pub dims: usize,
     pub demonstrations: &'a [Trajectory],
@@ -85,8 +87,9 @@ impl TabularProblem<'_> {
                 if mass == 0.0 {
                     continue;
                 }
-                for a in 0..ACTIONS {
-                    let pa = policy[s * ACTIONS + a];
+                let actions = self.mdp.actions();
+                for a in 0..actions {
+                    let pa = policy[s * actions + a];
                     if pa == 0.0 {
                         continue;
                     }
@@ -170,14 +173,16 @@ const PLANNING_TOLERANCE: f64 = 1e-4;
 /// Value iteration round after round, each starting from the last solution.
 struct Planner<'a> {
     mdp: &'a TabularMdp,
+    discount: f64,
     backup: Backup,
     values: Option<Vec<f64>>,
 }
 
 impl<'a> Planner<'a> {
-    fn new(mdp: &'a TabularMdp, soft: bool) -> Self {
+    fn new(problem: &TabularProblem<'a>, soft: bool) -> Self {
         Planner {
-            mdp,
+            mdp: problem.mdp,
+            discount: problem.discount,
             backup: if soft { Backup::Soft } else { Backup::Hard },
             values: None,
         }
@@ -188,7 +193,7 @@ impl<'a> Planner<'a> {
         let values = value_iteration_from(
             self.mdp,
             &state_action_reward(self.mdp, reward),
-            DISCOUNT,
+            self.discount,
             self.backup,
             PLANNING_TOLERANCE,
             10_000,
@@ -226,7 +231,7 @@ fn learch(problem: &TabularProblem<'_>, method: Method, config: &TabularConfig) 
     let demonstrated = problem.demonstrated_visits();
     let mut log_cost = vec![0.0f64; states];
     let rows: Vec<f64> = problem.features.to_vec();
-    let mut planner = Planner::new(problem.mdp, config.soft_planning);
+    let mut planner = Planner::new(problem, config.soft_planning);
     for round in 1..=config.rounds {
         let augmented: Vec<f64> = (0..states)
             .map(|s| {
@@ -277,7 +282,7 @@ fn mmp(problem: &TabularProblem<'_>, config: &TabularConfig) -> Vec<f64> {
     let demo_counts = problem.feature_counts(&demonstrated);
     let n = problem.demonstrations.len().max(1) as f64;
     let mut theta = vec![0.0; problem.dims];
-    let mut planner = Planner::new(problem.mdp, false);
+    let mut planner = Planner::new(problem, false);
     for round in 1..=config.rounds {
         let augmented: Vec<f64> = linear_reward(problem, &theta)
             .iter()
@@ -309,7 +314,7 @@ fn maxent(problem: &TabularProblem<'_>, config: &TabularConfig) -> Vec<f64> {
     let mut theta = vec![0.0; problem.dims];
     let (mut m, mut v) = (vec![0.0; problem.dims], vec![0.0; problem.dims]);
     let (beta1, beta2) = (0.9f64, 0.999f64);
-    let mut planner = Planner::new(problem.mdp, true);
+    let mut planner = Planner::new(problem, true);
     for round in 1..=config.rounds {
         let policy = planner.policy(&linear_reward(problem, &theta));
         let expected = problem.feature_counts(&problem.expected_visits(&policy));
@@ -336,6 +341,7 @@ mod tests {
         let demos = world.demonstrations(32, 6);
         let problem = TabularProblem {
             mdp: &world.mdp,
+            discount: super::super::objectworld::DISCOUNT,
             features: &world.features,
             dims: world.dims,
             demonstrations: &demos,
@@ -361,6 +367,7 @@ mod tests {
             .collect();
         let problem = TabularProblem {
             mdp: &world.mdp,
+            discount: super::super::objectworld::DISCOUNT,
             features: &features,
             dims: 3,
             demonstrations: &demos,

@@ -5,6 +5,7 @@
 
 pub mod features;
 pub mod ingest;
+pub mod ioc;
 pub mod learch;
 
 use std::path::{Path, PathBuf};
@@ -52,6 +53,9 @@ const REGISTRY: &[(&str, Constructor)] = &[
             features::KIND,
             p,
         )?))
+    }),
+    (ioc::KIND, |p| {
+        Ok(Box::new(parse::<ioc::IocParams>(ioc::KIND, p)?))
     }),
     (learch::KIND, |p| {
         Ok(Box::new(parse::<learch::LearchParams>(learch::KIND, p)?))
