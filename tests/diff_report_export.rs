@@ -9,38 +9,24 @@ use std::sync::OnceLock;
 use common::*;
 use imitate::io::png::{Rgb, read_png};
 
-/// A workspace with a dataset, features and two costmaps: `costmap-40` (40 rounds),
+/// A workspace with a dataset (`ds`), features (`fs`) and two costmaps: `costmap-40` (40 rounds),
 /// `costmap-3` (3 rounds), and `costmap-40-copy`, identical to the first.
 fn workspace() -> &'static Path {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = quickstart_workspace();
+        let dir = prepared_workspace();
         let run = |args: &[&str]| {
             let out = imitate(dir.path(), args);
             assert!(out.status.success(), "{args:?}: {}", stderr(&out));
         };
-        let mut ingest = vec![
-            "ingest",
-            "--demonstrations",
-            "testdata/world/demonstrations.parquet",
-        ];
-        let maps: Vec<String> = (0..4)
-            .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
-            .collect();
-        for map in &maps {
-            ingest.extend(["--map", map.as_str()]);
-        }
-        ingest.extend(["--out", "dataset"]);
-        run(&ingest);
-        run(&["features", "--dataset", "dataset", "--out", "features"]);
         for rounds in ["40", "3"] {
             let out = format!("costmap-{rounds}");
             run(&[
                 "learch",
                 "--dataset",
-                "dataset",
+                "ds",
                 "--features",
-                "features",
+                "fs",
                 "--rounds",
                 rounds,
                 "--out",
@@ -188,7 +174,7 @@ fn markdown_diffs_carry_side_by_side_pictures() {
 
 #[test]
 fn diffing_incompatible_things_is_an_input_error() {
-    let out = diff(&["costmap-40", "dataset"]);
+    let out = diff(&["costmap-40", "ds"]);
     assert_input_error(&out, &["cannot diff", "costmap", "dataset"]);
     let out = diff(&["costmap-40", "no-such-folder"]);
     assert_input_error(&out, &["no-such-folder"]);

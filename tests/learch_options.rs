@@ -7,27 +7,8 @@ use common::*;
 
 #[test]
 fn tree_learch_with_early_stopping_writes_what_it_kept() {
-    let ws = quickstart_workspace();
+    let ws = prepared_workspace();
     let run = |args: &[&str]| imitate(ws.path(), args);
-    let mut ingest = vec![
-        "ingest",
-        "--demonstrations",
-        "testdata/world/demonstrations.parquet",
-    ];
-    let maps: Vec<String> = (0..4)
-        .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
-        .collect();
-    for map in &maps {
-        ingest.extend(["--map", map.as_str()]);
-    }
-    ingest.extend(["--out", "ds"]);
-    assert!(run(&ingest).status.success());
-    assert!(
-        run(&["features", "--dataset", "ds", "--out", "fs"])
-            .status
-            .success()
-    );
-
     let out = run(&[
         "learch",
         "--dataset",
@@ -86,30 +67,6 @@ fn tree_learch_with_early_stopping_writes_what_it_kept() {
     assert!(!ws.path().join("d").exists());
 }
 
-/// A workspace with the quickstart's dataset and features, made by the CLI.
-fn prepared() -> tempfile::TempDir {
-    let ws = quickstart_workspace();
-    let mut ingest = vec![
-        "ingest",
-        "--demonstrations",
-        "testdata/world/demonstrations.parquet",
-    ];
-    let maps: Vec<String> = (0..4)
-        .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
-        .collect();
-    for map in &maps {
-        ingest.extend(["--map", map.as_str()]);
-    }
-    ingest.extend(["--out", "ds"]);
-    assert!(imitate(ws.path(), &ingest).status.success());
-    assert!(
-        imitate(ws.path(), &["features", "--dataset", "ds", "--out", "fs"])
-            .status
-            .success()
-    );
-    ws
-}
-
 const LONG_RUN: [&str; 10] = [
     "learch",
     "--dataset",
@@ -135,7 +92,7 @@ fn digest(output: &std::process::Output) -> String {
 
 #[test]
 fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
-    let uninterrupted = prepared();
+    let uninterrupted = prepared_workspace();
     let expected = digest(&imitate(
         uninterrupted.path(),
         &[&LONG_RUN[..], &["c"]].concat(),
@@ -149,7 +106,7 @@ fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
         0
     );
 
-    let ws = prepared();
+    let ws = prepared_workspace();
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_imitate"))
         .current_dir(ws.path())
         .args([&LONG_RUN[..], &["c"]].concat())

@@ -11,8 +11,7 @@ use super::bench::emit;
 use crate::error::{Error, Result};
 use crate::features::{FeatureSpec, Op, compute};
 use crate::grid::{FeatureStack, Grid, rasterize};
-use crate::ioc::{Example, LearchConfig, LossKind, StepSchedule, WeakLearnerKind, train};
-use crate::learn::TreeConfig;
+use crate::ioc::{Example, LearchConfig, WeakLearnerKind, train};
 use crate::plan::shortest_path;
 use crate::sim::{WorldConfig, generate_world};
 
@@ -117,16 +116,8 @@ pub fn run(args: LearchBenchArgs) -> Result<()> {
         .collect();
     let config = LearchConfig {
         rounds: 3,
-        step_size: 1.0,
-        schedule: StepSchedule::InverseSqrt,
-        ridge_lambda: 1e-3,
-        loss: 0.3,
-        loss_kind: LossKind::Hamming,
-        loss_sigma: 2.0,
-        schedule_offset: 1.0,
         weak_learner: args.weak_learner,
-        tree: TreeConfig::default(),
-        patience: None,
+        ..LearchConfig::default()
     };
     let all_threads = rayon::current_num_threads();
     let mut timings = Vec::new();

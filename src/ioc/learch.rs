@@ -90,6 +90,25 @@ pub struct LearchConfig {
     pub patience: Option<usize>,
 }
 
+impl Default for LearchConfig {
+    /// The quickstart's settings: 40 rounds of ridge LEARCH, α 1/√t, Hamming loss 0.3.
+    fn default() -> Self {
+        LearchConfig {
+            rounds: 40,
+            step_size: 1.0,
+            schedule: StepSchedule::InverseSqrt,
+            ridge_lambda: 1e-3,
+            loss: 0.3,
+            loss_kind: LossKind::Hamming,
+            loss_sigma: 2.0,
+            schedule_offset: 1.0,
+            weak_learner: WeakLearnerKind::Ridge,
+            tree: TreeConfig::default(),
+            patience: None,
+        }
+    }
+}
+
 impl LearchConfig {
     fn step(&self, t: usize) -> f64 {
         let t = t as f64;
@@ -488,19 +507,7 @@ mod tests {
     }
 
     fn config() -> LearchConfig {
-        LearchConfig {
-            rounds: 40,
-            step_size: 1.0,
-            schedule: StepSchedule::InverseSqrt,
-            ridge_lambda: 1e-3,
-            loss: 0.3,
-            loss_kind: LossKind::Hamming,
-            loss_sigma: 2.0,
-            schedule_offset: 1.0,
-            weak_learner: WeakLearnerKind::Ridge,
-            tree: TreeConfig::default(),
-            patience: None,
-        }
+        LearchConfig::default()
     }
 
     #[test]

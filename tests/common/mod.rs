@@ -81,3 +81,26 @@ pub fn quickstart_workspace() -> tempfile::TempDir {
     .unwrap();
     dir
 }
+
+/// A quickstart workspace with the dataset (`ds`) and features (`fs`) made by the CLI,
+/// for tests of what comes after them.
+pub fn prepared_workspace() -> tempfile::TempDir {
+    let ws = quickstart_workspace();
+    let mut ingest = vec![
+        "ingest",
+        "--demonstrations",
+        "testdata/world/demonstrations.parquet",
+    ];
+    let maps: Vec<String> = (0..4)
+        .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
+        .collect();
+    for map in &maps {
+        ingest.extend(["--map", map.as_str()]);
+    }
+    ingest.extend(["--out", "ds"]);
+    let out = imitate(ws.path(), &ingest);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = imitate(ws.path(), &["features", "--dataset", "ds", "--out", "fs"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    ws
+}

@@ -21,6 +21,13 @@ MSG: builtin_interfaces/Time
 int32 sec
 uint32 nanosec
 ";
+    const VECTOR3: &str = "\
+================================================================================
+MSG: geometry_msgs/Vector3
+float64 x
+float64 y
+float64 z
+";
     const POSE: &str = "\
 ================================================================================
 MSG: geometry_msgs/Pose
@@ -57,12 +64,7 @@ float64[36] covariance
 MSG: geometry_msgs/Twist
 Vector3 linear
 Vector3 angular
-================================================================================
-MSG: geometry_msgs/Vector3
-float64 x
-float64 y
-float64 z
-{HEADER}{POSE}"
+{VECTOR3}{HEADER}{POSE}"
         )
     }
 
@@ -110,12 +112,7 @@ Transform transform
 MSG: geometry_msgs/Transform
 Vector3 translation
 Quaternion rotation
-================================================================================
-MSG: geometry_msgs/Vector3
-float64 x
-float64 y
-float64 z
-{HEADER}{POSE}"
+{VECTOR3}{HEADER}{POSE}"
         )
     }
 
