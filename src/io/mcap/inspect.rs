@@ -151,6 +151,9 @@ fn read_summary(path: &Path, bytes: u64) -> Result<Option<McapReport>> {
         0 => footer_at,
         offset => offset.min(footer_at),
     };
+    if end <= footer.summary_start {
+        return Ok(None); // a footer that contradicts itself: scan instead
+    }
     let mut summary = vec![0u8; (end - footer.summary_start) as usize];
     file.seek(SeekFrom::Start(footer.summary_start))
         .map_err(io)?;
