@@ -210,3 +210,20 @@ fn bad_magic_is_not_mcap() {
         assert_input_error(&out, &["magic.mcap", "not an MCAP file"]);
     }
 }
+
+#[test]
+fn a_footer_that_contradicts_itself_is_read_by_scanning() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = chatter(dir.path(), "footer.mcap", 3);
+    let mut bytes = std::fs::read(&file).unwrap();
+    // Footer body (20 bytes) before the closing magic: summary start, summary offset
+    // start, CRC. Point the offsets before the summary.
+    let body = bytes.len() - 8 - 20;
+    bytes[body + 8..body + 16].copy_from_slice(&1u64.to_le_bytes());
+    std::fs::write(&file, bytes).unwrap();
+    let out = imitate(dir.path(), &["inspect", "--json", "footer.mcap"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(report["source"], "scan");
+    assert_eq!(report["message_count"], 3);
+}
