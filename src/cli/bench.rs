@@ -55,6 +55,9 @@ pub enum BenchCommand {
     /// Inverse optimal control methods on the GPIRL objectworld benchmark: expected value
     /// difference per method and number of demonstrations, over seeds.
     Objectworld(super::bench_objectworld::ObjectworldArgs),
+    /// Held-out path agreement of LEARCH (ridge, trees), MMP and MaxEnt on the
+    /// quickstart terrain and on a GeoTIFF terrain, as one table.
+    IocMethods(super::bench_ioc::IocMethodsArgs),
     /// One LEARCH round on many large examples, on 1 and on all threads, with the share
     /// spent planning.
     Learch(super::bench_learch::LearchBenchArgs),
@@ -114,6 +117,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
         BenchCommand::Ingest(args) => super::bench_ingest::run(args),
         BenchCommand::Learch(args) => super::bench_learch::run(args),
         BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
+        BenchCommand::IocMethods(args) => super::bench_ioc::run(args),
         BenchCommand::Hash {
             file,
             size_mib,

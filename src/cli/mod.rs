@@ -2,10 +2,12 @@
 
 mod bench;
 mod bench_ingest;
+mod bench_ioc;
 mod bench_learch;
 mod bench_objectworld;
 mod diff;
 mod export;
+mod forecast;
 mod log;
 mod mcap;
 mod plan;
@@ -94,6 +96,9 @@ pub enum Command {
     Report(report::ReportArgs),
     /// Plan the cheapest path between two points on a costmap.
     Plan(plan::PlanArgs),
+    /// Forecast where a partly walked path goes: the posterior over candidate
+    /// destinations and the expected visitation, under a MaxEnt costmap.
+    Forecast(forecast::ForecastArgs),
     /// Generate synthetic test data.
     #[command(subcommand)]
     Testdata(testdata::TestdataCommand),
@@ -184,6 +189,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Testdata(command) => testdata::run(command),
         Command::Bench(command) => bench::run(command),
         Command::Plan(args) => plan::run(args),
+        Command::Forecast(args) => forecast::run(args),
         Command::Log(args) => log::run(args),
         Command::Inspect(args) => mcap::inspect_command(args),
         Command::Cat(args) => mcap::cat_command(args),

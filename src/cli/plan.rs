@@ -56,7 +56,7 @@ struct PlanOutput {
 }
 
 /// Loads the costmap named by `path` (an artifact folder or a table) and its map name.
-fn load(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {
+pub(super) fn load(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {
     if !path.is_dir() {
         return read_costmap(path);
     }
@@ -103,37 +103,50 @@ fn parse_point(text: &str, what: &str) -> Result<[f64; 2]> {
     }
 }
 
+/// The open cell at `text` ("x,y" in metres, or "row,col" when `cells`) on the costmap
+/// read from `source`, or an error naming the map and the option `what`.
+pub(super) fn locate(
+    costs: &Grid<f32>,
+    name: &str,
+    source: &Path,
+    text: &str,
+    what: &str,
+    cells: bool,
+) -> Result<Cell> {
+    let geo = &costs.geo;
+    let [a, b] = parse_point(text, what)?;
+    let cell = if cells {
+        let inside = a >= 0.0 && b >= 0.0 && a.fract() == 0.0 && b.fract() == 0.0;
+        let cell = Cell::new(a as u32, b as u32);
+        (inside && geo.contains(cell)).then_some(cell)
+    } else {
+        geo.cell_of(a, b)
+    };
+    let cell = cell.ok_or_else(|| {
+        let [x0, y0, x1, y1] = geo.bounds();
+        Error::input(
+            source,
+            format!(
+                "--{what} {text} lies outside map '{name}' ({}x{} cells, x {x0}..{x1}, y {y0}..{y1})",
+                geo.width, geo.height
+            ),
+        )
+    })?;
+    let cost = costs.get(cell);
+    if !(cost.is_finite() && cost > 0.0) {
+        return Err(Error::input(
+            source,
+            format!("--{what} {text} is on a blocked cell {cell} (cost {cost})"),
+        ));
+    }
+    Ok(cell)
+}
+
 pub fn run(args: PlanArgs) -> Result<()> {
     let (name, costs) = load(&args.costmap, args.map.as_deref())?;
     let geo = &costs.geo;
-    let locate = |text: &str, what: &str| -> Result<Cell> {
-        let [a, b] = parse_point(text, what)?;
-        let cell = if args.cells {
-            let inside = a >= 0.0 && b >= 0.0 && a.fract() == 0.0 && b.fract() == 0.0;
-            let cell = Cell::new(a as u32, b as u32);
-            (inside && geo.contains(cell)).then_some(cell)
-        } else {
-            geo.cell_of(a, b)
-        };
-        let cell = cell.ok_or_else(|| {
-            let [x0, y0, x1, y1] = geo.bounds();
-            Error::input(
-                &args.costmap,
-                format!(
-                    "--{what} {text} lies outside map '{name}' ({}x{} cells, x {x0}..{x1}, y {y0}..{y1})",
-                    geo.width, geo.height
-                ),
-            )
-        })?;
-        let cost = costs.get(cell);
-        if !(cost.is_finite() && cost > 0.0) {
-            return Err(Error::input(
-                &args.costmap,
-                format!("--{what} {text} is on a blocked cell {cell} (cost {cost})"),
-            ));
-        }
-        Ok(cell)
-    };
+    let locate =
+        |text: &str, what: &str| locate(&costs, &name, &args.costmap, text, what, args.cells);
     let (start, goal) = (locate(&args.start, "start")?, locate(&args.goal, "goal")?);
     let moves = Moves {
         connectivity: args.connectivity,

@@ -31,6 +31,17 @@ pub struct GeoRef {
 }
 
 impl GeoRef {
+    /// A grid of 1 m cells at the origin of frame "map" (for tests and synthetic data).
+    pub fn unit(width: u32, height: u32) -> Self {
+        GeoRef {
+            width,
+            height,
+            resolution: 1.0,
+            origin: [0.0, 0.0],
+            frame: "map".into(),
+        }
+    }
+
     pub fn cell_count(&self) -> usize {
         self.width as usize * self.height as usize
     }

@@ -68,6 +68,16 @@ impl Table {
         name: "learned-reward",
         major: 1,
     };
+    /// A forecast's expected visits per cell (`imitate forecast`).
+    pub const FORECAST_VISITATION: Table = Table {
+        name: "forecast-visitation",
+        major: 1,
+    };
+    /// A forecast's posterior over candidate destinations.
+    pub const FORECAST_DESTINATIONS: Table = Table {
+        name: "forecast-destinations",
+        major: 1,
+    };
 
     pub fn tag(&self) -> String {
         format!("{}/{}", self.name, self.major)

@@ -9,6 +9,19 @@
 //! their agreement has not improved for that many rounds and keeps the best round; the
 //! held-out examples are only ever measured.
 //!
+//! The same trainer (rounds, schedules, validation and early stopping, checkpoints)
+//! also runs the two classic alternatives on grids, chosen by `GridMethod`:
+//! - MMP (Ratliff, Bagnell & Zinkevich 2006): a linear cost 1 + w·f, loss-augmented
+//!   planning, and the regularised subgradient w ← w − α(λw + Φ(demo) − Φ(plan)), Φ the
+//!   path's feature counts weighted as the planner weighs cells (half a step's length to
+//!   each end of every step);
+//! - MaxEnt IOC (Ziebart et al. 2008): a log-linear cost, the soft backward pass and the
+//!   expected visitation forward (`soft_paths`, within a horizon), and the gradient of
+//!   the demonstrations' log-likelihood, expected minus demonstrated cost-weighted counts.
+//!
+//! Their rounds are linear updates, kept as ridge-kind learners, so the artifact,
+//! checkpoints and resuming are LEARCH's.
+//!
 //! Examples are planned in parallel; each returns its own sufficient statistics, and
 //! they are merged in example order, so the result does not depend on the thread count.
 
@@ -18,10 +31,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::metrics::{Agreement, evaluate_example, summarize};
-use super::model::{LogCostModel, WeakLearner};
+use super::model::{CostLink, LogCostModel, WeakLearner};
+use super::soft_paths::{SoftGoal, Window, path_incidence};
 use crate::error::first_error_in_order;
 use crate::features::distance_transform;
-use crate::grid::{CellPath, FeatureStack, Grid};
+use crate::grid::{Cell, CellPath, FeatureStack, Grid};
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
 use crate::plan::{loss_augmented, path_cost, shortest_path};
 
@@ -48,6 +62,35 @@ pub enum StepSchedule {
     InverseLinear,
 }
 
+/// Which inverse-optimal-control method learns the costmap.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum GridMethod {
+    /// Functional-gradient boosting of the log-cost with a weak learner.
+    Learch,
+    /// Maximum-margin planning: linear cost, regularised subgradient.
+    Mmp,
+    /// Maximum-entropy IOC: log-linear cost, likelihood gradient.
+    Maxent,
+}
+
+impl GridMethod {
+    pub fn name(self) -> &'static str {
+        match self {
+            GridMethod::Learch => "learch",
+            GridMethod::Mmp => "mmp",
+            GridMethod::Maxent => "maxent",
+        }
+    }
+
+    fn link(self) -> CostLink {
+        match self {
+            GridMethod::Mmp => CostLink::Linear,
+            GridMethod::Learch | GridMethod::Maxent => CostLink::Exp,
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum WeakLearnerKind {
@@ -69,6 +112,7 @@ pub enum LossKind {
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct LearchConfig {
+    pub method: GridMethod,
     pub rounds: usize,
     pub step_size: f64,
     pub schedule: StepSchedule,
@@ -88,12 +132,17 @@ pub struct LearchConfig {
     pub tree: TreeConfig,
     /// Stop when validation agreement has not improved for this many rounds.
     pub patience: Option<usize>,
+    /// MaxEnt: paths may take up to this many times the demonstration's steps.
+    pub horizon_factor: f64,
+    /// MaxEnt: cells around a demonstration's bounding box that its paths may use.
+    pub window_margin: u32,
 }
 
 impl Default for LearchConfig {
     /// The quickstart's settings: 40 rounds of ridge LEARCH, α 1/√t, Hamming loss 0.3.
     fn default() -> Self {
         LearchConfig {
+            method: GridMethod::Learch,
             rounds: 40,
             step_size: 1.0,
             schedule: StepSchedule::InverseSqrt,
@@ -105,6 +154,8 @@ impl Default for LearchConfig {
             weak_learner: WeakLearnerKind::Ridge,
             tree: TreeConfig::default(),
             patience: None,
+            horizon_factor: 1.5,
+            window_margin: 6,
         }
     }
 }
@@ -155,10 +206,14 @@ pub struct TrainedLearch {
     pub kept_round: usize,
 }
 
-/// Per-example contribution to a round: the ridge statistics, or the points for a tree.
+/// Per-example contribution to a round: the ridge statistics or the points for a tree
+/// (LEARCH), or the direction of a linear step on the scaled weights (MMP, MaxEnt).
 struct ExampleGradient {
     data: RidgeAccumulator,
     points: Vec<(Vec<f64>, f64, f64)>,
+    direction: Vec<f64>,
+    /// The demonstration's steps, which MMP and MaxEnt divide their steps by.
+    steps: usize,
     loss: f64,
     disagreeing_cells: usize,
 }
@@ -223,7 +278,13 @@ pub fn train(
             names, bad.names
         ));
     }
-    let mut model = LogCostModel::zero(names, feature_scales(stacks));
+    if config.method != GridMethod::Learch && config.weak_learner != WeakLearnerKind::Ridge {
+        return Err(format!(
+            "{} learns a linear cost; weak learners are LEARCH's",
+            config.method.name()
+        ));
+    }
+    let mut model = LogCostModel::zero_with(names, feature_scales(stacks), config.method.link());
     let Progress {
         learners: resumed,
         rounds: resumed_rounds,
@@ -275,15 +336,34 @@ pub fn train(
             .collect::<Vec<_>>();
         let gradients = first_error_in_order(gradients)?;
         let step = config.step(t);
-        let learner = match config.weak_learner {
-            WeakLearnerKind::Ridge => {
+        let learner = match (config.method, config.weak_learner) {
+            (GridMethod::Mmp | GridMethod::Maxent, _) => {
+                // The mean over demonstrated steps, plus the ridge penalty's pull.
+                let steps = gradients.iter().map(|g| g.steps).sum::<usize>().max(1) as f64;
+                let weights = model.scaled_weights();
+                let mut direction: Vec<f64> = (0..weights.len())
+                    .map(|j| {
+                        gradients.iter().map(|g| g.direction[j]).sum::<f64>() / steps
+                            - config.ridge_lambda * weights[j]
+                    })
+                    .collect();
+                // At most a unit step in the scaled weights (MMP, MaxEnt): MaxEnt's gradient grows
+                // with the cost it multiplies, and would otherwise overshoot into
+                // ever larger costs.
+                let norm = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+                if norm > 1.0 {
+                    direction.iter_mut().for_each(|d| *d /= norm);
+                }
+                WeakLearner::ridge(step, direction)
+            }
+            (GridMethod::Learch, WeakLearnerKind::Ridge) => {
                 let mut data = RidgeAccumulator::new(model.feature_names.len());
                 for g in &gradients {
                     data.merge(&g.data);
                 }
                 WeakLearner::ridge(step, data.solve(config.ridge_lambda))
             }
-            WeakLearnerKind::Tree => {
+            (GridMethod::Learch, WeakLearnerKind::Tree) => {
                 let dims = model.feature_names.len();
                 let points = gradients.iter().flat_map(|g| &g.points);
                 let (mut x, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
@@ -336,6 +416,20 @@ pub fn train(
     })
 }
 
+/// Splits examples into (training, held out), holding out every `k`-th from the first:
+/// a split without randomness, for tests and benchmarks.
+pub fn hold_out_every(examples: Vec<Example>, k: usize) -> (Vec<Example>, Vec<Example>) {
+    let (mut training, mut holdout) = (Vec::new(), Vec::new());
+    for (i, example) in examples.into_iter().enumerate() {
+        if i % k.max(1) == 0 {
+            holdout.push(example)
+        } else {
+            training.push(example)
+        }
+    }
+    (training, holdout)
+}
+
 /// Plans every example on the model's costmap and compares with its demonstration.
 pub fn evaluate(
     model: &LogCostModel,
@@ -378,6 +472,52 @@ fn example_gradient(
     shares: &[f32],
     config: &LearchConfig,
 ) -> Result<ExampleGradient, String> {
+    match config.method {
+        GridMethod::Learch | GridMethod::Mmp => {
+            planned_gradient(model, stack, costs, ex, shares, config)
+        }
+        GridMethod::Maxent => maxent_gradient(model, stack, costs, ex, config),
+    }
+}
+
+/// Steps a path takes (cells − 1).
+fn steps(path: &[Cell]) -> usize {
+    path.len().saturating_sub(1)
+}
+
+/// Σ_cells weight(cell) · scaled features(cell), over (map index, weight) pairs.
+fn weighted_features(
+    model: &LogCostModel,
+    stack: &FeatureStack,
+    weights: impl Iterator<Item = (usize, f64)>,
+) -> Vec<f64> {
+    let mut total = vec![0.0; stack.dim()];
+    let mut raw = vec![0.0f32; stack.dim()];
+    let mut x = vec![0.0; stack.dim()];
+    for (i, weight) in weights {
+        if weight == 0.0 {
+            continue;
+        }
+        stack.cell_into(i, &mut raw);
+        model.scaled(&raw, &mut x);
+        for (t, v) in total.iter_mut().zip(&x) {
+            *t += weight * v;
+        }
+    }
+    total
+}
+
+/// LEARCH and MMP: plan on the loss-augmented costmap and compare with the
+/// demonstration, cell visits for LEARCH's weak learner, weighted feature counts for
+/// MMP's subgradient.
+fn planned_gradient(
+    model: &LogCostModel,
+    stack: &FeatureStack,
+    costs: &Grid<f32>,
+    ex: &Example,
+    shares: &[f32],
+    config: &LearchConfig,
+) -> Result<ExampleGradient, String> {
     let loss = config.loss;
     let geo = &stack.geo;
     // μ: how often the demonstration visits each cell.
@@ -404,26 +544,94 @@ fn example_gradient(
     }
     let mut data = RidgeAccumulator::new(stack.dim());
     let mut points = Vec::new();
+    let mut direction = Vec::new();
     let mut raw = vec![0.0f32; stack.dim()];
     let mut x = vec![0.0; stack.dim()];
-    let mut disagreeing_cells = 0;
-    for (&i, &difference) in &visits {
-        if difference == 0 {
-            continue;
+    let disagreeing_cells = visits.values().filter(|&&d| d != 0).count();
+    if config.method == GridMethod::Mmp {
+        // Φ(plan) − Φ(demo), each step's length split between its two cells.
+        let mut incidence: BTreeMap<usize, f64> = BTreeMap::new();
+        for (path, sign) in [(&route.cells, 1.0), (&ex.path, -1.0)] {
+            for pair in path.windows(2) {
+                let diagonal = pair[0].row != pair[1].row && pair[0].col != pair[1].col;
+                let half = if diagonal {
+                    std::f64::consts::FRAC_1_SQRT_2
+                } else {
+                    0.5
+                };
+                for cell in pair {
+                    *incidence.entry(geo.index(*cell)).or_default() += sign * half;
+                }
+            }
         }
-        disagreeing_cells += 1;
-        stack.cell_into(i, &mut raw);
-        model.scaled(&raw, &mut x);
-        let (target, weight) = (difference.signum() as f64, difference.unsigned_abs() as f64);
-        match config.weak_learner {
-            WeakLearnerKind::Ridge => data.add(&x, target, weight),
-            WeakLearnerKind::Tree => points.push((x.clone(), target, weight)),
+        direction = weighted_features(model, stack, incidence.into_iter());
+    } else {
+        for (&i, &difference) in &visits {
+            if difference == 0 {
+                continue;
+            }
+            stack.cell_into(i, &mut raw);
+            model.scaled(&raw, &mut x);
+            let (target, weight) = (difference.signum() as f64, difference.unsigned_abs() as f64);
+            match config.weak_learner {
+                WeakLearnerKind::Ridge => data.add(&x, target, weight),
+                WeakLearnerKind::Tree => points.push((x.clone(), target, weight)),
+            }
         }
     }
     Ok(ExampleGradient {
         data,
         points,
+        direction,
+        steps: steps(&ex.path),
         loss: ((demo_cost - route.cost) / demo_cost.max(f64::MIN_POSITIVE)).max(0.0),
+        disagreeing_cells,
+    })
+}
+
+/// MaxEnt: expected minus demonstrated cost-weighted feature counts (the gradient of
+/// the log-likelihood with respect to the log-linear weights: ∂c/∂w = c · f), within a
+/// window around the demonstration and a horizon of `horizon_factor` times its steps.
+/// The loss reported is the negative log-likelihood per step.
+fn maxent_gradient(
+    model: &LogCostModel,
+    stack: &FeatureStack,
+    costs: &Grid<f32>,
+    ex: &Example,
+    config: &LearchConfig,
+) -> Result<ExampleGradient, String> {
+    let geo = &stack.geo;
+    let (start, goal) = (ex.path[0], ex.path[ex.path.len() - 1]);
+    let window = Window::around(&ex.path, config.window_margin, geo.width, geo.height);
+    let horizon = ((steps(&ex.path) as f64 * config.horizon_factor).ceil() as usize)
+        .max(steps(&ex.path))
+        .max(1);
+    let soft = SoftGoal::new(costs, window, goal, horizon);
+    let log_partition = -soft.value(start);
+    if !log_partition.is_finite() {
+        return Err(unreachable(ex));
+    }
+    let expected = soft.visitation(start);
+    let demonstrated = path_incidence(&window, &ex.path);
+    let cost_at = |i: usize| f64::from(costs.get(window.cell(i)));
+    let direction = weighted_features(
+        model,
+        stack,
+        (0..window.len()).map(|i| {
+            let difference = expected.incidence[i] - demonstrated[i];
+            (geo.index(window.cell(i)), difference * cost_at(i))
+        }),
+    );
+    let demo_cost = path_cost(costs, &ex.path);
+    let disagreeing_cells = (0..window.len())
+        .filter(|&i| (expected.visits[i] > 0.5) != (demonstrated[i] > 0.0))
+        .count();
+    Ok(ExampleGradient {
+        data: RidgeAccumulator::new(stack.dim()),
+        points: Vec::new(),
+        direction,
+        steps: steps(&ex.path),
+        loss: (demo_cost + log_partition) / steps(&ex.path).max(1) as f64,
         disagreeing_cells,
     })
 }
@@ -510,18 +718,24 @@ mod tests {
         LearchConfig::default()
     }
 
+    /// The small world with every fourth demonstration held out:
+    /// (stacks, map names, training, held out, true costs).
+    #[allow(clippy::type_complexity)]
+    fn held_out_world() -> (
+        Vec<FeatureStack>,
+        Vec<String>,
+        Vec<Example>,
+        Vec<Example>,
+        Vec<Grid<f32>>,
+    ) {
+        let (stacks, names, examples, truth) = small_world();
+        let (training, holdout) = hold_out_every(examples, 4);
+        (stacks, names, training, holdout, truth)
+    }
+
     #[test]
     fn learns_costs_whose_plans_match_held_out_demonstrations() {
-        let (stacks, names, examples, truth) = small_world();
-        // Every fourth demonstration is held out.
-        let (mut training, mut holdout) = (Vec::new(), Vec::new());
-        for (i, example) in examples.into_iter().enumerate() {
-            if i % 4 == 0 {
-                holdout.push(example)
-            } else {
-                training.push(example)
-            }
-        }
+        let (stacks, names, training, holdout, truth) = held_out_world();
         let trained = train(
             &stacks,
             &names,
@@ -562,15 +776,7 @@ mod tests {
 
     #[test]
     fn tree_learners_learn_and_early_stopping_keeps_the_best_round() {
-        let (stacks, names, examples, truth) = small_world();
-        let (mut training, mut holdout) = (Vec::new(), Vec::new());
-        for (i, example) in examples.into_iter().enumerate() {
-            if i % 4 == 0 {
-                holdout.push(example)
-            } else {
-                training.push(example)
-            }
-        }
+        let (stacks, names, mut training, holdout, truth) = held_out_world();
         let config = LearchConfig {
             weak_learner: WeakLearnerKind::Tree,
             loss_kind: LossKind::Dilated,
@@ -610,6 +816,92 @@ mod tests {
         );
     }
 
+    /// Trains on all `examples`, with nothing held out or validated.
+    fn train_without_evaluation(
+        stacks: &[FeatureStack],
+        names: &[String],
+        examples: &[Example],
+        config: &LearchConfig,
+    ) -> Result<TrainedLearch, String> {
+        train(
+            stacks,
+            names,
+            examples,
+            &[],
+            &[],
+            None,
+            config,
+            None,
+            |_| {},
+        )
+    }
+
+    /// Trains `method` on three quarters of the small world and measures the rest.
+    fn learn_with(method: GridMethod, rounds: usize) -> TrainedLearch {
+        let (stacks, names, training, holdout, truth) = held_out_world();
+        let config = LearchConfig {
+            method,
+            rounds,
+            ..config()
+        };
+        train(
+            &stacks,
+            &names,
+            &training,
+            &[],
+            &holdout,
+            Some(&truth),
+            &config,
+            None,
+            |_| {},
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn mmp_learns_a_linear_cost_that_plans_like_the_demonstrations() {
+        let trained = learn_with(GridMethod::Mmp, 20);
+        assert_eq!(trained.model.link, CostLink::Linear);
+        let (first, last) = (&trained.rounds[0], trained.rounds.last().unwrap());
+        assert!(
+            last.training_loss < first.training_loss,
+            "{first:?} -> {last:?}"
+        );
+        let agreement = last.holdout.clone().unwrap();
+        assert!(agreement.within_radius >= 0.85, "{agreement:?}");
+        assert!(trained.model.learners.iter().all(|l| l.tree.is_none()));
+    }
+
+    #[test]
+    fn maxent_raises_the_likelihood_and_plans_like_the_demonstrations() {
+        let trained = learn_with(GridMethod::Maxent, 15);
+        assert_eq!(trained.model.link, CostLink::Exp);
+        // The loss is the negative log-likelihood per step: it must fall.
+        let (first, last) = (&trained.rounds[0], trained.rounds.last().unwrap());
+        assert!(
+            last.training_loss < 0.5 * first.training_loss,
+            "{first:?} -> {last:?}"
+        );
+        let agreement = last.holdout.clone().unwrap();
+        assert!(agreement.within_radius >= 0.85, "{agreement:?}");
+        assert!(
+            agreement.mean_reference_cost_ratio.unwrap() <= 1.1,
+            "{agreement:?}"
+        );
+    }
+
+    #[test]
+    fn weak_learners_other_than_ridge_are_refused_for_mmp_and_maxent() {
+        let (stacks, names, examples, _) = small_world();
+        let config = LearchConfig {
+            method: GridMethod::Maxent,
+            weak_learner: WeakLearnerKind::Tree,
+            ..config()
+        };
+        let refused = train_without_evaluation(&stacks, &names, &examples, &config);
+        assert!(refused.unwrap_err().contains("linear cost"));
+    }
+
     #[test]
     fn the_dilated_loss_grows_with_distance_from_the_demonstration() {
         let (stacks, _, examples, _) = small_world();
@@ -646,19 +938,9 @@ mod tests {
                 .build()
                 .unwrap();
             pool.install(|| {
-                train(
-                    &stacks,
-                    &names,
-                    &examples,
-                    &[],
-                    &[],
-                    None,
-                    &config,
-                    None,
-                    |_| {},
-                )
-                .unwrap()
-                .model
+                train_without_evaluation(&stacks, &names, &examples, &config)
+                    .unwrap()
+                    .model
             })
         };
         assert_eq!(run(1), run(2));

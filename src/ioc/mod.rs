@@ -4,11 +4,12 @@ mod learch;
 mod metrics;
 mod model;
 pub mod objectworld;
+pub mod soft_paths;
 pub mod tabular;
 
 pub use learch::{
-    Example, LearchConfig, LossKind, Progress, RoundMetrics, StepSchedule, TrainedLearch,
-    WeakLearnerKind, evaluate as learch_evaluate, train,
+    Example, GridMethod, LearchConfig, LossKind, Progress, RoundMetrics, StepSchedule,
+    TrainedLearch, WeakLearnerKind, evaluate as learch_evaluate, hold_out_every, train,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
-pub use model::{LogCostModel, WeakLearner};
+pub use model::{CostLink, LogCostModel, WeakLearner};

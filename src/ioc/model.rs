@@ -1,5 +1,7 @@
-//! The learned cost function: c(f) = exp(s(f)), s a sum of weighted weak learners
-//! (linear ridge regressors or regression trees) of the scaled features.
+//! The learned cost function: c(f) = link(s(f)), s a sum of weighted weak learners
+//! (linear ridge regressors or regression trees) of the scaled features, and the link
+//! exp (LEARCH, MaxEnt: costs stay positive whatever s is) or 1 + s floored at a small
+//! positive cost (MMP's linear cost).
 
 use serde::{Deserialize, Serialize};
 
@@ -8,6 +10,34 @@ use crate::learn::RegressionTree;
 
 /// Log-costs are clamped to this range so that exp() stays a finite, positive f32.
 const LOG_COST_LIMIT: f64 = 40.0;
+
+/// The least cost of a linear model, so that every cell stays passable.
+pub const LINEAR_COST_FLOOR: f64 = 1e-3;
+
+/// How the sum s of the learners becomes a cost. Either way the zero model costs 1
+/// everywhere.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CostLink {
+    /// c = exp(s)
+    #[default]
+    Exp,
+    /// c = max(1 + s, LINEAR_COST_FLOOR)
+    Linear,
+}
+
+impl CostLink {
+    pub fn cost(self, s: f64) -> f64 {
+        match self {
+            CostLink::Exp => s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT).exp(),
+            CostLink::Linear => (1.0 + s).clamp(LINEAR_COST_FLOOR, f64::from(f32::MAX)),
+        }
+    }
+
+    fn is_exp(&self) -> bool {
+        *self == CostLink::Exp
+    }
+}
 
 /// One boosting round's regressor h_t on scaled features, and its step α_t: `kind`
 /// "ridge" with `weights`, or "tree" with `tree`.
@@ -54,18 +84,36 @@ pub struct LogCostModel {
     pub learners: Vec<WeakLearner>,
     /// The linear learners' part of s: Σ_j raw_weights[j] · f_j.
     pub raw_weights: Vec<f64>,
+    /// Left out of the artifact when exp, so that earlier artifacts read the same.
+    #[serde(default, skip_serializing_if = "CostLink::is_exp")]
+    pub link: CostLink,
 }
 
 impl LogCostModel {
-    /// The zero log-cost (cost 1 everywhere) over scaled features.
+    /// The zero model (cost 1 everywhere) over scaled features, with the exp link.
     pub fn zero(feature_names: Vec<String>, scale: Vec<f64>) -> Self {
+        Self::zero_with(feature_names, scale, CostLink::Exp)
+    }
+
+    pub fn zero_with(feature_names: Vec<String>, scale: Vec<f64>, link: CostLink) -> Self {
         let dim = feature_names.len();
         LogCostModel {
             feature_names,
             scale,
             learners: Vec::new(),
             raw_weights: vec![0.0; dim],
+            link,
         }
+    }
+
+    /// The linear learners' weights on scaled features (what a gradient step on the
+    /// scaled features moves).
+    pub fn scaled_weights(&self) -> Vec<f64> {
+        self.raw_weights
+            .iter()
+            .zip(&self.scale)
+            .map(|(w, s)| w * s)
+            .collect()
     }
 
     /// Appends α h; a linear h is folded into the raw weights.
@@ -80,7 +128,8 @@ impl LogCostModel {
 
     /// The model of the first `rounds` learners (what early stopping keeps).
     pub fn truncated(&self, rounds: usize) -> Self {
-        let mut model = LogCostModel::zero(self.feature_names.clone(), self.scale.clone());
+        let mut model =
+            LogCostModel::zero_with(self.feature_names.clone(), self.scale.clone(), self.link);
         for learner in self.learners.iter().take(rounds) {
             model.push(learner.clone());
         }
@@ -100,6 +149,7 @@ impl LogCostModel {
         }
     }
 
+    /// s(f), before the link (clamped for the exp link).
     pub fn log_cost(&self, raw: &[f32]) -> f64 {
         let mut s: f64 = raw
             .iter()
@@ -117,8 +167,8 @@ impl LogCostModel {
         s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT)
     }
 
-    /// Evaluates exp(s) on every cell of a feature stack, plane by plane (the same sum,
-    /// in the same order, as `log_cost`).
+    /// Evaluates link(s) on every cell of a feature stack, plane by plane (the same
+    /// sum, in the same order, as `log_cost`).
     pub fn costmap(&self, stack: &FeatureStack) -> Grid<f32> {
         let mut log_cost = vec![0.0f64; stack.geo.cell_count()];
         for (&w, plane) in self.raw_weights.iter().zip(stack.planes()) {
@@ -137,10 +187,7 @@ impl LogCostModel {
                     .sum::<f64>();
             }
         }
-        let data = log_cost
-            .iter()
-            .map(|s| s.clamp(-LOG_COST_LIMIT, LOG_COST_LIMIT).exp() as f32)
-            .collect();
+        let data = log_cost.iter().map(|&s| self.link.cost(s) as f32).collect();
         Grid::from_vec(stack.geo.clone(), data)
     }
 }

@@ -546,14 +546,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn grid(width: u32, height: u32, data: Vec<f32>) -> Grid<f32> {
-        let geo = GeoRef {
-            width,
-            height,
-            resolution: 1.0,
-            origin: [0.0, 0.0],
-            frame: "map".into(),
-        };
-        Grid::from_vec(geo, data)
+        Grid::from_vec(GeoRef::unit(width, height), data)
     }
 
     fn step_allowed(costs: &Grid<f32>, a: Cell, b: Cell, moves: Moves) -> bool {

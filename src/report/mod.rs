@@ -6,4 +6,5 @@ pub mod export;
 pub mod picture;
 mod preview;
 
+pub use picture::paint_heat;
 pub use preview::{COLOUR_BOTH, COLOUR_DEMONSTRATION, COLOUR_PLAN, Preview, render_preview};

@@ -1,7 +1,7 @@
 //! Pictures people read: costmaps on a shared colour scale, signed difference heat maps,
 //! colour bars, pictures side by side and simple line plots. All north up.
 
-use crate::grid::Grid;
+use crate::grid::{Cell, Grid};
 use crate::io::png::Rgb;
 
 use super::preview::viridis;
@@ -48,6 +48,17 @@ pub fn paint_costs(costs: &Grid<f32>, range: (f32, f32), scale: u32) -> Rgb {
     paint(costs.geo.width, costs.geo.height, scale, |i| {
         viridis((costs.data[i].max(f32::MIN_POSITIVE).ln() - lo) / (hi - lo))
     })
+}
+
+/// A non-negative quantity per cell (visits, probabilities) in viridis from 0 to its
+/// largest value, with some cells painted over in their own colours.
+pub fn paint_heat(values: &Grid<f32>, marks: &[(Cell, [u8; 3])], scale: u32) -> Rgb {
+    let top = values.data.iter().fold(0.0f32, |m, &v| m.max(v)).max(1e-12);
+    let mut colours: Vec<[u8; 3]> = values.data.iter().map(|&v| viridis(v / top)).collect();
+    for &(cell, colour) in marks {
+        colours[values.geo.index(cell)] = colour;
+    }
+    paint(values.geo.width, values.geo.height, scale, |i| colours[i])
 }
 
 /// Blue where `new` is cheaper than `old`, red where costlier, white where equal; full

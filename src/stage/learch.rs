@@ -20,13 +20,14 @@ use crate::io::tables::{
     EpisodePath, read_costmap, read_features, read_paths, write_costmap, write_paths,
 };
 use crate::ioc::{
-    self, Example, ExampleEvaluation, LearchConfig, LossKind, StepSchedule, WeakLearnerKind,
+    self, Example, ExampleEvaluation, GridMethod, LearchConfig, LossKind, StepSchedule,
+    WeakLearnerKind,
 };
 use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
-const VERSION: u32 = 3;
+const VERSION: u32 = 4;
 
 mod defaults {
     pub fn rounds() -> usize {
@@ -65,6 +66,15 @@ mod defaults {
     pub fn schedule_offset() -> f64 {
         1.0
     }
+    pub fn method() -> crate::ioc::GridMethod {
+        crate::ioc::GridMethod::Learch
+    }
+    pub fn horizon_factor() -> f64 {
+        1.5
+    }
+    pub fn window_margin() -> u32 {
+        6
+    }
 }
 
 /// Parameters of `imitate learch` and of `uses: learch`.
@@ -80,7 +90,12 @@ pub struct LearchParams {
     /// The costmap artifact folder to write.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Boosting rounds T.
+    /// The method: LEARCH (boosted log-cost), MMP (linear cost, subgradient) or MaxEnt
+    /// IOC (log-linear cost, likelihood gradient). All write the same artifact.
+    #[arg(long, value_enum, default_value_t = defaults::method())]
+    #[serde(default = "defaults::method")]
+    pub method: GridMethod,
+    /// Rounds T (boosting rounds, or gradient steps for MMP and MaxEnt).
     #[arg(long, default_value_t = defaults::rounds())]
     #[serde(default = "defaults::rounds")]
     pub rounds: usize,
@@ -122,6 +137,14 @@ pub struct LearchParams {
     #[arg(long, default_value_t = defaults::loss_sigma())]
     #[serde(default = "defaults::loss_sigma")]
     pub loss_sigma: f64,
+    /// MaxEnt: paths may take up to this many times a demonstration's steps.
+    #[arg(long, default_value_t = defaults::horizon_factor())]
+    #[serde(default = "defaults::horizon_factor")]
+    pub horizon_factor: f64,
+    /// MaxEnt: cells around a demonstration's bounding box that its paths may use.
+    #[arg(long, default_value_t = defaults::window_margin())]
+    #[serde(default = "defaults::window_margin")]
+    pub window_margin: u32,
     /// Fraction of the (not held-out) demonstrations set aside for validation, which
     /// early stopping watches.
     #[arg(long, default_value_t = 0.0)]
@@ -180,6 +203,12 @@ impl LearchParams {
         }
         if !(self.schedule_offset.is_finite() && self.schedule_offset >= 0.0) {
             return bad("schedule_offset must be >= 0");
+        }
+        if self.method != GridMethod::Learch && self.weak_learner != WeakLearnerKind::Ridge {
+            return bad("weak_learner is LEARCH's; mmp and maxent learn a linear model");
+        }
+        if !(self.horizon_factor.is_finite() && self.horizon_factor >= 1.0) {
+            return bad("horizon_factor must be at least 1");
         }
         if self.tree_depth == 0 || self.tree_depth > 16 {
             return bad("tree_depth must be in 1..=16");
@@ -318,6 +347,9 @@ impl Stage for LearchParams {
         let (training, holdout) = split(examples, self.holdout, self.seed);
         let (training, validation) = split(training, self.validation, self.seed.wrapping_add(1));
         let config = LearchConfig {
+            method: self.method,
+            horizon_factor: self.horizon_factor,
+            window_margin: self.window_margin,
             rounds: self.rounds,
             step_size: self.step_size,
             schedule: self.schedule,
@@ -386,7 +418,7 @@ impl Stage for LearchParams {
         let (validation_eval, holdout_eval) = rest.split_at(validation.len());
 
         let mut out = ArtifactBuilder::new(&self.out)?;
-        let model_json = serde_json::json!({ "kind": "learch", "feature_spec": feature_spec, "feature_names": model.feature_names, "cost": model });
+        let model_json = serde_json::json!({ "kind": self.method.name(), "feature_spec": feature_spec, "feature_names": model.feature_names, "cost": model });
         write_bytes_atomic(
             &out.file("model.json", "model")?,
             &to_json_bytes(&model_json),

@@ -1,0 +1,333 @@
+//! `imitate bench ioc-methods`: held-out path agreement of every grid IOC method
+//! (LEARCH with ridge and with trees, MMP, MaxEnt) on two terrains, trained and measured
+//! the same way, as one table:
+//! - `quickstart`: the synthetic world of `testdata/world` (4 maps of 64², log-linear
+//!   true cost), with the quickstart's features;
+//! - `geotiff`: a real raster (by default `../shared/data/raster/rasterio_shade.tif`,
+//!   a hillshade mask: shadow cells hold 0, the rest no data) as the layer `shade`, the
+//!   share of shadow cells in blocks that make about `--cells` cells a side, with a
+//!   teacher whose cost is not log-linear in the features: 1 + 7 · shade, plus 3 within
+//!   3 cells of a mostly shaded cell (a margin the features only give as a distance).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::bench::emit;
+use crate::error::{Error, Result};
+use crate::features::{FeatureSpec, Op, compute};
+use crate::grid::{Cell, FeatureStack, GeoRef, Grid, Layer, Map, rasterize};
+use crate::io::geotiff::read_geotiff;
+use crate::ioc::{
+    Example, GridMethod, LearchConfig, WeakLearnerKind, hold_out_every, learch_evaluate, summarize,
+    train,
+};
+use crate::learn::TreeConfig;
+use crate::plan::shortest_path;
+use crate::sim::{WorldConfig, generate_world};
+
+#[derive(Debug, clap::Args)]
+pub struct IocMethodsArgs {
+    /// The raster of the second terrain (its first band is the layer).
+    #[arg(long, default_value = "../shared/data/raster/rasterio_shade.tif")]
+    pub geotiff: PathBuf,
+    /// Cells a side of the raster terrain after block averaging.
+    #[arg(long, default_value_t = 96)]
+    pub cells: u32,
+    /// Teacher demonstrations on the raster terrain.
+    #[arg(long, default_value_t = 40)]
+    pub demonstrations: usize,
+    #[arg(long, default_value_t = 40)]
+    pub rounds: usize,
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// One terrain's maps, features, demonstrations split into training and held out, and
+/// true costs.
+struct Terrain {
+    name: &'static str,
+    names: Vec<String>,
+    stacks: Vec<FeatureStack>,
+    training: Vec<Example>,
+    holdout: Vec<Example>,
+    truth: Vec<Grid<f32>>,
+}
+
+#[derive(Serialize)]
+struct MethodResult {
+    terrain: &'static str,
+    method: &'static str,
+    held_out: usize,
+    within_radius: f64,
+    mean_cost_ratio: f64,
+    max_cost_ratio: f64,
+    seconds: f64,
+}
+
+#[derive(Serialize)]
+struct IocMethodsReport {
+    schema: &'static str,
+    rounds: usize,
+    results: Vec<MethodResult>,
+}
+
+fn op(json: serde_json::Value) -> Op {
+    serde_json::from_value(json).expect("a valid operator")
+}
+
+fn quickstart() -> Result<Terrain> {
+    let world = generate_world(&WorldConfig::default()).map_err(Error::Failed)?;
+    let spec = FeatureSpec {
+        layers: Some(
+            ["elevation", "vegetation", "water", "road"]
+                .map(String::from)
+                .to_vec(),
+        ),
+        ops: Vec::new(),
+        bias: true,
+        nodata_fill: 0.0,
+    };
+    let stacks = world
+        .maps
+        .iter()
+        .map(|m| compute(m, &spec))
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(Error::Failed)?;
+    let names: Vec<String> = world.maps.iter().map(|m| m.name.clone()).collect();
+    let examples = world
+        .demonstrations
+        .iter()
+        .map(|d| {
+            let map = names.iter().position(|n| *n == d.map).expect("its own map");
+            Example {
+                id: d.episode.clone(),
+                map,
+                path: rasterize(&world.maps[map].geo, &d.xy()).expect("its own path"),
+            }
+        })
+        .collect();
+    let (training, holdout) = hold_out_every(examples, 4);
+    Ok(Terrain {
+        name: "quickstart",
+        names,
+        stacks,
+        training,
+        holdout,
+        truth: world.truth,
+    })
+}
+
+/// The share of data cells of the raster's first band per block, the blocks chosen so
+/// that the longer side has about `cells` cells.
+fn pooled_raster(args: &IocMethodsArgs) -> Result<Map> {
+    let map = read_geotiff(&args.geotiff, "shade")?;
+    let band = &map.layers[0].values;
+    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    let factor = (w.max(h) as u32).div_ceil(args.cells.max(8)).max(1) as usize;
+    let (pw, ph) = (w / factor, h / factor);
+    let mut pooled = vec![0.0f32; pw * ph];
+    for (i, value) in pooled.iter_mut().enumerate() {
+        let (r, c) = (i / pw, i % pw);
+        let mut with_data = 0usize;
+        for rr in r * factor..(r + 1) * factor {
+            for cc in c * factor..(c + 1) * factor {
+                with_data += usize::from(band[rr * w + cc].is_finite());
+            }
+        }
+        *value = with_data as f32 / (factor * factor) as f32;
+    }
+    let geo = GeoRef {
+        width: pw as u32,
+        height: ph as u32,
+        resolution: map.geo.resolution * factor as f64,
+        ..map.geo.clone()
+    };
+    Ok(Map {
+        name: "shade".into(),
+        geo,
+        layers: vec![Layer {
+            name: "shade".into(),
+            values: pooled,
+        }],
+    })
+}
+
+fn raster(args: &IocMethodsArgs) -> Result<Terrain> {
+    let map = pooled_raster(args)?;
+    let geo = map.geo.clone();
+    let spec = FeatureSpec {
+        layers: Some(vec!["shade".into()]),
+        ops: vec![
+            op(
+                serde_json::json!({"op": "blur", "layer": "shade", "sigmas": [2.0 * geo.resolution]}),
+            ),
+            op(serde_json::json!({"op": "distance", "layer": "shade", "above": 0.5})),
+        ],
+        bias: true,
+        nodata_fill: 0.0,
+    };
+    let stack = compute(&map, &spec).map_err(Error::Failed)?;
+    let shade = &map.layers[0].values;
+    let distance = stack
+        .planes()
+        .nth(2)
+        .expect("shade, its blur, its distance, bias");
+    let margin = 3.0 * geo.resolution as f32;
+    let truth = Grid::from_vec(
+        geo.clone(),
+        shade
+            .iter()
+            .zip(distance)
+            .map(|(&s, &d)| 1.0 + 7.0 * s + if d < margin { 3.0 } else { 0.0 })
+            .collect(),
+    );
+    // Teacher paths between random cells at least half the map apart.
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let min_separation = 0.5 * f64::from(geo.width.min(geo.height));
+    let mut examples = Vec::new();
+    while examples.len() < args.demonstrations {
+        let mut random_cell = || {
+            Cell::new(
+                rng.random_range(0..geo.height),
+                rng.random_range(0..geo.width),
+            )
+        };
+        let (a, b) = (random_cell(), random_cell());
+        if (a.distance_squared(b) as f64).sqrt() < min_separation {
+            continue;
+        }
+        let route = shortest_path(&truth, a, b)
+            .ok_or_else(|| Error::Failed("the raster teacher found no path".into()))?;
+        examples.push(Example {
+            id: format!("shade-demo-{:03}", examples.len()),
+            map: 0,
+            path: route.cells,
+        });
+    }
+    let (training, holdout) = hold_out_every(examples, 4);
+    Ok(Terrain {
+        name: "geotiff",
+        names: vec![map.name.clone()],
+        stacks: vec![stack],
+        training,
+        holdout,
+        truth: vec![truth],
+    })
+}
+
+/// The methods compared, with the settings each runs with.
+fn methods(rounds: usize) -> Vec<(&'static str, LearchConfig)> {
+    let base = LearchConfig {
+        rounds,
+        ..LearchConfig::default()
+    };
+    vec![
+        ("learch-ridge", base.clone()),
+        (
+            "learch-tree",
+            LearchConfig {
+                weak_learner: WeakLearnerKind::Tree,
+                tree: TreeConfig {
+                    max_depth: 3,
+                    ..TreeConfig::default()
+                },
+                ..base.clone()
+            },
+        ),
+        (
+            "mmp",
+            LearchConfig {
+                method: GridMethod::Mmp,
+                ..base.clone()
+            },
+        ),
+        (
+            "maxent",
+            LearchConfig {
+                method: GridMethod::Maxent,
+                ..base
+            },
+        ),
+    ]
+}
+
+fn measure(terrain: &Terrain, method: &'static str, config: &LearchConfig) -> Result<MethodResult> {
+    let started = Instant::now();
+    let trained = train(
+        &terrain.stacks,
+        &terrain.names,
+        &terrain.training,
+        &[],
+        &[],
+        None,
+        config,
+        None,
+        |_| {},
+    )
+    .map_err(Error::Failed)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let evaluations = learch_evaluate(
+        &trained.model,
+        &terrain.stacks,
+        &terrain.names,
+        &terrain.holdout,
+        Some(&terrain.truth),
+    )
+    .map_err(Error::Failed)?;
+    let agreement = summarize(&evaluations);
+    Ok(MethodResult {
+        terrain: terrain.name,
+        method,
+        held_out: agreement.examples,
+        within_radius: agreement.within_radius,
+        mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
+        max_cost_ratio: agreement.max_reference_cost_ratio.unwrap_or(f64::NAN),
+        seconds,
+    })
+}
+
+pub fn run(args: IocMethodsArgs) -> Result<()> {
+    if args.rounds == 0 || args.demonstrations < 4 {
+        return Err(Error::Usage(
+            "bench ioc-methods needs --rounds >= 1 and --demonstrations >= 4".into(),
+        ));
+    }
+    let terrains = [quickstart()?, raster(&args)?];
+    let mut results = Vec::new();
+    for terrain in &terrains {
+        for (method, config) in methods(args.rounds) {
+            results.push(measure(terrain, method, &config)?);
+        }
+    }
+    let report = IocMethodsReport {
+        schema: "imitate.bench-ioc-methods/1",
+        rounds: args.rounds,
+        results,
+    };
+    emit(&report, args.json, |r| {
+        let mut text = format!(
+            "held-out agreement after {} rounds (within {} cells; cost ratio under the true cost)\n\
+             terrain     method        held out  within  mean ratio  max ratio  seconds\n",
+            r.rounds,
+            crate::ioc::AGREEMENT_RADIUS
+        );
+        for m in &r.results {
+            text += &format!(
+                "{:<11} {:<13} {:>8}  {:>6.3}  {:>10.3}  {:>9.3}  {:>7.1}\n",
+                m.terrain,
+                m.method,
+                m.held_out,
+                m.within_radius,
+                m.mean_cost_ratio,
+                m.max_cost_ratio,
+                m.seconds
+            );
+        }
+        text
+    });
+    Ok(())
+}
