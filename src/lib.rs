@@ -1,9 +1,10 @@
 //! `imitate` learns from robot demonstrations: costmaps for planners by inverse optimal
-//! control (LEARCH) and, later, reactive policies by DAgger. See DESIGN.md in the
+//! control (LEARCH, MMP, MaxEnt) and reactive policies by DAgger. See DESIGN.md in the
 //! project's shared folder and README.md for the architecture.
 
 pub mod artifact;
 pub mod cli;
+pub mod dagger;
 pub mod error;
 pub mod features;
 pub mod grid;

@@ -58,6 +58,9 @@ pub enum BenchCommand {
     /// Held-out path agreement of LEARCH (ridge, trees), MMP and MaxEnt on the
     /// quickstart terrain and on a GeoTIFF terrain, as one table.
     IocMethods(super::bench_ioc::IocMethodsArgs),
+    /// Behaviour cloning against DAgger on the lane-keeping circuit: falls per lap per
+    /// iteration, same teacher labels per iteration.
+    Track(super::bench_track::TrackBenchArgs),
     /// One LEARCH round on many large examples, on 1 and on all threads, with the share
     /// spent planning.
     Learch(super::bench_learch::LearchBenchArgs),
@@ -118,6 +121,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
         BenchCommand::Learch(args) => super::bench_learch::run(args),
         BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
         BenchCommand::IocMethods(args) => super::bench_ioc::run(args),
+        BenchCommand::Track(args) => super::bench_track::run(args),
         BenchCommand::Hash {
             file,
             size_mib,

@@ -5,6 +5,7 @@ mod bench_ingest;
 mod bench_ioc;
 mod bench_learch;
 mod bench_objectworld;
+mod bench_track;
 mod diff;
 mod export;
 mod forecast;

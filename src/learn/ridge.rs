@@ -32,6 +32,11 @@ impl RidgeAccumulator {
         self.total_weight
     }
 
+    /// XᵀWX (row-major, `dim`²) and XᵀWy.
+    pub fn moments(&self) -> (&[f64], &[f64]) {
+        (&self.xtwx, &self.xtwy)
+    }
+
     /// Adds the sample (x, y) with weight w.
     pub fn add(&mut self, x: &[f64], y: f64, w: f64) {
         debug_assert_eq!(x.len(), self.dim);

@@ -1,5 +1,7 @@
 //! Built-in worlds with known answers, for tests, examples and benchmarks.
 
 mod terrain;
+pub mod track;
 
 pub use terrain::{SyntheticWorld, TrueCost, WorldConfig, generate_world};
+pub use track::{Track, TrackConfig, TrackSim};

@@ -1,0 +1,176 @@
+//! `imitate bench track`: the seed's case study. Behaviour cloning against DAgger on the
+//! lane-keeping circuit with the same number of teacher labels per iteration (one lap),
+//! falls per lap of each iteration's policy, over seeds, with the teacher's own falls.
+
+use std::cell::Cell;
+
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::bench::emit;
+use crate::dagger::{BetaSchedule, Learning, Policy, PolicyLearner, learn};
+use crate::error::{Error, Result};
+use crate::learn::TreeConfig;
+use crate::sim::{Track, TrackConfig, TrackSim};
+
+#[derive(Debug, Clone, Copy, clap::ValueEnum)]
+pub enum PolicyKind {
+    Tree,
+    Ridge,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TrackBenchArgs {
+    /// Iterations (one lap of teacher labels each).
+    #[arg(long, default_value_t = 20)]
+    pub iterations: usize,
+    #[arg(long, default_value_t = 3)]
+    pub seeds: u64,
+    /// Laps each policy is evaluated on.
+    #[arg(long, default_value_t = 3)]
+    pub eval_laps: usize,
+    /// The policy: a regression tree or ridge regression.
+    #[arg(long, value_enum, default_value = "tree")]
+    pub learner: PolicyKind,
+    /// Depth of the tree policy: 3 (8 leaves) cannot copy pure pursuit exactly.
+    #[arg(long, default_value_t = 3)]
+    pub depth: usize,
+    /// Ridge penalty of the linear policy (standardised observations).
+    #[arg(long, default_value_t = 1e-3)]
+    pub lambda: f64,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct Curve {
+    learning: &'static str,
+    /// Per iteration: mean over seeds of falls per lap.
+    falls_per_lap: Vec<f64>,
+    /// Per iteration: per seed.
+    per_seed: Vec<Vec<f64>>,
+    /// Teacher labels per iteration, mean over seeds.
+    labels_per_iteration: f64,
+}
+
+#[derive(Serialize)]
+struct TrackBenchReport {
+    schema: &'static str,
+    config: TrackConfig,
+    track_length: f64,
+    seeds: u64,
+    eval_laps: usize,
+    teacher_falls_per_lap: f64,
+    curves: Vec<Curve>,
+}
+
+pub fn run(args: TrackBenchArgs) -> Result<()> {
+    if args.iterations == 0 || args.seeds == 0 || args.eval_laps == 0 {
+        return Err(Error::Usage(
+            "bench track needs --iterations, --seeds and --eval-laps of at least 1".into(),
+        ));
+    }
+    let learner = match args.learner {
+        PolicyKind::Tree => PolicyLearner::Tree(TreeConfig {
+            max_depth: args.depth,
+            ..TreeConfig::default()
+        }),
+        PolicyKind::Ridge => PolicyLearner::Ridge {
+            lambda: args.lambda,
+        },
+    };
+    let track = Track::new(TrackConfig::default());
+    let evaluation_seed = |seed: u64| seed.wrapping_mul(7919).wrapping_add(1);
+    let teacher = (1..=args.seeds)
+        .map(|seed| track.falls_per_lap(args.eval_laps, evaluation_seed(seed), |s| s.teacher()))
+        .sum::<f64>()
+        / args.seeds as f64;
+    let mut curves = Vec::new();
+    for (name, learning) in [
+        ("behaviour-cloning", Learning::Supervised),
+        ("dagger", Learning::Dagger(BetaSchedule::FirstRound)),
+    ] {
+        let mut per_iteration = vec![Vec::new(); args.iterations];
+        let mut labels = 0usize;
+        for seed in 1..=args.seeds {
+            // Each iteration's lap starts somewhere else on the circuit.
+            let mut starts = ChaCha8Rng::seed_from_u64(seed);
+            let steps = Cell::new(0usize);
+            let cap = track.step_cap(1.0);
+            learn(
+                learning,
+                &learner,
+                args.iterations,
+                seed,
+                |_| {
+                    steps.set(0);
+                    TrackSim::new(&track, starts.random::<f64>() * track.length())
+                },
+                |sim| {
+                    steps.set(steps.get() + 1);
+                    sim.laps() >= 1.0 || steps.get() > cap
+                },
+                |round, policy: &Policy| {
+                    labels += steps.get() - 1;
+                    per_iteration[round].push(track.falls_per_lap(
+                        args.eval_laps,
+                        evaluation_seed(seed),
+                        |s| policy.act(&s.observation()),
+                    ));
+                },
+            );
+        }
+        curves.push(Curve {
+            learning: name,
+            falls_per_lap: per_iteration
+                .iter()
+                .map(|v| v.iter().sum::<f64>() / v.len() as f64)
+                .collect(),
+            per_seed: per_iteration,
+            labels_per_iteration: labels as f64 / (args.seeds as usize * args.iterations) as f64,
+        });
+    }
+    let report = TrackBenchReport {
+        schema: "imitate.bench-track/1",
+        config: track.config,
+        track_length: track.length(),
+        seeds: args.seeds,
+        eval_laps: args.eval_laps,
+        teacher_falls_per_lap: teacher,
+        curves,
+    };
+    emit(&report, args.json, |r| {
+        let mut text = format!(
+            "track: falls per lap (mean of {} seeds, {} evaluation laps each); teacher: {:.2}\n\
+             iteration  {}\n",
+            r.seeds,
+            r.eval_laps,
+            r.teacher_falls_per_lap,
+            r.curves
+                .iter()
+                .map(|c| format!("{:>18}", c.learning))
+                .collect::<String>()
+        );
+        let n = r.curves[0].falls_per_lap.len();
+        for i in 0..n {
+            if i == 0 || (i + 1) % 5 == 0 || i + 1 == n {
+                text += &format!("{:>9}  ", i + 1);
+                for c in &r.curves {
+                    text += &format!("{:>18.2}", c.falls_per_lap[i]);
+                }
+                text.push('\n');
+            }
+        }
+        text += &format!(
+            "labels per iteration: {}",
+            r.curves
+                .iter()
+                .map(|c| format!("{} {:.0}", c.learning, c.labels_per_iteration))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        text
+    });
+    Ok(())
+}
