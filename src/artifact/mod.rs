@@ -8,6 +8,6 @@ mod manifest;
 
 pub use builder::{ArtifactBuilder, copy_artifact};
 pub use manifest::{
-    FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, digest_input, digest_input_with,
-    read_manifest, stage_key,
+    FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest, digest_input,
+    digest_input_with, read_manifest, stage_key,
 };

@@ -6,6 +6,7 @@ mod bench_ioc;
 mod bench_learch;
 mod bench_objectworld;
 mod bench_track;
+mod dagger;
 mod diff;
 mod export;
 mod forecast;
@@ -100,6 +101,10 @@ pub enum Command {
     /// Forecast where a partly walked path goes: the posterior over candidate
     /// destinations and the expected visitation, under a MaxEnt costmap.
     Forecast(forecast::ForecastArgs),
+    /// DAgger rounds on disk: init a dataset, add rounds driven by the teacher or a
+    /// policy (labelled by the teacher), train a policy artifact, roll it out, status.
+    #[command(subcommand)]
+    Dagger(dagger::DaggerCommand),
     /// Generate synthetic test data.
     #[command(subcommand)]
     Testdata(testdata::TestdataCommand),
@@ -188,6 +193,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Learch(params) => run_stage(&params),
         Command::Ioc(params) => run_stage(&params),
         Command::Testdata(command) => testdata::run(command),
+        Command::Dagger(command) => dagger::run(command),
         Command::Bench(command) => bench::run(command),
         Command::Plan(args) => plan::run(args),
         Command::Forecast(args) => forecast::run(args),

@@ -8,6 +8,7 @@
 //! sufficient statistics. (The on-disk dataset, `imitate dagger ...` and policy
 //! artifacts are not built yet.)
 
+pub mod dataset;
 mod policy;
 
 use rand::{RngExt, SeedableRng};

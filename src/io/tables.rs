@@ -68,6 +68,16 @@ impl Table {
         name: "learned-reward",
         major: 1,
     };
+    /// One row per control step of a DAgger dataset round.
+    pub const DAGGER_STEPS: Table = Table {
+        name: "dagger-steps",
+        major: 1,
+    };
+    /// One row per round of a DAgger dataset.
+    pub const DAGGER_ROUNDS: Table = Table {
+        name: "dagger-rounds",
+        major: 1,
+    };
     /// A forecast's expected visits per cell (`imitate forecast`).
     pub const FORECAST_VISITATION: Table = Table {
         name: "forecast-visitation",
@@ -129,7 +139,7 @@ fn check_schema_tag(
     Ok(())
 }
 
-fn write_table(
+pub(crate) fn write_table(
     path: &Path,
     table: Table,
     batch: &RecordBatch,

@@ -1,0 +1,309 @@
+//! `imitate dagger init | add | train | rollout | status`: DAgger rounds on disk with the
+//! built-in `track` simulator. A round is one or more laps driven by the teacher or by a
+//! policy artifact (mixed with the teacher with probability β per step), labelled by
+//! the teacher; `train` fits a policy on every round so far and writes a policy
+//! artifact.
+
+use std::path::{Path, PathBuf};
+
+use clap::Subcommand;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
+use super::bench::emit;
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
+use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
+use crate::dagger::{Aggregate, Policy, PolicyLearner, rollout};
+use crate::error::{Error, Result};
+use crate::io::fs::{to_json_bytes, write_bytes_atomic};
+use crate::learn::TreeConfig;
+use crate::sim::track::OBSERVATION_NAMES;
+use crate::sim::{Track, TrackConfig, TrackSim};
+
+/// The simulators rounds can come from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum Env {
+    /// The lane-keeping circuit with a pure-pursuit teacher.
+    Track,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum LearnerKind {
+    Ridge,
+    Tree,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum DaggerCommand {
+    /// Create an empty dataset for an environment.
+    Init {
+        dataset: PathBuf,
+        #[arg(long, value_enum, default_value = "track")]
+        env: Env,
+    },
+    /// Drive laps (the teacher, or --policy mixed with the teacher at --beta), label
+    /// every step with the teacher's action and append them as a round.
+    Add {
+        dataset: PathBuf,
+        /// A policy artifact (from `dagger train`); without it the teacher drives.
+        #[arg(long, value_name = "DIR")]
+        policy: Option<PathBuf>,
+        /// Probability that the teacher acts at a step (default: 1 without a policy,
+        /// 0 with one).
+        #[arg(long)]
+        beta: Option<f64>,
+        #[arg(long, default_value_t = 1)]
+        laps: usize,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+    },
+    /// Fit a policy on every round of the dataset and write a policy artifact.
+    Train {
+        dataset: PathBuf,
+        #[arg(long, value_name = "DIR")]
+        out: PathBuf,
+        #[arg(long, value_enum, default_value = "ridge")]
+        learner: LearnerKind,
+        #[arg(long, default_value_t = 1e-3)]
+        lambda: f64,
+        #[arg(long, default_value_t = 3)]
+        depth: usize,
+    },
+    /// Drive a policy artifact on the environment and report falls per lap.
+    Rollout {
+        policy: PathBuf,
+        #[arg(long, default_value_t = 3)]
+        laps: usize,
+        #[arg(long, default_value_t = 0)]
+        seed: u64,
+        #[arg(long)]
+        json: bool,
+    },
+    /// The dataset's rounds.
+    Status {
+        dataset: PathBuf,
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+fn track() -> Track {
+    Track::new(TrackConfig::default())
+}
+
+/// A policy artifact's policy and digest.
+fn load_policy(dir: &Path) -> Result<(Policy, String)> {
+    let manifest = read_manifest(dir, "policy")?;
+    let file = manifest
+        .files_with_role("policy")
+        .next()
+        .ok_or_else(|| Error::input(dir, "lists no policy file"))?;
+    let path = dir.join(&file.path);
+    let bytes =
+        std::fs::read(&path).map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
+    let policy: Policy = serde_json::from_slice(&bytes)
+        .map_err(|e| Error::input(&path, format!("is not a policy: {e}")))?;
+    Ok((policy, manifest.digest))
+}
+
+fn add(
+    dataset: &Path,
+    policy: Option<&Path>,
+    beta: Option<f64>,
+    laps: usize,
+    seed: u64,
+) -> Result<()> {
+    let mut ds = Dataset::open(dataset)?;
+    if ds.info.environment != "track" {
+        return Err(Error::input(
+            dataset,
+            format!("holds '{}' data, not track", ds.info.environment),
+        ));
+    }
+    let loaded = policy.map(load_policy).transpose()?;
+    let beta = beta.unwrap_or(if loaded.is_some() { 0.0 } else { 1.0 });
+    if !(0.0..=1.0).contains(&beta) {
+        return Err(Error::Usage("--beta must be in [0, 1]".into()));
+    }
+    if laps == 0 {
+        return Err(Error::Usage("--laps must be at least 1".into()));
+    }
+    let digest = loaded.as_ref().map(|(_, d)| d.clone()).unwrap_or_default();
+    let source = format!("track laps={laps} seed={seed} beta={beta} policy={digest}");
+    if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
+        println!("round {} already holds {source}", existing.round);
+        return Ok(());
+    }
+    let track = track();
+    let mut sim = TrackSim::new(&track, 0.0);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let cap = track.step_cap(laps as f64);
+    let mut count = 0;
+    let steps = rollout(
+        &mut sim,
+        loaded.as_ref().map(|(p, _)| p),
+        beta,
+        &mut rng,
+        |sim| {
+            count += 1;
+            sim.laps() >= laps as f64 || count > cap
+        },
+    );
+    let round = ds.append(&NewRound {
+        source,
+        beta,
+        policy: digest,
+        teacher: "pure-pursuit".into(),
+        period: track.config.period,
+        episodes: &[steps],
+    })?;
+    let info = &ds.rounds[round as usize];
+    println!(
+        "round {round}: {} steps ({} by the learner), {} falls",
+        info.steps, info.learner_steps, info.failures
+    );
+    Ok(())
+}
+
+fn train(
+    dataset: &Path,
+    out: &Path,
+    learner: LearnerKind,
+    lambda: f64,
+    depth: usize,
+) -> Result<()> {
+    let ds = Dataset::open(dataset)?;
+    if ds.steps() == 0 {
+        return Err(Error::input(dataset, "holds no steps to train on"));
+    }
+    let learner = match learner {
+        LearnerKind::Ridge => PolicyLearner::Ridge { lambda },
+        LearnerKind::Tree => PolicyLearner::Tree(TreeConfig {
+            max_depth: depth,
+            ..TreeConfig::default()
+        }),
+    };
+    // Ridge keeps only the sufficient statistics; a tree needs the rows.
+    let mut data = Aggregate::new(ds.info.observation_names.len(), &learner);
+    ds.for_each_round(|_, steps| {
+        for i in 0..steps.len() {
+            data.add(steps.observation(i), steps.labels[i]);
+        }
+        Ok(())
+    })?;
+    let policy = data.fit(&learner);
+    let mut artifact = ArtifactBuilder::new(out)?;
+    write_bytes_atomic(
+        &artifact.file("policy.json", "policy")?,
+        &to_json_bytes(&policy),
+    )?;
+    let metrics = serde_json::json!({
+        "rounds": ds.rounds.len(),
+        "steps": ds.steps(),
+        "observation_names": ds.info.observation_names,
+    });
+    write_bytes_atomic(
+        &artifact.file("metrics.json", "metrics")?,
+        &to_json_bytes(&metrics),
+    )?;
+    let params = serde_json::json!({
+        "learner": format!("{learner:?}"),
+    });
+    let lineage = Lineage::new(
+        "dagger-train",
+        1,
+        params,
+        vec![digest_input(&dataset.join(crate::artifact::MANIFEST))?],
+    );
+    let manifest = artifact.commit("policy", lineage, metrics)?;
+    println!("{}\t{}", out.display(), manifest.digest);
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct RolloutReport {
+    schema: &'static str,
+    policy: String,
+    laps: usize,
+    falls_per_lap: f64,
+    teacher_falls_per_lap: f64,
+}
+
+pub fn run(command: DaggerCommand) -> Result<()> {
+    match command {
+        DaggerCommand::Init { dataset, env } => {
+            let Env::Track = env;
+            Dataset::create(
+                &dataset,
+                DatasetInfo {
+                    schema: "imitate.dagger-dataset/1".into(),
+                    observation_names: OBSERVATION_NAMES.map(String::from).to_vec(),
+                    environment: "track".into(),
+                },
+            )?;
+            println!("{}: an empty track dataset", dataset.display());
+            Ok(())
+        }
+        DaggerCommand::Add {
+            dataset,
+            policy,
+            beta,
+            laps,
+            seed,
+        } => add(&dataset, policy.as_deref(), beta, laps, seed),
+        DaggerCommand::Train {
+            dataset,
+            out,
+            learner,
+            lambda,
+            depth,
+        } => train(&dataset, &out, learner, lambda, depth),
+        DaggerCommand::Rollout {
+            policy,
+            laps,
+            seed,
+            json,
+        } => {
+            if laps == 0 {
+                return Err(Error::Usage("--laps must be at least 1".into()));
+            }
+            let (loaded, digest) = load_policy(&policy)?;
+            let track = track();
+            let report = RolloutReport {
+                schema: "imitate.dagger-rollout/1",
+                policy: digest,
+                laps,
+                falls_per_lap: track.falls_per_lap(laps, seed, |s| loaded.act(&s.observation())),
+                teacher_falls_per_lap: track.falls_per_lap(laps, seed, |s| s.teacher()),
+            };
+            emit(&report, json, |r| {
+                format!(
+                    "{} laps: {:.2} falls per lap (the teacher: {:.2})",
+                    r.laps, r.falls_per_lap, r.teacher_falls_per_lap
+                )
+            });
+            Ok(())
+        }
+        DaggerCommand::Status { dataset, json } => {
+            let ds = Dataset::open(&dataset)?;
+            emit(&ds.rounds, json, |rounds| {
+                let mut text = format!(
+                    "{}: {} rounds, {} steps ({})\nround  steps  learner  falls  beta  source\n",
+                    dataset.display(),
+                    rounds.len(),
+                    ds.steps(),
+                    ds.info.environment
+                );
+                for r in rounds {
+                    text += &format!(
+                        "{:>5}  {:>5}  {:>7}  {:>5}  {:>4.2}  {}\n",
+                        r.round, r.steps, r.learner_steps, r.failures, r.beta, r.source
+                    );
+                }
+                text.trim_end().to_string()
+            });
+            Ok(())
+        }
+    }
+}

@@ -1,0 +1,602 @@
+//! The DAgger dataset on disk: one row per control step, rounds as immutable partitions.
+//!
+//! ```text
+//! DIR/meta/info.json                      observation names, the schema
+//! DIR/meta/rounds.parquet                 dagger-rounds/1: one row per round
+//! DIR/data/round=NNN/part-000.parquet     dagger-steps/1: the round's steps
+//! DIR/manifest.json                       files, sizes and digests
+//! ```
+//!
+//! Steps carry LeRobot's columns (`episode_index`, `frame_index`, `index`, `timestamp`,
+//! `observation.state`, `action` — the teacher's label) plus `round`,
+//! `action_executed`, `actor`, `beta`, `is_first`, `is_last`, `is_terminal`.
+//!
+//! Appending a round writes its partition into a hidden folder beside the others and
+//! renames it into place, then replaces `rounds.parquet` and the manifest (each written
+//! to a temporary file and renamed). `rounds.parquet` is what counts: a partition it does
+//! not list (an append killed before the end) is ignored and removed by the next
+//! append, so a killed append leaves the dataset as it was. The manifest keeps the
+//! earlier rounds' digests, so an append reads nothing but its own round. A round from
+//! a source already in the dataset is not added again.
+
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use arrow::array::{
+    Array, ArrayRef, BooleanArray, FixedSizeListArray, Float32Array, Float64Array, Int64Array,
+    RecordBatch, StringArray,
+};
+use arrow::datatypes::{DataType, Field, Schema};
+use serde::{Deserialize, Serialize};
+
+use super::{Actor, PolicyData, Step};
+use crate::artifact::{FileEntry, MANIFEST, artifact_digest};
+use crate::error::{Error, Result};
+use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
+use crate::io::tables::{Table, read_table, write_table};
+
+const INFO: &str = "meta/info.json";
+const ROUNDS: &str = "meta/rounds.parquet";
+
+/// What the dataset holds, fixed when it is created.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DatasetInfo {
+    pub schema: String,
+    pub observation_names: Vec<String>,
+    /// What made the data (e.g. "track"), for people reading the folder.
+    pub environment: String,
+}
+
+/// One row of `meta/rounds.parquet`.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct RoundInfo {
+    pub round: u32,
+    /// Identifies where the round came from; adding the same source again is a no-op.
+    pub source: String,
+    pub beta: f64,
+    /// Digest of the policy that drove (empty when the teacher drove).
+    pub policy: String,
+    pub teacher: String,
+    pub episodes: u64,
+    pub steps: u64,
+    pub learner_steps: u64,
+    pub failures: u64,
+}
+
+/// A round to append: its episodes' steps and where they came from.
+pub struct NewRound<'a> {
+    pub source: String,
+    pub beta: f64,
+    pub policy: String,
+    pub teacher: String,
+    /// Seconds between control steps (for `timestamp`).
+    pub period: f64,
+    pub episodes: &'a [Vec<Step>],
+}
+
+pub struct Dataset {
+    dir: PathBuf,
+    pub info: DatasetInfo,
+    pub rounds: Vec<RoundInfo>,
+}
+
+fn partition(round: u32) -> String {
+    format!("data/round={round:03}/part-000.parquet")
+}
+
+impl Dataset {
+    /// Creates an empty dataset in `dir` (which must not hold one already).
+    pub fn create(dir: &Path, info: DatasetInfo) -> Result<Dataset> {
+        if dir.join(INFO).exists() {
+            return Err(Error::input(dir, "already holds a DAgger dataset"));
+        }
+        std::fs::create_dir_all(dir.join("meta"))
+            .map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
+        write_bytes_atomic(&dir.join(INFO), &to_json_bytes(&info))?;
+        let dataset = Dataset {
+            dir: dir.to_path_buf(),
+            info,
+            rounds: Vec::new(),
+        };
+        dataset.write_rounds()?;
+        dataset.write_manifest(&[])?;
+        Ok(dataset)
+    }
+
+    pub fn open(dir: &Path) -> Result<Dataset> {
+        let info_path = dir.join(INFO);
+        let bytes = std::fs::read(&info_path)
+            .map_err(|_| Error::input(dir, "is not a DAgger dataset (no meta/info.json)"))?;
+        let info: DatasetInfo = serde_json::from_slice(&bytes)
+            .map_err(|e| Error::input(&info_path, format!("is not a dataset description: {e}")))?;
+        let rounds = read_rounds(&dir.join(ROUNDS))?;
+        Ok(Dataset {
+            dir: dir.to_path_buf(),
+            info,
+            rounds,
+        })
+    }
+
+    pub fn steps(&self) -> u64 {
+        self.rounds.iter().map(|r| r.steps).sum()
+    }
+
+    /// Appends a round; returns its number, or the existing round's when its source is
+    /// already in the dataset. Refuses (and writes nothing) when an observation has
+    /// another length than the dataset's or a label is not finite.
+    pub fn append(&mut self, new: &NewRound<'_>) -> Result<u32> {
+        if let Some(existing) = self.rounds.iter().find(|r| r.source == new.source) {
+            return Ok(existing.round);
+        }
+        let dims = self.info.observation_names.len();
+        for (e, episode) in new.episodes.iter().enumerate() {
+            for (f, step) in episode.iter().enumerate() {
+                let at = || format!("round source '{}', episode {e}, step {f}", new.source);
+                if step.observation.len() != dims {
+                    return Err(Error::input(
+                        &self.dir,
+                        format!(
+                            "{}: the observation has {} values, the dataset's have {dims} ({})",
+                            at(),
+                            step.observation.len(),
+                            self.info.observation_names.join(", ")
+                        ),
+                    ));
+                }
+                if !step.label.is_finite() || step.observation.iter().any(|v| !v.is_finite()) {
+                    return Err(Error::input(
+                        &self.dir,
+                        format!("{}: the label or observation is not finite", at()),
+                    ));
+                }
+            }
+        }
+        let round = self.rounds.len() as u32;
+        let first_index = self.steps();
+        let folder = self.dir.join(format!("data/round={round:03}"));
+        // A partition no round lists is what a killed append left: not data.
+        if folder.exists() {
+            std::fs::remove_dir_all(&folder)
+                .map_err(|e| Error::io(format!("removing {}", folder.display()), e))?;
+        }
+        let data = self.dir.join("data");
+        std::fs::create_dir_all(&data)
+            .map_err(|e| Error::io(format!("creating {}", data.display()), e))?;
+        let staging = tempfile::Builder::new()
+            .prefix(".round-")
+            .tempdir_in(&data)
+            .map_err(|e| Error::io(format!("creating a folder in {}", data.display()), e))?;
+        let batch = steps_batch(round, first_index, new, dims);
+        write_table(
+            &staging.path().join("part-000.parquet"),
+            Table::DAGGER_STEPS,
+            &batch,
+            Vec::new(),
+        )?;
+        let staged = staging.keep();
+        std::fs::rename(&staged, &folder)
+            .map_err(|e| Error::io(format!("moving {} into place", folder.display()), e))?;
+        let steps: Vec<&Step> = new.episodes.iter().flatten().collect();
+        self.rounds.push(RoundInfo {
+            round,
+            source: new.source.clone(),
+            beta: new.beta,
+            policy: new.policy.clone(),
+            teacher: new.teacher.clone(),
+            episodes: new.episodes.len() as u64,
+            steps: steps.len() as u64,
+            learner_steps: steps.iter().filter(|s| s.actor == Actor::Learner).count() as u64,
+            failures: steps.iter().filter(|s| s.failed).count() as u64,
+        });
+        let previous = manifest_files(&self.dir)?;
+        self.write_rounds()?;
+        self.write_manifest(&previous)?;
+        Ok(round)
+    }
+
+    /// Reads each round's steps in order, for training in one pass over the rounds.
+    pub fn for_each_round(
+        &self,
+        mut visit: impl FnMut(&RoundInfo, &RoundSteps) -> Result<()>,
+    ) -> Result<()> {
+        for info in &self.rounds {
+            let path = self.dir.join(partition(info.round));
+            let steps = RoundSteps::read(&path, self.info.observation_names.len())?;
+            visit(info, &steps)?;
+        }
+        Ok(())
+    }
+
+    /// The sufficient statistics of every (observation, label) pair in the dataset.
+    pub fn policy_data(&self) -> Result<PolicyData> {
+        let mut data = PolicyData::new(self.info.observation_names.len());
+        self.for_each_round(|_, steps| {
+            for i in 0..steps.len() {
+                data.add(steps.observation(i), steps.labels[i]);
+            }
+            Ok(())
+        })?;
+        Ok(data)
+    }
+
+    fn write_rounds(&self) -> Result<()> {
+        let r = &self.rounds;
+        let int = |f: fn(&RoundInfo) -> u64| -> ArrayRef {
+            Arc::new(Int64Array::from_iter_values(r.iter().map(|x| f(x) as i64)))
+        };
+        let text = |f: fn(&RoundInfo) -> &str| -> ArrayRef {
+            Arc::new(StringArray::from_iter_values(r.iter().map(f)))
+        };
+        let columns: Vec<(&str, ArrayRef)> = vec![
+            ("round", int(|x| u64::from(x.round))),
+            ("source", text(|x| &x.source)),
+            (
+                "beta",
+                Arc::new(Float64Array::from_iter_values(r.iter().map(|x| x.beta))),
+            ),
+            ("policy", text(|x| &x.policy)),
+            ("teacher", text(|x| &x.teacher)),
+            ("episodes", int(|x| x.episodes)),
+            ("steps", int(|x| x.steps)),
+            ("learner_steps", int(|x| x.learner_steps)),
+            ("failures", int(|x| x.failures)),
+        ];
+        let batch = batch_of(columns);
+        write_table(
+            &self.dir.join(ROUNDS),
+            Table::DAGGER_ROUNDS,
+            &batch,
+            Vec::new(),
+        )
+    }
+
+    /// Writes the manifest, digesting only files `previous` does not already list.
+    fn write_manifest(&self, previous: &[FileEntry]) -> Result<()> {
+        let mut relative: Vec<(String, &str)> =
+            vec![(INFO.to_string(), "info"), (ROUNDS.to_string(), "rounds")];
+        relative.extend(self.rounds.iter().map(|r| (partition(r.round), "steps")));
+        let mut files = Vec::new();
+        for (path, role) in relative {
+            let known = previous
+                .iter()
+                .find(|f| f.path == path && path.starts_with("data/"))
+                .cloned();
+            let entry = match known {
+                Some(entry) => entry,
+                None => {
+                    let (digest, size) = file_digest(&self.dir.join(&path))?;
+                    FileEntry {
+                        path,
+                        role: role.into(),
+                        size,
+                        digest,
+                    }
+                }
+            };
+            files.push(entry);
+        }
+        files.sort_by(|a, b| a.path.cmp(&b.path));
+        let manifest = serde_json::json!({
+            "kind": "dagger-dataset",
+            "name": self.dir.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+            "schema": "imitate.dagger-dataset",
+            "schema_version": "1.0.0",
+            "digest": artifact_digest(&files),
+            "files": files,
+            "metrics": {"rounds": self.rounds.len(), "steps": self.steps()},
+        });
+        write_bytes_atomic(&self.dir.join(MANIFEST), &to_json_bytes(&manifest))
+    }
+}
+
+/// The file entries of the manifest in `dir`, if it has one.
+fn manifest_files(dir: &Path) -> Result<Vec<FileEntry>> {
+    #[derive(Deserialize)]
+    struct Files {
+        files: Vec<FileEntry>,
+    }
+    let path = dir.join(MANIFEST);
+    match std::fs::read(&path) {
+        Ok(bytes) => serde_json::from_slice::<Files>(&bytes)
+            .map(|f| f.files)
+            .map_err(|e| Error::input(&path, format!("is not a manifest: {e}"))),
+        Err(_) => Ok(Vec::new()),
+    }
+}
+
+fn batch_of(columns: Vec<(&str, ArrayRef)>) -> RecordBatch {
+    let fields: Vec<Field> = columns
+        .iter()
+        .map(|(name, array)| Field::new(*name, array.data_type().clone(), false))
+        .collect();
+    RecordBatch::try_new(
+        Arc::new(Schema::new(fields)),
+        columns.into_iter().map(|(_, a)| a).collect(),
+    )
+    .expect("columns of one length")
+}
+
+/// A fixed-size list column of f32 vectors, `width` values per row.
+fn vectors(values: Vec<f32>, width: usize) -> ArrayRef {
+    let item = Arc::new(Field::new("item", DataType::Float32, false));
+    Arc::new(FixedSizeListArray::new(
+        item,
+        width as i32,
+        Arc::new(Float32Array::from(values)),
+        None,
+    ))
+}
+
+fn steps_batch(round: u32, first_index: u64, new: &NewRound<'_>, dims: usize) -> RecordBatch {
+    let (mut episode, mut frame, mut index, mut time) = (vec![], vec![], vec![], vec![]);
+    let (mut observation, mut action, mut executed, mut actor) = (vec![], vec![], vec![], vec![]);
+    let (mut first, mut last, mut terminal) = (vec![], vec![], vec![]);
+    let mut next = first_index as i64;
+    for (e, steps) in new.episodes.iter().enumerate() {
+        for (f, step) in steps.iter().enumerate() {
+            episode.push(e as i64);
+            frame.push(f as i64);
+            index.push(next);
+            next += 1;
+            time.push(f as f64 * new.period);
+            observation.extend(step.observation.iter().map(|&v| v as f32));
+            action.push(step.label as f32);
+            executed.push(step.executed as f32);
+            actor.push(match step.actor {
+                Actor::Teacher => "teacher",
+                Actor::Learner => "learner",
+            });
+            first.push(f == 0);
+            last.push(f + 1 == steps.len());
+            terminal.push(step.failed);
+        }
+    }
+    let rows = index.len();
+    batch_of(vec![
+        ("episode_index", Arc::new(Int64Array::from(episode))),
+        ("frame_index", Arc::new(Int64Array::from(frame))),
+        ("index", Arc::new(Int64Array::from(index))),
+        ("timestamp", Arc::new(Float64Array::from(time))),
+        ("observation.state", vectors(observation, dims)),
+        ("action", vectors(action, 1)),
+        ("action_executed", vectors(executed, 1)),
+        ("actor", Arc::new(StringArray::from(actor))),
+        (
+            "round",
+            Arc::new(Int64Array::from(vec![i64::from(round); rows])),
+        ),
+        ("beta", Arc::new(Float64Array::from(vec![new.beta; rows]))),
+        ("is_first", Arc::new(BooleanArray::from(first))),
+        ("is_last", Arc::new(BooleanArray::from(last))),
+        ("is_terminal", Arc::new(BooleanArray::from(terminal))),
+    ])
+}
+
+/// One round's observations and labels, read back.
+pub struct RoundSteps {
+    dims: usize,
+    observations: Vec<f64>,
+    pub labels: Vec<f64>,
+}
+
+impl RoundSteps {
+    fn read(path: &Path, dims: usize) -> Result<RoundSteps> {
+        let batch = read_table(path, Table::DAGGER_STEPS, false)?.batch;
+        let list = |name: &str| -> Result<Vec<f64>> {
+            let column = batch
+                .column_by_name(name)
+                .ok_or_else(|| Error::input(path, format!("has no column '{name}'")))?;
+            let list = column
+                .as_any()
+                .downcast_ref::<FixedSizeListArray>()
+                .ok_or_else(|| Error::input(path, format!("column '{name}' is not a list")))?;
+            let values = list
+                .values()
+                .as_any()
+                .downcast_ref::<Float32Array>()
+                .ok_or_else(|| Error::input(path, format!("column '{name}' is not float32")))?;
+            Ok(values.values().iter().map(|&v| f64::from(v)).collect())
+        };
+        let observations = list("observation.state")?;
+        let labels = list("action")?;
+        if observations.len() != labels.len() * dims {
+            return Err(Error::input(
+                path,
+                format!("observations are not {dims} values per step"),
+            ));
+        }
+        Ok(RoundSteps {
+            dims,
+            observations,
+            labels,
+        })
+    }
+
+    pub fn len(&self) -> usize {
+        self.labels.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.labels.is_empty()
+    }
+
+    pub fn observation(&self, i: usize) -> &[f64] {
+        &self.observations[i * self.dims..(i + 1) * self.dims]
+    }
+}
+
+fn read_rounds(path: &Path) -> Result<Vec<RoundInfo>> {
+    let batch = read_table(path, Table::DAGGER_ROUNDS, false)?.batch;
+    let int = |name: &str| -> Result<Vec<u64>> {
+        let a = batch
+            .column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<Int64Array>())
+            .ok_or_else(|| Error::input(path, format!("has no int64 column '{name}'")))?;
+        Ok(a.values().iter().map(|&v| v as u64).collect())
+    };
+    let text = |name: &str| -> Result<Vec<String>> {
+        let a = batch
+            .column_by_name(name)
+            .and_then(|c| c.as_any().downcast_ref::<StringArray>())
+            .ok_or_else(|| Error::input(path, format!("has no string column '{name}'")))?;
+        Ok((0..a.len()).map(|i| a.value(i).to_string()).collect())
+    };
+    let beta = batch
+        .column_by_name("beta")
+        .and_then(|c| c.as_any().downcast_ref::<Float64Array>())
+        .ok_or_else(|| Error::input(path, "has no float64 column 'beta'"))?
+        .values()
+        .to_vec();
+    let (round, source, policy, teacher) = (
+        int("round")?,
+        text("source")?,
+        text("policy")?,
+        text("teacher")?,
+    );
+    let (episodes, steps, learner, failures) = (
+        int("episodes")?,
+        int("steps")?,
+        int("learner_steps")?,
+        int("failures")?,
+    );
+    Ok((0..round.len())
+        .map(|i| RoundInfo {
+            round: round[i] as u32,
+            source: source[i].clone(),
+            beta: beta[i],
+            policy: policy[i].clone(),
+            teacher: teacher[i].clone(),
+            episodes: episodes[i],
+            steps: steps[i],
+            learner_steps: learner[i],
+            failures: failures[i],
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn info() -> DatasetInfo {
+        DatasetInfo {
+            schema: "imitate.dagger-dataset/1".into(),
+            observation_names: vec!["a".into(), "b".into()],
+            environment: "test".into(),
+        }
+    }
+
+    fn step(a: f64, label: f64, actor: Actor) -> Step {
+        Step {
+            observation: vec![a, 2.0 * a],
+            label,
+            executed: label,
+            actor,
+            failed: false,
+        }
+    }
+
+    fn round<'a>(source: &str, episodes: &'a [Vec<Step>]) -> NewRound<'a> {
+        NewRound {
+            source: source.into(),
+            beta: 1.0,
+            policy: String::new(),
+            teacher: "test".into(),
+            period: 0.2,
+            episodes,
+        }
+    }
+
+    #[test]
+    fn rounds_append_read_back_and_repeat_sources_are_no_ops() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut ds = Dataset::create(dir.path(), info()).unwrap();
+        let first = vec![vec![
+            step(0.5, 0.1, Actor::Teacher),
+            step(1.0, 0.2, Actor::Teacher),
+        ]];
+        let second = vec![
+            vec![step(2.0, 0.4, Actor::Learner)],
+            vec![step(3.0, 0.6, Actor::Learner)],
+        ];
+        assert_eq!(ds.append(&round("lap-1", &first)).unwrap(), 0);
+        let manifest_after_one = std::fs::read(dir.path().join(MANIFEST)).unwrap();
+        assert_eq!(ds.append(&round("lap-2", &second)).unwrap(), 1);
+        // The same source again: nothing changes.
+        let manifest = std::fs::read(dir.path().join(MANIFEST)).unwrap();
+        assert_eq!(ds.append(&round("lap-1", &second)).unwrap(), 0);
+        assert_eq!(std::fs::read(dir.path().join(MANIFEST)).unwrap(), manifest);
+        assert_ne!(manifest, manifest_after_one);
+
+        let reopened = Dataset::open(dir.path()).unwrap();
+        assert_eq!(reopened.rounds, ds.rounds);
+        assert_eq!(reopened.steps(), 4);
+        assert_eq!(reopened.rounds[1].learner_steps, 2);
+        assert_eq!(reopened.rounds[1].episodes, 2);
+        let mut labels = Vec::new();
+        reopened
+            .for_each_round(|_, steps| {
+                for i in 0..steps.len() {
+                    labels.push((steps.observation(i).to_vec(), steps.labels[i]));
+                }
+                Ok(())
+            })
+            .unwrap();
+        assert_eq!(labels[2], (vec![2.0, 4.0], 0.4f32 as f64));
+        assert_eq!(reopened.policy_data().unwrap().len(), 4);
+    }
+
+    #[test]
+    fn bad_rounds_are_refused_and_leave_the_dataset_as_it_was() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut ds = Dataset::create(dir.path(), info()).unwrap();
+        ds.append(&round("ok", &[vec![step(1.0, 0.1, Actor::Teacher)]]))
+            .unwrap();
+        let before = std::fs::read(dir.path().join(MANIFEST)).unwrap();
+        let mut wide = step(1.0, 0.1, Actor::Teacher);
+        wide.observation.push(3.0);
+        let err = ds
+            .append(&round("wide", &[vec![wide]]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("3 values") && err.contains("episode 0, step 0"),
+            "{err}"
+        );
+        let nan = step(1.0, f64::NAN, Actor::Teacher);
+        let err = ds
+            .append(&round("nan", &[vec![nan]]))
+            .unwrap_err()
+            .to_string();
+        assert!(err.contains("not finite"), "{err}");
+        assert_eq!(std::fs::read(dir.path().join(MANIFEST)).unwrap(), before);
+        assert_eq!(Dataset::open(dir.path()).unwrap().rounds.len(), 1);
+        assert!(!dir.path().join("data/round=001").exists());
+    }
+
+    #[test]
+    fn a_partition_left_by_a_killed_append_is_ignored_and_replaced() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut ds = Dataset::create(dir.path(), info()).unwrap();
+        ds.append(&round("ok", &[vec![step(1.0, 0.1, Actor::Teacher)]]))
+            .unwrap();
+        // As if an append died after moving its partition, before listing it.
+        let orphan = dir.path().join("data/round=001");
+        std::fs::create_dir_all(&orphan).unwrap();
+        std::fs::write(orphan.join("part-000.parquet"), b"half a file").unwrap();
+        let reopened = Dataset::open(dir.path()).unwrap();
+        assert_eq!(reopened.steps(), 1);
+        assert_eq!(reopened.policy_data().unwrap().len(), 1);
+        let mut ds = reopened;
+        ds.append(&round("next", &[vec![step(2.0, 0.2, Actor::Teacher)]]))
+            .unwrap();
+        assert_eq!(
+            Dataset::open(dir.path())
+                .unwrap()
+                .policy_data()
+                .unwrap()
+                .len(),
+            2
+        );
+    }
+}
