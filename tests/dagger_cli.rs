@@ -81,3 +81,38 @@ fn bad_dagger_input_exits_2_and_changes_nothing() {
     let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
     assert_eq!(rounds.as_array().unwrap().len(), 0);
 }
+
+#[test]
+fn bench_dagger_scale_builds_appends_and_retrains() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let report = json(&run(&[
+        "bench",
+        "dagger-scale",
+        "--dataset",
+        "big",
+        "--steps",
+        "2000",
+        "--round-steps",
+        "500",
+        "--json",
+    ]));
+    assert_eq!(report["rounds"], 5);
+    assert_eq!(report["steps"], 2500);
+    // A second run reuses the dataset and appends one more round.
+    let again = json(&run(&[
+        "bench",
+        "dagger-scale",
+        "--dataset",
+        "big",
+        "--steps",
+        "2000",
+        "--round-steps",
+        "500",
+        "--json",
+    ]));
+    assert_eq!(again["rounds"], 6);
+    assert!(again["build_seconds"].is_null());
+    let status = json(&run(&["dagger", "status", "big", "--json"]));
+    assert_eq!(status.as_array().unwrap().len(), 6);
+}

@@ -61,6 +61,8 @@ pub enum BenchCommand {
     /// Behaviour cloning against DAgger on the lane-keeping circuit: falls per lap per
     /// iteration, same teacher labels per iteration.
     Track(super::bench_track::TrackBenchArgs),
+    /// A DAgger dataset of many steps: append a round, retrain a ridge policy on all.
+    DaggerScale(super::bench_dagger::DaggerScaleArgs),
     /// One LEARCH round on many large examples, on 1 and on all threads, with the share
     /// spent planning.
     Learch(super::bench_learch::LearchBenchArgs),
@@ -122,6 +124,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
         BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
         BenchCommand::IocMethods(args) => super::bench_ioc::run(args),
         BenchCommand::Track(args) => super::bench_track::run(args),
+        BenchCommand::DaggerScale(args) => super::bench_dagger::run(args),
         BenchCommand::Hash {
             file,
             size_mib,

@@ -1,6 +1,7 @@
 //! The command line: one file per subcommand; `main.rs` only calls `run`.
 
 mod bench;
+mod bench_dagger;
 mod bench_ingest;
 mod bench_ioc;
 mod bench_learch;
