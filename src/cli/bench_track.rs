@@ -9,16 +9,9 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::bench::emit;
-use crate::dagger::{BetaSchedule, Learning, Policy, PolicyLearner, learn};
+use crate::dagger::{BetaSchedule, Learning, Policy, PolicyKind, learn};
 use crate::error::{Error, Result};
-use crate::learn::TreeConfig;
 use crate::sim::{Track, TrackConfig, TrackSim};
-
-#[derive(Debug, Clone, Copy, clap::ValueEnum)]
-pub enum PolicyKind {
-    Tree,
-    Ridge,
-}
 
 #[derive(Debug, clap::Args)]
 pub struct TrackBenchArgs {
@@ -71,15 +64,7 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
             "bench track needs --iterations, --seeds and --eval-laps of at least 1".into(),
         ));
     }
-    let learner = match args.learner {
-        PolicyKind::Tree => PolicyLearner::Tree(TreeConfig {
-            max_depth: args.depth,
-            ..TreeConfig::default()
-        }),
-        PolicyKind::Ridge => PolicyLearner::Ridge {
-            lambda: args.lambda,
-        },
-    };
+    let learner = args.learner.learner(args.depth, args.lambda);
     let track = Track::new(TrackConfig::default());
     let evaluation_seed = |seed: u64| seed.wrapping_mul(7919).wrapping_add(1);
     let teacher = (1..=args.seeds)

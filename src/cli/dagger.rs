@@ -14,10 +14,9 @@ use serde::Serialize;
 use super::bench::emit;
 use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
-use crate::dagger::{Aggregate, Policy, PolicyLearner, rollout};
+use crate::dagger::{Aggregate, Policy, PolicyKind, rollout};
 use crate::error::{Error, Result};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
-use crate::learn::TreeConfig;
 use crate::sim::track::OBSERVATION_NAMES;
 use crate::sim::{Track, TrackConfig, TrackSim};
 
@@ -26,12 +25,6 @@ use crate::sim::{Track, TrackConfig, TrackSim};
 pub enum Env {
     /// The lane-keeping circuit with a pure-pursuit teacher.
     Track,
-}
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum LearnerKind {
-    Ridge,
-    Tree,
 }
 
 #[derive(Debug, Subcommand)]
@@ -64,7 +57,7 @@ pub enum DaggerCommand {
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
         #[arg(long, value_enum, default_value = "ridge")]
-        learner: LearnerKind,
+        learner: PolicyKind,
         #[arg(long, default_value_t = 1e-3)]
         lambda: f64,
         #[arg(long, default_value_t = 3)]
@@ -166,24 +159,12 @@ fn add(
     Ok(())
 }
 
-fn train(
-    dataset: &Path,
-    out: &Path,
-    learner: LearnerKind,
-    lambda: f64,
-    depth: usize,
-) -> Result<()> {
+fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: usize) -> Result<()> {
     let ds = Dataset::open(dataset)?;
     if ds.steps() == 0 {
         return Err(Error::input(dataset, "holds no steps to train on"));
     }
-    let learner = match learner {
-        LearnerKind::Ridge => PolicyLearner::Ridge { lambda },
-        LearnerKind::Tree => PolicyLearner::Tree(TreeConfig {
-            max_depth: depth,
-            ..TreeConfig::default()
-        }),
-    };
+    let learner = learner.learner(depth, lambda);
     // Ridge keeps only the sufficient statistics; a tree needs the rows.
     let mut data = Aggregate::new(ds.info.observation_names.len(), &learner);
     ds.for_each_round(|_, steps| {
@@ -269,6 +250,10 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                 return Err(Error::Usage("--laps must be at least 1".into()));
             }
             let (loaded, digest) = load_policy(&policy)?;
+            // A mixture is rolled out with one member, drawn from the seed.
+            let loaded = loaded
+                .for_episode(&mut ChaCha8Rng::seed_from_u64(seed))
+                .clone();
             let track = track();
             let report = RolloutReport {
                 schema: "imitate.dagger-rollout/1",

@@ -207,6 +207,14 @@ impl Dataset {
         Ok(())
     }
 
+    /// One round's steps, read back.
+    pub fn round_steps(&self, round: u32) -> Result<RoundSteps> {
+        RoundSteps::read(
+            &self.dir.join(partition(round)),
+            self.info.observation_names.len(),
+        )
+    }
+
     /// The sufficient statistics of every (observation, label) pair in the dataset.
     pub fn policy_data(&self) -> Result<PolicyData> {
         let mut data = PolicyData::new(self.info.observation_names.len());

@@ -15,7 +15,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-pub use policy::{Aggregate, LinearPolicy, Policy, PolicyData, PolicyLearner};
+pub use policy::{Aggregate, LinearPolicy, Policy, PolicyData, PolicyKind, PolicyLearner};
 
 use crate::sim::TrackSim;
 

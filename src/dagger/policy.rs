@@ -10,6 +10,29 @@ use serde::{Deserialize, Serialize};
 
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
 
+/// The kinds of policy a user chooses between.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum PolicyKind {
+    /// Linear in the standardised observations (ridge regression).
+    Ridge,
+    /// A regression tree.
+    Tree,
+}
+
+impl PolicyKind {
+    /// The learner of this kind, with a tree's depth or ridge's penalty.
+    pub fn learner(self, depth: usize, lambda: f64) -> PolicyLearner {
+        match self {
+            PolicyKind::Ridge => PolicyLearner::Ridge { lambda },
+            PolicyKind::Tree => PolicyLearner::Tree(TreeConfig {
+                max_depth: depth,
+                ..TreeConfig::default()
+            }),
+        }
+    }
+}
+
 /// How a policy is fitted to the aggregated labels.
 #[derive(Debug, Clone, PartialEq)]
 pub enum PolicyLearner {
@@ -25,14 +48,36 @@ pub enum PolicyLearner {
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum Policy {
     Linear(LinearPolicy),
-    Tree { tree: RegressionTree },
+    Tree {
+        tree: RegressionTree,
+    },
+    /// The uniform mixture of several rounds' policies, as the seed returns it: each
+    /// episode is driven by one member drawn uniformly (`for_episode`).
+    Mixture {
+        members: Vec<Policy>,
+    },
 }
 
 impl Policy {
+    /// The action for `x`; a mixture acts as its first member (use `for_episode` to
+    /// draw the member an episode runs with).
     pub fn act(&self, x: &[f64]) -> f64 {
         match self {
             Policy::Linear(p) => p.act(x),
             Policy::Tree { tree } => tree.predict(x).clamp(-1.0, 1.0),
+            Policy::Mixture { members } => members.first().map_or(0.0, |m| m.act(x)),
+        }
+    }
+
+    /// The policy one episode runs with: a member drawn uniformly for a mixture, else
+    /// the policy itself.
+    pub fn for_episode(&self, rng: &mut rand_chacha::ChaCha8Rng) -> &Policy {
+        use rand::RngExt;
+        match self {
+            Policy::Mixture { members } if !members.is_empty() => {
+                members[rng.random_range(0..members.len())].for_episode(rng)
+            }
+            _ => self,
         }
     }
 }

@@ -3,6 +3,7 @@
 //! with the same parameter struct. The runner knows stages only through `Stage` and
 //! `build`; stages never know the runner.
 
+pub mod dagger;
 pub mod features;
 pub mod ingest;
 pub mod ioc;
@@ -59,6 +60,9 @@ const REGISTRY: &[(&str, Constructor)] = &[
     }),
     (learch::KIND, |p| {
         Ok(Box::new(parse::<learch::LearchParams>(learch::KIND, p)?))
+    }),
+    (dagger::KIND, |p| {
+        Ok(Box::new(parse::<dagger::DaggerParams>(dagger::KIND, p)?))
     }),
 ];
 
