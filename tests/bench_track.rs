@@ -1,5 +1,5 @@
-//! `imitate bench track` as a user runs it: the JSON report's shape and the teacher's
-//! own record.
+//! `imitate bench track` and `bench gridnav` as a user runs them: the JSON reports'
+//! shapes and the teacher's own record.
 
 mod common;
 
@@ -45,4 +45,40 @@ fn bench_track_reports_both_learners_per_iteration() {
 
     let bad = imitate(dir.path(), &["bench", "track", "--iterations", "0"]);
     assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
+}
+
+#[test]
+fn bench_gridnav_reports_success_and_cost_ratio_per_iteration() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = imitate(
+        dir.path(),
+        &[
+            "bench",
+            "gridnav",
+            "--iterations",
+            "2",
+            "--labels",
+            "60",
+            "--seeds",
+            "1",
+            "--evaluation-pairs",
+            "4",
+            "--json",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    assert_eq!(report["schema"], "imitate.bench-gridnav/1");
+    for curve in report["curves"].as_array().unwrap() {
+        let points = curve["per_iteration"].as_array().unwrap();
+        assert_eq!(points.len(), 2);
+        for p in points {
+            let rate = p["success_rate"].as_f64().unwrap();
+            assert!((0.0..=1.0).contains(&rate));
+            // A path that reaches the goal costs at least the teacher's.
+            if let Some(ratio) = p["cost_ratio"].as_f64() {
+                assert!(ratio >= 1.0 - 1e-9, "{ratio}");
+            }
+        }
+    }
 }

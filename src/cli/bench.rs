@@ -61,6 +61,9 @@ pub enum BenchCommand {
     /// Behaviour cloning against DAgger on the lane-keeping circuit: falls per lap per
     /// iteration, same teacher labels per iteration.
     Track(super::bench_track::TrackBenchArgs),
+    /// Behaviour cloning against DAgger on gridnav: success rate and path-cost ratio
+    /// per iteration, same teacher labels per iteration.
+    Gridnav(super::bench_gridnav::GridnavBenchArgs),
     /// A DAgger dataset of many steps: append a round, retrain a ridge policy on all.
     DaggerScale(super::bench_dagger::DaggerScaleArgs),
     /// One LEARCH round on many large examples, on 1 and on all threads, with the share
@@ -125,6 +128,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
         BenchCommand::IocMethods(args) => super::bench_ioc::run(args),
         BenchCommand::Track(args) => super::bench_track::run(args),
         BenchCommand::DaggerScale(args) => super::bench_dagger::run(args),
+        BenchCommand::Gridnav(args) => super::bench_gridnav::run(args),
         BenchCommand::Hash {
             file,
             size_mib,

@@ -2,6 +2,7 @@
 
 mod bench;
 mod bench_dagger;
+mod bench_gridnav;
 mod bench_ingest;
 mod bench_ioc;
 mod bench_learch;

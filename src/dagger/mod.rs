@@ -15,9 +15,12 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-pub use policy::{Aggregate, LinearPolicy, Policy, PolicyData, PolicyKind, PolicyLearner};
+pub use policy::{
+    Aggregate, LinearPolicy, LogisticPolicy, Policy, PolicyData, PolicyKind, PolicyLearner,
+};
 
 use crate::sim::TrackSim;
+use crate::sim::gridnav::GridNav;
 
 /// A system a policy drives and a teacher labels.
 pub trait Environment {
@@ -27,6 +30,21 @@ pub trait Environment {
     fn teacher(&self) -> f64;
     /// Executes an action; true when the step failed (a fall, a crash).
     fn execute(&mut self, action: f64, rng: &mut ChaCha8Rng) -> bool;
+}
+
+impl Environment for GridNav<'_> {
+    fn observe(&self) -> Vec<f64> {
+        self.observation()
+    }
+
+    /// The teacher's move, as a class index.
+    fn teacher(&self) -> f64 {
+        GridNav::teacher(self) as f64
+    }
+
+    fn execute(&mut self, action: f64, _rng: &mut ChaCha8Rng) -> bool {
+        self.step(action.round().clamp(0.0, 7.0) as usize)
+    }
 }
 
 impl Environment for TrackSim<'_> {

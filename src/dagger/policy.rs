@@ -41,6 +41,9 @@ pub enum PolicyLearner {
     /// A regression tree: piecewise constant, so it does not extrapolate beyond the
     /// states it was shown, which is where DAgger's aggregation matters most.
     Tree(TreeConfig),
+    /// Multinomial logistic regression over `classes` discrete actions (labels are the
+    /// class indices), with this L2 penalty on standardised observations.
+    Logistic { classes: usize, lambda: f64 },
 }
 
 /// A fitted policy: the action (in [−1, 1]) for an observation.
@@ -51,6 +54,8 @@ pub enum Policy {
     Tree {
         tree: RegressionTree,
     },
+    /// Discrete actions: the most probable class, as a number.
+    Logistic(LogisticPolicy),
     /// The uniform mixture of several rounds' policies, as the seed returns it: each
     /// episode is driven by one member drawn uniformly (`for_episode`).
     Mixture {
@@ -65,6 +70,7 @@ impl Policy {
         match self {
             Policy::Linear(p) => p.act(x),
             Policy::Tree { tree } => tree.predict(x).clamp(-1.0, 1.0),
+            Policy::Logistic(p) => p.most_probable(x) as f64,
             Policy::Mixture { members } => members.first().map_or(0.0, |m| m.act(x)),
         }
     }
@@ -100,7 +106,7 @@ impl Aggregate {
             rows: Vec::new(),
             labels: Vec::new(),
             dims,
-            keep_rows: matches!(learner, PolicyLearner::Tree(_)),
+            keep_rows: !matches!(learner, PolicyLearner::Ridge { .. }),
         }
     }
 
@@ -115,6 +121,13 @@ impl Aggregate {
     pub fn fit(&self, learner: &PolicyLearner) -> Policy {
         match learner {
             PolicyLearner::Ridge { lambda } => Policy::Linear(self.stats.fit(*lambda)),
+            PolicyLearner::Logistic { classes, lambda } => Policy::Logistic(LogisticPolicy::fit(
+                &self.rows,
+                self.dims,
+                &self.labels,
+                *classes,
+                *lambda,
+            )),
             PolicyLearner::Tree(config) => {
                 let weights = vec![1.0; self.labels.len()];
                 Policy::Tree {
@@ -150,6 +163,98 @@ impl LinearPolicy {
             .map(|(((v, m), s), w)| w * (v - m) / s)
             .sum();
         (self.bias + z).clamp(-1.0, 1.0)
+    }
+}
+
+/// P(a | x) ∝ exp(b_a + w_a · (x − mean) / scale) over discrete actions a.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct LogisticPolicy {
+    pub mean: Vec<f64>,
+    pub scale: Vec<f64>,
+    /// Per class: the intercept, then one weight per observation.
+    pub weights: Vec<Vec<f64>>,
+}
+
+impl LogisticPolicy {
+    fn scores(&self, x: &[f64]) -> Vec<f64> {
+        self.weights
+            .iter()
+            .map(|w| {
+                w[0] + x
+                    .iter()
+                    .zip(&self.mean)
+                    .zip(&self.scale)
+                    .zip(&w[1..])
+                    .map(|(((v, m), s), wj)| wj * (v - m) / s)
+                    .sum::<f64>()
+            })
+            .collect()
+    }
+
+    /// The class of highest probability (the lowest index on ties).
+    pub fn most_probable(&self, x: &[f64]) -> usize {
+        let scores = self.scores(x);
+        (0..scores.len())
+            .max_by(|&a, &b| scores[a].total_cmp(&scores[b]).then(b.cmp(&a)))
+            .unwrap_or(0)
+    }
+
+    /// Fits by full-batch gradient descent on the mean cross-entropy plus λ‖w‖² (the
+    /// intercepts unpenalised). Rows are `dims` wide; labels are class indices.
+    pub fn fit(rows: &[f64], dims: usize, labels: &[f64], classes: usize, lambda: f64) -> Self {
+        let n = labels.len().max(1);
+        let column = |j: usize| rows.iter().skip(j).step_by(dims.max(1));
+        let mean: Vec<f64> = (0..dims)
+            .map(|j| column(j).sum::<f64>() / n as f64)
+            .collect();
+        let scale: Vec<f64> = (0..dims)
+            .map(|j| {
+                let v = column(j).map(|x| (x - mean[j]).powi(2)).sum::<f64>() / n as f64;
+                if v > 1e-24 { v.sqrt() } else { 1.0 }
+            })
+            .collect();
+        let z: Vec<f64> = rows
+            .chunks(dims.max(1))
+            .flat_map(|r| {
+                (0..dims)
+                    .map(|j| (r[j] - mean[j]) / scale[j])
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        let mut weights = vec![vec![0.0; dims + 1]; classes];
+        // Standardised features keep the curvature near 1: a fixed step converges.
+        let step = 0.5;
+        for _ in 0..300 {
+            let mut gradient = vec![vec![0.0; dims + 1]; classes];
+            for (i, &label) in labels.iter().enumerate() {
+                let x = &z[i * dims..(i + 1) * dims];
+                let scores: Vec<f64> = weights
+                    .iter()
+                    .map(|w| w[0] + x.iter().zip(&w[1..]).map(|(a, b)| a * b).sum::<f64>())
+                    .collect();
+                let top = scores.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
+                let total: f64 = scores.iter().map(|s| (s - top).exp()).sum();
+                for (k, g) in gradient.iter_mut().enumerate() {
+                    let p = (scores[k] - top).exp() / total;
+                    let error = p - f64::from(u8::from(label as usize == k));
+                    g[0] += error;
+                    for j in 0..dims {
+                        g[j + 1] += error * x[j];
+                    }
+                }
+            }
+            for (w, g) in weights.iter_mut().zip(&gradient) {
+                w[0] -= step * g[0] / n as f64;
+                for j in 1..=dims {
+                    w[j] -= step * (g[j] / n as f64 + 2.0 * lambda * w[j]);
+                }
+            }
+        }
+        LogisticPolicy {
+            mean,
+            scale,
+            weights,
+        }
     }
 }
 
@@ -225,6 +330,27 @@ impl PolicyData {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn logistic_regression_separates_classes() {
+        // Class = which of three regions x[0] falls in.
+        let (mut rows, mut labels) = (Vec::new(), Vec::new());
+        for k in 0..300 {
+            let x = (k as f64 / 300.0) * 6.0 - 3.0;
+            rows.extend([x, (k as f64 * 0.7).sin()]);
+            labels.push(if x < -1.0 {
+                0.0
+            } else if x < 1.0 {
+                1.0
+            } else {
+                2.0
+            });
+        }
+        let p = LogisticPolicy::fit(&rows, 2, &labels, 3, 1e-4);
+        assert_eq!(p.most_probable(&[-2.5, 0.0]), 0);
+        assert_eq!(p.most_probable(&[0.0, 0.0]), 1);
+        assert_eq!(p.most_probable(&[2.5, 0.0]), 2);
+    }
 
     #[test]
     fn recovers_a_linear_rule_and_merging_equals_adding() {

@@ -1,5 +1,6 @@
 //! Built-in worlds with known answers, for tests, examples and benchmarks.
 
+pub mod gridnav;
 mod terrain;
 pub mod track;
 

@@ -1,0 +1,158 @@
+//! `gridnav`: a reactive policy walks a terrain costmap to a goal, one of 8 moves per
+//! step, seeing only its surroundings: the goal's direction and distance and the costs
+//! of the 8 neighbouring cells. The teacher is the planner on the true costmap: the
+//! move that starts a cheapest path to the goal (from the goal's cost-to-go field). An
+//! episode ends at the goal (a success) or after three times the teacher's number of
+//! steps (a failure).
+
+use crate::grid::{Cell, Grid};
+use crate::plan::{CostField, Moves, cost_to_go, edge_cost};
+
+/// The 8 moves (row, column offsets), the action's index.
+pub const MOVES: [(i32, i32); 8] = [
+    (-1, 0),
+    (0, -1),
+    (0, 1),
+    (1, 0),
+    (-1, -1),
+    (-1, 1),
+    (1, -1),
+    (1, 1),
+];
+
+/// The observation: goal direction (row, column; unit), log of the goal distance + 1,
+/// and the log-cost of each neighbour relative to the current cell (cells off the map
+/// count as 10).
+pub const OBSERVATION_DIMS: usize = 11;
+
+/// One episode on one map.
+pub struct GridNav<'a> {
+    costs: &'a Grid<f32>,
+    field: CostField,
+    pub goal: Cell,
+    pub position: Cell,
+    pub steps: usize,
+    pub cost: f64,
+    /// The teacher's cost from the start: the optimum.
+    pub optimal_cost: f64,
+    pub max_steps: usize,
+}
+
+impl<'a> GridNav<'a> {
+    /// An episode from `start` to `goal`, or `None` when the goal is unreachable.
+    pub fn new(costs: &'a Grid<f32>, start: Cell, goal: Cell) -> Option<Self> {
+        let field = cost_to_go(costs, &[goal], Moves::default());
+        let optimal_cost = field.cost_at(start);
+        let teacher_steps = field.path_to(start)?.len().saturating_sub(1);
+        optimal_cost.is_finite().then_some(GridNav {
+            costs,
+            field,
+            goal,
+            position: start,
+            steps: 0,
+            cost: 0.0,
+            optimal_cost,
+            max_steps: 3 * teacher_steps.max(1),
+        })
+    }
+
+    pub fn reached(&self) -> bool {
+        self.position == self.goal
+    }
+
+    pub fn over(&self) -> bool {
+        self.reached() || self.steps >= self.max_steps
+    }
+
+    fn neighbour(&self, m: usize) -> Option<Cell> {
+        let (dr, dc) = MOVES[m];
+        let (r, c) = (
+            self.position.row as i64 + dr as i64,
+            self.position.col as i64 + dc as i64,
+        );
+        let cell = Cell::new(r as u32, c as u32);
+        (r >= 0 && c >= 0 && self.costs.geo.contains(cell) && self.costs.get(cell).is_finite())
+            .then_some(cell)
+    }
+
+    pub fn observation(&self) -> Vec<f64> {
+        let (dr, dc) = (
+            f64::from(self.goal.row) - f64::from(self.position.row),
+            f64::from(self.goal.col) - f64::from(self.position.col),
+        );
+        let distance = (dr * dr + dc * dc).sqrt();
+        let unit = distance.max(1e-9);
+        let here = f64::from(self.costs.get(self.position)).ln();
+        let mut x = vec![dr / unit, dc / unit, (distance + 1.0).ln()];
+        for m in 0..8 {
+            x.push(
+                self.neighbour(m)
+                    .map_or(10.0, |cell| f64::from(self.costs.get(cell)).ln() - here),
+            );
+        }
+        x
+    }
+
+    /// The move that starts a cheapest path to the goal (the first in `MOVES` order on
+    /// ties).
+    pub fn teacher(&self) -> usize {
+        let mut best = (f64::INFINITY, 0);
+        for m in 0..8 {
+            if let Some(cell) = self.neighbour(m) {
+                let diagonal = m >= 4;
+                let total = edge_cost(
+                    self.costs.get(self.position),
+                    self.costs.get(cell),
+                    diagonal,
+                ) + self.field.cost_at(cell);
+                if total < best.0 {
+                    best = (total, m);
+                }
+            }
+        }
+        best.1
+    }
+
+    /// Takes move `m` (a move off the map or into a blocked cell stays put); true when
+    /// the episode just failed (ran out of steps).
+    pub fn step(&mut self, m: usize) -> bool {
+        if let Some(cell) = self.neighbour(m % 8) {
+            self.cost += edge_cost(
+                self.costs.get(self.position),
+                self.costs.get(cell),
+                m % 8 >= 4,
+            );
+            self.position = cell;
+        }
+        self.steps += 1;
+        self.steps >= self.max_steps && !self.reached()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::grid::GeoRef;
+
+    #[test]
+    fn the_teacher_walks_a_cheapest_path() {
+        let mut data = vec![1.0f32; 100];
+        for row in 0..8 {
+            data[row * 10 + 5] = 50.0; // a costly wall with a gap at the bottom rows
+        }
+        let costs = Grid::from_vec(GeoRef::unit(10, 10), data);
+        let mut nav = GridNav::new(&costs, Cell::new(2, 1), Cell::new(2, 8)).unwrap();
+        while !nav.over() {
+            let m = nav.teacher();
+            nav.step(m);
+        }
+        assert!(nav.reached());
+        assert!(
+            (nav.cost - nav.optimal_cost).abs() < 1e-9,
+            "{} {}",
+            nav.cost,
+            nav.optimal_cost
+        );
+        assert_eq!(nav.observation().len(), OBSERVATION_DIMS);
+    }
+}
