@@ -199,3 +199,130 @@ fn the_mixture_selection_keeps_every_rounds_policy() {
     assert_eq!(policy["kind"], "mixture");
     assert_eq!(policy["members"].as_array().unwrap().len(), 4);
 }
+
+/// A robot log: 20 lane observations 100 ms apart, the executed steering 5 ms after
+/// each, the teacher's label 10 ms after each but for observations 4, 9, 14 and 19 (and with
+/// `with_labels` false, no label topic at all).
+fn robot_log(path: &std::path::Path, with_labels: bool) {
+    use imitate::io::mcap::Value;
+    use imitate::io::mcap::ros2::record;
+    use imitate::io::mcap::writer::write_log;
+    let lane = "float64 lateral_offset\nfloat64 heading_error\nfloat64[3] curvature\n";
+    let float = "float64 data\n";
+    write_log(path, |log| {
+        let observation = log.channel("/lane_state", "example_msgs/msg/LaneState", lane)?;
+        let action = log.channel("/steering", "std_msgs/msg/Float64", float)?;
+        let label = if with_labels {
+            Some(log.channel("/teacher/steering", "std_msgs/msg/Float64", float)?)
+        } else {
+            None
+        };
+        for i in 0..20u64 {
+            let t = 1_000_000_000 + i * 100_000_000;
+            let offset = (i as f64 * 0.3).sin();
+            log.write(
+                observation,
+                t,
+                &record(vec![
+                    ("lateral_offset", Value::Float64(offset)),
+                    ("heading_error", Value::Float64(0.1 * offset)),
+                    ("curvature", Value::Float64s(vec![0.01, 0.02, 0.03])),
+                ]),
+            )?;
+            log.write(
+                action,
+                t + 5_000_000,
+                &record(vec![("data", Value::Float64(0.0))]),
+            )?;
+            if let Some(label) = label
+                && i % 5 != 4
+            {
+                log.write(
+                    label,
+                    t + 10_000_000,
+                    &record(vec![("data", Value::Float64(-offset))]),
+                )?;
+            }
+        }
+        Ok(())
+    })
+    .unwrap();
+}
+
+#[test]
+fn a_robot_log_becomes_a_round_with_unlabelled_steps_counted() {
+    let dir = tempfile::tempdir().unwrap();
+    robot_log(&dir.path().join("drive.mcap"), true);
+    robot_log(&dir.path().join("unlabelled.mcap"), false);
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let init = run(&[
+        "dagger",
+        "init",
+        "ds",
+        "--env",
+        "log",
+        "--observations",
+        "lateral_offset,heading_error,k3,k8,k15",
+    ]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    let add = |log: &str| {
+        run(&[
+            "dagger",
+            "add",
+            "ds",
+            "--log",
+            log,
+            "--observation-topic",
+            "/lane_state",
+            "--action-topic",
+            "/steering",
+            "--label-topic",
+            "/teacher/steering",
+            "--tolerance-ms",
+            "20",
+        ])
+    };
+    let added = add("drive.mcap");
+    assert!(added.status.success(), "{}", stderr(&added));
+    assert!(
+        stdout(&added).contains("16 steps")
+            && stdout(&added).contains("skipped 4 observations without a label"),
+        "{}",
+        stdout(&added)
+    );
+    let again = add("drive.mcap");
+    assert!(
+        stdout(&again).contains("already holds"),
+        "{}",
+        stdout(&again)
+    );
+    // No label topic: exit 2 naming it, nothing added.
+    let manifest = std::fs::read(dir.path().join("ds/manifest.json")).unwrap();
+    let missing = add("unlabelled.mcap");
+    assert_eq!(missing.status.code(), Some(2), "{}", stderr(&missing));
+    assert!(
+        stderr(&missing).contains("no topic /teacher/steering"),
+        "{}",
+        stderr(&missing)
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("ds/manifest.json")).unwrap(),
+        manifest
+    );
+
+    let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
+    let round = &rounds.as_array().unwrap()[0];
+    assert_eq!(round["steps"], 16);
+    assert_eq!(round["learner_steps"], 16);
+    assert_eq!(round["beta"], 0.0);
+    // The teacher's label is −offset: a linear policy learns it (its weight is shared
+    // with the heading error, which is 0.1 × offset here).
+    let trained = run(&["dagger", "train", "ds", "--out", "p"]);
+    assert!(trained.status.success(), "{}", stderr(&trained));
+    let policy: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("p/policy.json")).unwrap()).unwrap();
+    let raw =
+        |j: usize| policy["weights"][j].as_f64().unwrap() / policy["scale"][j].as_f64().unwrap();
+    let slope = raw(0) + 0.1 * raw(1);
+    assert!((slope + 1.0).abs() < 0.05, "{policy}");
+}

@@ -88,6 +88,7 @@ fn append(ds: &mut Dataset, seed: u64, steps: usize) -> Result<()> {
         policy: String::new(),
         teacher: "linear".into(),
         period: 0.2,
+        timestamps: None,
         episodes: &episodes,
     })?;
     Ok(())

@@ -14,9 +14,10 @@ use serde::Serialize;
 use super::bench::emit;
 use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
+use crate::dagger::log_round::{LogTopics, read_log_round};
 use crate::dagger::{Aggregate, Policy, PolicyKind, rollout};
 use crate::error::{Error, Result};
-use crate::io::fs::{to_json_bytes, write_bytes_atomic};
+use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
 use crate::sim::track::OBSERVATION_NAMES;
 use crate::sim::{Track, TrackConfig, TrackSim};
 
@@ -25,6 +26,8 @@ use crate::sim::{Track, TrackConfig, TrackSim};
 pub enum Env {
     /// The lane-keeping circuit with a pure-pursuit teacher.
     Track,
+    /// Robot logs (`add --log`): the observations are named with --observations.
+    Log,
 }
 
 #[derive(Debug, Subcommand)]
@@ -34,6 +37,10 @@ pub enum DaggerCommand {
         dataset: PathBuf,
         #[arg(long, value_enum, default_value = "track")]
         env: Env,
+        /// With --env log: the observation's values, comma-separated, in the order
+        /// the log's observation messages hold them.
+        #[arg(long, value_delimiter = ',')]
+        observations: Vec<String>,
     },
     /// Drive laps (the teacher, or --policy mixed with the teacher at --beta), label
     /// every step with the teacher's action and append them as a round.
@@ -50,6 +57,21 @@ pub enum DaggerCommand {
         laps: usize,
         #[arg(long, default_value_t = 0)]
         seed: u64,
+        /// Instead of the simulator: a robot log (MCAP) where the learner drove and
+        /// the teacher's labels were recorded on --label-topic.
+        #[arg(long, value_name = "FILE", requires_all = ["observation_topic", "action_topic", "label_topic"])]
+        log: Option<PathBuf>,
+        #[arg(long)]
+        observation_topic: Option<String>,
+        /// The executed action (one number per message).
+        #[arg(long)]
+        action_topic: Option<String>,
+        /// The teacher's label (one number per message).
+        #[arg(long)]
+        label_topic: Option<String>,
+        /// How far apart in time an observation and its action and label may be.
+        #[arg(long, default_value_t = 50.0)]
+        tolerance_ms: f64,
     },
     /// Fit a policy on every round of the dataset and write a policy artifact.
     Train {
@@ -149,12 +171,55 @@ fn add(
         policy: digest,
         teacher: "pure-pursuit".into(),
         period: track.config.period,
+        timestamps: None,
         episodes: &[steps],
     })?;
     let info = &ds.rounds[round as usize];
     println!(
         "round {round}: {} steps ({} by the learner), {} falls",
         info.steps, info.learner_steps, info.failures
+    );
+    Ok(())
+}
+
+/// Appends the round a robot log holds.
+fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
+    let mut ds = Dataset::open(dataset)?;
+    let (digest, _) = file_digest(log)?;
+    let source = format!(
+        "log {digest} observation={} action={} label={} tolerance_ns={}",
+        topics.observation, topics.action, topics.label, topics.tolerance_ns
+    );
+    if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
+        println!("round {} already holds {}", existing.round, log.display());
+        return Ok(());
+    }
+    let round = read_log_round(log, topics)?;
+    if round.steps.is_empty() {
+        return Err(Error::input(
+            log,
+            format!(
+                "no observation on {} has a label and an executed action within the tolerance \
+                 ({} observations: {} without a label, {} without an action)",
+                topics.observation, round.observations, round.unlabelled, round.without_action
+            ),
+        ));
+    }
+    let number = ds.append(&NewRound {
+        source,
+        beta: 0.0,
+        policy: String::new(),
+        teacher: topics.label.clone(),
+        period: 0.0,
+        timestamps: Some(&round.times),
+        episodes: std::slice::from_ref(&round.steps),
+    })?;
+    println!(
+        "round {number}: {} steps from {}; skipped {} observations without a label and {} without an executed action",
+        round.steps.len(),
+        log.display(),
+        round.unlabelled,
+        round.without_action
     );
     Ok(())
 }
@@ -213,18 +278,54 @@ struct RolloutReport {
 
 pub fn run(command: DaggerCommand) -> Result<()> {
     match command {
-        DaggerCommand::Init { dataset, env } => {
-            let Env::Track = env;
+        DaggerCommand::Init {
+            dataset,
+            env,
+            observations,
+        } => {
+            let (names, environment) = match env {
+                Env::Track if observations.is_empty() => {
+                    (OBSERVATION_NAMES.map(String::from).to_vec(), "track")
+                }
+                Env::Track => {
+                    return Err(Error::Usage(
+                        "--observations goes with --env log (track's are fixed)".into(),
+                    ));
+                }
+                Env::Log if observations.is_empty() => {
+                    return Err(Error::Usage(
+                        "--env log needs --observations NAME,NAME,...".into(),
+                    ));
+                }
+                Env::Log => (observations, "log"),
+            };
             Dataset::create(
                 &dataset,
                 DatasetInfo {
                     schema: "imitate.dagger-dataset/1".into(),
-                    observation_names: OBSERVATION_NAMES.map(String::from).to_vec(),
-                    environment: "track".into(),
+                    observation_names: names,
+                    environment: environment.into(),
                 },
             )?;
-            println!("{}: an empty track dataset", dataset.display());
+            println!("{}: an empty {environment} dataset", dataset.display());
             Ok(())
+        }
+        DaggerCommand::Add {
+            dataset,
+            log: Some(log),
+            observation_topic,
+            action_topic,
+            label_topic,
+            tolerance_ms,
+            ..
+        } => {
+            let topics = LogTopics {
+                observation: observation_topic.unwrap_or_default(),
+                action: action_topic.unwrap_or_default(),
+                label: label_topic.unwrap_or_default(),
+                tolerance_ns: (tolerance_ms.max(0.0) * 1e6) as u64,
+            };
+            add_log(&dataset, &log, &topics)
         }
         DaggerCommand::Add {
             dataset,
@@ -232,6 +333,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             beta,
             laps,
             seed,
+            ..
         } => add(&dataset, policy.as_deref(), beta, laps, seed),
         DaggerCommand::Train {
             dataset,

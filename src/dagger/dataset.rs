@@ -69,8 +69,10 @@ pub struct NewRound<'a> {
     pub beta: f64,
     pub policy: String,
     pub teacher: String,
-    /// Seconds between control steps (for `timestamp`).
+    /// Seconds between control steps (for `timestamp`), unless `timestamps` are given.
     pub period: f64,
+    /// Per step (all episodes in order): seconds since its episode's start.
+    pub timestamps: Option<&'a [f64]>,
     pub episodes: &'a [Vec<Step>],
 }
 
@@ -150,6 +152,14 @@ impl Dataset {
                     ));
                 }
             }
+        }
+        let total: usize = new.episodes.iter().map(Vec::len).sum();
+        if new.timestamps.is_some_and(|t| t.len() != total) {
+            return Err(Error::Failed(format!(
+                "round source '{}': {} timestamps for {total} steps",
+                new.source,
+                new.timestamps.map_or(0, <[f64]>::len)
+            )));
         }
         let round = self.rounds.len() as u32;
         let first_index = self.steps();
@@ -346,7 +356,8 @@ fn steps_batch(round: u32, first_index: u64, new: &NewRound<'_>, dims: usize) ->
             frame.push(f as i64);
             index.push(next);
             next += 1;
-            time.push(f as f64 * new.period);
+            let at = index.len() - 1;
+            time.push(new.timestamps.map_or(f as f64 * new.period, |t| t[at]));
             observation.extend(step.observation.iter().map(|&v| v as f32));
             action.push(step.label as f32);
             executed.push(step.executed as f32);
@@ -511,6 +522,7 @@ mod tests {
             policy: String::new(),
             teacher: "test".into(),
             period: 0.2,
+            timestamps: None,
             episodes,
         }
     }

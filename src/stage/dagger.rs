@@ -202,6 +202,7 @@ impl Stage for DaggerParams {
                 policy: String::new(),
                 teacher: "pure-pursuit".into(),
                 period: track.config.period,
+                timestamps: None,
                 episodes: &[steps],
             })?;
             // Train on what the dataset holds (as `imitate dagger train` would).

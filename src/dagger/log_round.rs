@@ -1,0 +1,202 @@
+//! A DAgger round from a robot log: the learner drove, the teacher's corrections were
+//! recorded on their own topic and not executed. Each observation message becomes a
+//! step when an executed-action message and a label message lie within a tolerance of
+//! it in time (the nearest of each; an as-of join both ways). Observations without a
+//! label or without an executed action are counted, not kept.
+//!
+//! Messages become numbers by their numeric fields in schema order (a top-level
+//! `header` left out), so any message type works: a custom observation message, or
+//! `std_msgs/msg/Float64` / `Float32` for the actions.
+
+use std::path::Path;
+
+use super::{Actor, Step};
+use crate::error::{Error, Result};
+use crate::io::mcap::{Decoders, Event, Value, scan};
+
+/// Which topics hold what, and how far apart in time a match may be.
+#[derive(Debug, Clone)]
+pub struct LogTopics {
+    pub observation: String,
+    pub action: String,
+    pub label: String,
+    pub tolerance_ns: u64,
+}
+
+/// The steps read from a log, and what could not be matched.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LogRound {
+    pub steps: Vec<Step>,
+    /// Per step: seconds since the first observation.
+    pub times: Vec<f64>,
+    pub observations: usize,
+    /// Observations with no label message within the tolerance.
+    pub unlabelled: usize,
+    /// Observations with no executed-action message within the tolerance.
+    pub without_action: usize,
+}
+
+/// Appends the numeric leaves of `value` to `out`.
+fn numbers(value: &Value, out: &mut Vec<f64>) {
+    match value {
+        Value::Int(_) | Value::Uint(_) | Value::Float32(_) | Value::Float64(_) => {
+            out.extend(value.as_f64())
+        }
+        Value::Struct { values, .. } => values.iter().for_each(|v| numbers(v, out)),
+        Value::List(items) => items.iter().for_each(|v| numbers(v, out)),
+        Value::Int8s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Uint8s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Int16s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Uint16s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Int32s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Uint32s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Int64s(v) => out.extend(v.iter().map(|&x| x as f64)),
+        Value::Uint64s(v) => out.extend(v.iter().map(|&x| x as f64)),
+        Value::Float32s(v) => out.extend(v.iter().map(|&x| f64::from(x))),
+        Value::Float64s(v) => out.extend_from_slice(v),
+        Value::Null | Value::Bool(_) | Value::String(_) | Value::Bools(_) => {}
+    }
+}
+
+/// The message's numbers, its top-level `header` (stamps, frame) left out.
+fn message_numbers(message: &Value) -> Vec<f64> {
+    let mut out = Vec::new();
+    match message {
+        Value::Struct { names, values } => {
+            for (name, value) in names.iter().zip(values) {
+                if &**name != "header" {
+                    numbers(value, &mut out);
+                }
+            }
+        }
+        other => numbers(other, &mut out),
+    }
+    out
+}
+
+/// The index of the time in `sorted` nearest to `t` within `tolerance` (the earlier on
+/// ties).
+fn nearest(sorted: &[u64], t: u64, tolerance: u64) -> Option<usize> {
+    let after = sorted.partition_point(|&s| s < t);
+    let candidates = [
+        after.checked_sub(1),
+        (after < sorted.len()).then_some(after),
+    ];
+    candidates
+        .into_iter()
+        .flatten()
+        .filter(|&i| sorted[i].abs_diff(t) <= tolerance)
+        .min_by_key(|&i| (sorted[i].abs_diff(t), i))
+}
+
+/// Reads the round from the log at `path`.
+pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
+    let mut decoders = Decoders::default();
+    let mut seen = std::collections::BTreeSet::new();
+    // (log time, numbers) per topic: observation, action, label.
+    let mut series: [Vec<(u64, Vec<f64>)>; 3] = Default::default();
+    let wanted = [&topics.observation, &topics.action, &topics.label];
+    scan(path, |event| {
+        match event {
+            Event::Channel(channel) => {
+                seen.insert(channel.topic.clone());
+            }
+            Event::Message {
+                channel,
+                header,
+                data,
+            } => {
+                if let Some(k) = wanted.iter().position(|t| **t == channel.topic) {
+                    let message =
+                        decoders
+                            .get(channel)
+                            .and_then(|d| d.decode(data))
+                            .map_err(|e| {
+                                Error::input(
+                                    path,
+                                    format!(
+                                        "topic {} message {}: {e}",
+                                        channel.topic, header.sequence
+                                    ),
+                                )
+                            })?;
+                    let values = message_numbers(&message);
+                    if k > 0 && values.len() != 1 {
+                        return Err(Error::input(
+                            path,
+                            format!(
+                                "topic {} message {}: an action must be one number, this message has {}",
+                                channel.topic,
+                                header.sequence,
+                                values.len()
+                            ),
+                        ));
+                    }
+                    series[k].push((header.log_time, values));
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    })?;
+    for topic in wanted {
+        if !seen.contains(topic.as_str()) {
+            return Err(Error::input(
+                path,
+                format!(
+                    "has no topic {topic} (its topics: {})",
+                    seen.iter().cloned().collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        }
+    }
+    for s in &mut series {
+        s.sort_by_key(|(t, _)| *t);
+    }
+    let [observations, actions, labels] = series;
+    let action_times: Vec<u64> = actions.iter().map(|(t, _)| *t).collect();
+    let label_times: Vec<u64> = labels.iter().map(|(t, _)| *t).collect();
+    let (mut steps, mut times, mut unlabelled, mut without_action) = (Vec::new(), Vec::new(), 0, 0);
+    let first = observations.first().map_or(0, |(t, _)| *t);
+    for (t, observation) in &observations {
+        let label = nearest(&label_times, *t, topics.tolerance_ns);
+        let action = nearest(&action_times, *t, topics.tolerance_ns);
+        match (label, action) {
+            (None, _) => unlabelled += 1,
+            (_, None) => without_action += 1,
+            (Some(l), Some(a)) => {
+                steps.push(Step {
+                    observation: observation.clone(),
+                    label: labels[l].1[0],
+                    executed: actions[a].1[0],
+                    actor: Actor::Learner,
+                    failed: false,
+                });
+                times.push((t - first) as f64 * 1e-9);
+            }
+        }
+    }
+    Ok(LogRound {
+        steps,
+        times,
+        observations: observations.len(),
+        unlabelled,
+        without_action,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn nearest_within_tolerance_prefers_the_closer_then_the_earlier() {
+        let times = [10, 20, 30];
+        assert_eq!(nearest(&times, 24, 5), Some(1));
+        assert_eq!(nearest(&times, 26, 5), Some(2));
+        assert_eq!(nearest(&times, 25, 5), Some(1));
+        assert_eq!(nearest(&times, 40, 5), None);
+        assert_eq!(nearest(&times, 0, 10), Some(0));
+        assert_eq!(nearest(&[], 5, 10), None);
+    }
+}
