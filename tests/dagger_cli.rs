@@ -326,3 +326,43 @@ fn a_robot_log_becomes_a_round_with_unlabelled_steps_counted() {
     let slope = raw(0) + 0.1 * raw(1);
     assert!((slope + 1.0).abs() < 0.05, "{policy}");
 }
+
+#[test]
+fn inspect_shows_policies_and_datasets() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    assert!(run(&["dagger", "init", "ds"]).status.success());
+    assert!(
+        run(&["dagger", "add", "ds", "--seed", "3"])
+            .status
+            .success()
+    );
+    assert!(
+        run(&["dagger", "train", "ds", "--out", "p", "--learner", "tree"])
+            .status
+            .success()
+    );
+    let policy = json(&run(&["inspect", "p", "--json"]));
+    assert_eq!(policy["kind"], "policy");
+    assert_eq!(policy["policy"]["kind"], "tree");
+    assert!(policy["policy"]["leaves"].as_u64().unwrap() >= 1);
+    assert_eq!(policy["stage"], "dagger-train");
+    let dataset = json(&run(&["inspect", "ds", "--json"]));
+    assert_eq!(dataset["kind"], "dagger-dataset");
+    assert_eq!(dataset["rounds"].as_array().unwrap().len(), 1);
+    assert_eq!(dataset["observation_names"][0], "lateral_offset");
+    let text = run(&["inspect", "ds"]);
+    assert!(
+        stdout(&text).contains("kind:    dagger-dataset"),
+        "{}",
+        stdout(&text)
+    );
+    std::fs::create_dir(dir.path().join("empty")).unwrap();
+    let empty = run(&["inspect", "empty"]);
+    assert_eq!(empty.status.code(), Some(2), "{}", stderr(&empty));
+    assert!(
+        stderr(&empty).contains("not an artifact"),
+        "{}",
+        stderr(&empty)
+    );
+}

@@ -13,7 +13,7 @@ use crate::io::mcap::{Decoders, Event, Value, scan};
 
 #[derive(Debug, clap::Args)]
 pub struct InspectArgs {
-    /// An MCAP file.
+    /// An MCAP file, or an artifact or DAgger dataset folder.
     pub file: PathBuf,
     /// Print the report as JSON.
     #[arg(long)]
@@ -43,14 +43,19 @@ pub struct CatArgs {
 }
 
 pub fn inspect_command(args: InspectArgs) -> Result<()> {
+    let mut out = std::io::stdout().lock();
     if args.file.is_dir() {
-        return Err(Error::input(
-            &args.file,
-            "is a folder; inspect reads MCAP files",
-        ));
+        let report = super::inspect_artifact::inspect_folder(&args.file)?;
+        let written = if args.json {
+            serde_json::to_writer_pretty(&mut out, &report)
+                .map_err(std::io::Error::from)
+                .and_then(|()| writeln!(out))
+        } else {
+            out.write_all(super::inspect_artifact::render(&report).as_bytes())
+        };
+        return written.map_err(|e| Error::io("writing to stdout", e));
     }
     let report = inspect(&args.file, !args.scan, args.allow_truncated)?;
-    let mut out = std::io::stdout().lock();
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &report)
             .map_err(std::io::Error::from)

@@ -12,6 +12,7 @@ mod dagger;
 mod diff;
 mod export;
 mod forecast;
+mod inspect_artifact;
 mod log;
 mod mcap;
 mod plan;
@@ -86,7 +87,8 @@ pub enum Command {
     Ioc(ioc::IocParams),
     /// The stored versions of an artifact, with what changed between them.
     Log(log::LogArgs),
-    /// What an MCAP file holds: channels, schemas, counts, time range, chunks.
+    /// What an MCAP file holds (channels, schemas, counts, time range, chunks), or an
+    /// artifact or DAgger dataset folder (kind, digest, lineage, metrics, rounds).
     Inspect(mcap::InspectArgs),
     /// Decoded messages of an MCAP file (ROS 2 CDR, JSON, protobuf), one per line.
     Cat(mcap::CatArgs),

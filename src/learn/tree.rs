@@ -44,6 +44,17 @@ pub struct RegressionTree {
 }
 
 impl RegressionTree {
+    /// How many leaves the tree has.
+    pub fn leaves(&self) -> usize {
+        fn count(node: &Node) -> usize {
+            match node {
+                Node::Leaf { .. } => 1,
+                Node::Split { left, right, .. } => count(left) + count(right),
+            }
+        }
+        count(&self.root)
+    }
+
     pub fn predict(&self, row: &[f64]) -> f64 {
         let mut node = &self.root;
         loop {
