@@ -366,3 +366,56 @@ fn inspect_shows_policies_and_datasets() {
         stderr(&empty)
     );
 }
+
+#[test]
+fn diff_compares_policies_by_their_actions_and_datasets_by_their_rounds() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    assert!(run(&["dagger", "init", "ds"]).status.success());
+    assert!(
+        run(&["dagger", "add", "ds", "--seed", "1"])
+            .status
+            .success()
+    );
+    assert!(
+        run(&["dagger", "train", "ds", "--out", "p0", "--learner", "tree"])
+            .status
+            .success()
+    );
+    copy_dir(&dir.path().join("ds"), &dir.path().join("ds-before"));
+    assert!(
+        run(&["dagger", "add", "ds", "--policy", "p0", "--seed", "2"])
+            .status
+            .success()
+    );
+    assert!(
+        run(&["dagger", "train", "ds", "--out", "p1", "--learner", "tree"])
+            .status
+            .success()
+    );
+
+    let same = json(&run(&["diff", "p0", "p0", "--format", "json"]));
+    assert_eq!(same["summary"]["policy_mean_abs_action"], 0.0);
+    assert_eq!(same["summary"]["delta_falls_per_lap"], 0.0);
+    let changed = json(&run(&["diff", "p0", "p1", "--format", "json"]));
+    assert!(
+        changed["summary"]["policy_mean_abs_action"]
+            .as_f64()
+            .unwrap()
+            > 0.0
+    );
+    assert!(changed["policies"]["states"].as_u64().unwrap() > 100);
+    let strict = run(&["diff", "p0", "p1", "--fail-if", "policy_max_abs_action > 0"]);
+    assert_eq!(strict.status.code(), Some(1), "{}", stderr(&strict));
+
+    let datasets = json(&run(&["diff", "ds-before", "ds", "--format", "json"]));
+    assert_eq!(datasets["datasets"]["rounds_added"], serde_json::json!([1]));
+    assert_eq!(datasets["summary"]["rounds_removed"], 0.0);
+    assert_eq!(datasets["summary"]["schema_changed"], 0.0);
+    let text = run(&["diff", "ds-before", "ds"]);
+    assert!(
+        stdout(&text).contains("rounds: 1 -> 2 (1 added, 0 removed)"),
+        "{}",
+        stdout(&text)
+    );
+}

@@ -11,6 +11,10 @@ use serde::Serialize;
 use crate::error::{Error, Result};
 use crate::io::png::write_png;
 use crate::report::costmap_artifact::{CostmapArtifact, read_any_manifest};
+use crate::report::dagger_diff::{
+    DatasetDiff, PolicyDiff, dagger_summary, dataset_diff, is_track_policy, load_policy,
+    policy_diff,
+};
 use crate::report::diff::{
     CostmapDiff, FileChanges, Threshold, costmap_diff, file_changes, summary,
 };
@@ -90,6 +94,10 @@ struct DiffReport<'a> {
     files: &'a FileChanges,
     #[serde(skip_serializing_if = "Option::is_none")]
     costmaps: Option<&'a CostmapDiff>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    policies: Option<&'a PolicyDiff>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    datasets: Option<&'a DatasetDiff>,
     summary: &'a BTreeMap<String, f64>,
     failed: &'a [String],
 }
@@ -132,7 +140,25 @@ pub fn run(args: DiffArgs) -> Result<()> {
     } else {
         None
     };
-    let numbers = summary(&files, costmaps.as_ref());
+    let policies = if old_manifest.kind == "policy"
+        && is_track_policy(&old_dir)
+        && is_track_policy(&new_dir)
+    {
+        Some(policy_diff(
+            &load_policy(&old_dir)?,
+            &load_policy(&new_dir)?,
+            args.tolerance,
+        ))
+    } else {
+        None
+    };
+    let datasets = if old_manifest.kind == "dagger-dataset" {
+        Some(dataset_diff(&old_dir, &new_dir)?)
+    } else {
+        None
+    };
+    let mut numbers = summary(&files, costmaps.as_ref());
+    dagger_summary(policies.as_ref(), datasets.as_ref(), &mut numbers);
     let mut failed = Vec::new();
     for threshold in &args.fail_if {
         if let Some(reason) = threshold.crossed(&numbers).map_err(Error::Usage)? {
@@ -146,6 +172,8 @@ pub fn run(args: DiffArgs) -> Result<()> {
         kind: &old_manifest.kind,
         files: &files,
         costmaps: costmaps.as_ref(),
+        policies: policies.as_ref(),
+        datasets: datasets.as_ref(),
         summary: &numbers,
         failed: &failed,
     };
@@ -254,7 +282,44 @@ fn render_text(report: &DiffReport<'_>) -> String {
             }
         }
     }
+    let _ = write!(t, "{}", dagger_lines(report, ""));
     let _ = writeln!(t, "{}", verdict(report));
+    t
+}
+
+/// The policy and dataset comparisons, one line each, after `bullet`.
+fn dagger_lines(report: &DiffReport<'_>, bullet: &str) -> String {
+    let mut t = String::new();
+    if let Some(p) = report.policies {
+        let _ = writeln!(
+            t,
+            "{bullet}actions on {} states of a teacher's lap: |Δ| mean {:.4} max {:.4}, {:.1}% differ",
+            p.states,
+            p.mean_abs_action,
+            p.max_abs_action,
+            100.0 * p.disagreement_share
+        );
+        if let (Some(a), Some(b)) = (p.old_falls_per_lap, p.new_falls_per_lap) {
+            let _ = writeln!(t, "{bullet}falls per lap: {a:.2} -> {b:.2}");
+        }
+    }
+    if let Some(d) = report.datasets {
+        let _ = writeln!(
+            t,
+            "{bullet}rounds: {} -> {} ({} added, {} removed), steps: {} -> {}{}",
+            d.old_rounds,
+            d.new_rounds,
+            d.rounds_added.len(),
+            d.rounds_removed.len(),
+            d.old_steps,
+            d.new_steps,
+            if d.schema_changed {
+                ", observations changed"
+            } else {
+                ""
+            }
+        );
+    }
     t
 }
 
@@ -331,6 +396,10 @@ fn render_markdown(report: &DiffReport<'_>, images: &Path) -> String {
                 images.join(format!("{}.png", m.map)).display()
             );
         }
+    }
+    let lines = dagger_lines(report, "- ");
+    if !lines.is_empty() {
+        let _ = writeln!(t, "{lines}");
     }
     let _ = writeln!(t, "{}", verdict(report));
     t

@@ -30,7 +30,7 @@ use arrow::datatypes::{DataType, Field, Schema};
 use serde::{Deserialize, Serialize};
 
 use super::{Actor, PolicyData, Step};
-use crate::artifact::{FileEntry, MANIFEST, artifact_digest};
+use crate::artifact::{FileEntry, Lineage, MANIFEST, artifact_digest};
 use crate::error::{Error, Result};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
 use crate::io::tables::{Table, read_table, write_table};
@@ -301,6 +301,15 @@ impl Dataset {
             "schema_version": "1.0.0",
             "digest": artifact_digest(&files),
             "files": files,
+            "lineage": Lineage::new(
+                "dagger-dataset",
+                1,
+                serde_json::json!({
+                    "environment": self.info.environment,
+                    "observation_names": self.info.observation_names,
+                }),
+                Vec::new(),
+            ),
             "metrics": {"rounds": self.rounds.len(), "steps": self.steps()},
         });
         write_bytes_atomic(&self.dir.join(MANIFEST), &to_json_bytes(&manifest))

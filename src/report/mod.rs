@@ -1,6 +1,7 @@
 //! What people look at: preview pictures, diffs between artifacts, reports.
 
 pub mod costmap_artifact;
+pub mod dagger_diff;
 pub mod diff;
 pub mod export;
 pub mod picture;
