@@ -419,3 +419,108 @@ fn diff_compares_policies_by_their_actions_and_datasets_by_their_rounds() {
         stdout(&text)
     );
 }
+
+/// Writes `batch` as a Parquet file (parents made).
+fn write_parquet(path: &std::path::Path, batch: &arrow::array::RecordBatch) {
+    std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+    let file = std::fs::File::create(path).unwrap();
+    let mut writer = parquet::arrow::ArrowWriter::try_new(file, batch.schema(), None).unwrap();
+    writer.write(batch).unwrap();
+    writer.close().unwrap();
+}
+
+/// LeRobot rows of one episode: `observation.state` [5], `action` [1], indices.
+fn lerobot_episode(episode: i64, steps: usize) -> arrow::array::RecordBatch {
+    use arrow::array::{ArrayRef, FixedSizeListArray, Float32Array, Int64Array, RecordBatch};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let item = Arc::new(Field::new("item", DataType::Float32, true));
+    let list = |values: Vec<f32>, n: i32| {
+        FixedSizeListArray::new(item.clone(), n, Arc::new(Float32Array::from(values)), None)
+    };
+    let offset = |k: usize| ((episode as f32) + k as f32 * 0.1).sin();
+    let state: Vec<f32> = (0..steps)
+        .flat_map(|k| [offset(k), 0.0, 0.01, 0.02, 0.03])
+        .collect();
+    let action: Vec<f32> = (0..steps).map(|k| -0.5 * offset(k)).collect();
+    let schema = Schema::new(vec![
+        Field::new(
+            "observation.state",
+            DataType::FixedSizeList(item.clone(), 5),
+            false,
+        ),
+        Field::new("action", DataType::FixedSizeList(item.clone(), 1), false),
+        Field::new("frame_index", DataType::Int64, false),
+        Field::new("episode_index", DataType::Int64, false),
+    ]);
+    let columns: Vec<ArrayRef> = vec![
+        Arc::new(list(state, 5)),
+        Arc::new(list(action, 1)),
+        Arc::new(Int64Array::from_iter_values(0..steps as i64)),
+        Arc::new(Int64Array::from(vec![episode; steps])),
+    ];
+    RecordBatch::try_new(Arc::new(schema), columns).unwrap()
+}
+
+#[test]
+fn expert_demonstrations_from_lerobot_become_round_zero() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let folder = dir.path().join("expert");
+    std::fs::create_dir_all(folder.join("meta")).unwrap();
+    std::fs::write(
+        folder.join("meta/info.json"),
+        r#"{"codebase_version": "v2.1"}"#,
+    )
+    .unwrap();
+    for episode in 0..3 {
+        write_parquet(
+            &folder.join(format!("data/chunk-000/episode_{episode:06}.parquet")),
+            &lerobot_episode(episode, 40),
+        );
+    }
+    assert!(run(&["dagger", "init", "ds"]).status.success());
+    let added = run(&["dagger", "add", "ds", "--lerobot", "expert"]);
+    assert!(added.status.success(), "{}", stderr(&added));
+    assert!(
+        stdout(&added).contains("120 steps in 3 episodes"),
+        "{}",
+        stdout(&added)
+    );
+    let again = run(&["dagger", "add", "ds", "--lerobot", "expert"]);
+    assert!(
+        stdout(&again).contains("already holds"),
+        "{}",
+        stdout(&again)
+    );
+    let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
+    assert_eq!(rounds[0]["beta"], 1.0);
+    assert_eq!(rounds[0]["learner_steps"], 0);
+    assert_eq!(rounds[0]["episodes"], 3);
+    // The action as a whole list of 5 numbers is refused, naming the record.
+    let wide = run(&[
+        "dagger",
+        "add",
+        "ds",
+        "--lerobot",
+        "expert",
+        "--action",
+        "observation.state",
+    ]);
+    assert_eq!(wide.status.code(), Some(2), "{}", stderr(&wide));
+    assert!(stderr(&wide).contains("record 0"), "{}", stderr(&wide));
+    // Observations of another width than the dataset's are refused, the dataset unchanged.
+    let narrow = run(&[
+        "dagger",
+        "add",
+        "ds",
+        "--lerobot",
+        "expert",
+        "--observation",
+        "observation.state[0]",
+    ]);
+    assert_eq!(narrow.status.code(), Some(2), "{}", stderr(&narrow));
+    assert!(stderr(&narrow).contains("1 values"), "{}", stderr(&narrow));
+    let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
+    assert_eq!(rounds.as_array().unwrap().len(), 1);
+}

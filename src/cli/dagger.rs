@@ -14,9 +14,11 @@ use serde::Serialize;
 use super::bench::emit;
 use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
+use crate::dagger::demo_round::{DemoColumns, read_demo_round};
 use crate::dagger::log_round::{LogTopics, read_log_round};
 use crate::dagger::{Aggregate, Policy, PolicyKind, rollout};
 use crate::error::{Error, Result};
+use crate::io::demo_tables::{Column, lerobot_files};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
 use crate::sim::track::OBSERVATION_NAMES;
 use crate::sim::{Track, TrackConfig, TrackSim};
@@ -30,6 +32,8 @@ pub enum Env {
     Log,
 }
 
+// Parsed once per run: the size of the largest variant does not matter.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 pub enum DaggerCommand {
     /// Create an empty dataset for an environment.
@@ -72,6 +76,26 @@ pub enum DaggerCommand {
         /// How far apart in time an observation and its action and label may be.
         #[arg(long, default_value_t = 50.0)]
         tolerance_ms: f64,
+        /// Instead: expert demonstrations from Parquet tables (a round the teacher drove).
+        #[arg(long = "demonstrations", value_name = "FILE", conflicts_with_all = ["log", "lerobot"])]
+        demonstrations: Vec<PathBuf>,
+        /// Instead: expert demonstrations from a LeRobot dataset folder (v2 or v3).
+        #[arg(long, value_name = "DIR", conflicts_with = "log")]
+        lerobot: Option<PathBuf>,
+        /// With --demonstrations or --lerobot: observation columns, in order (a list
+        /// column gives all its elements, `name[i]` one).
+        #[arg(long = "observation", value_name = "COLUMN", default_values_t = ["observation.state".to_string()])]
+        observation_columns: Vec<String>,
+        /// With --demonstrations or --lerobot: the action column (one number per row).
+        #[arg(long = "action", value_name = "COLUMN", default_value = "action")]
+        action_column: String,
+        /// With --demonstrations or --lerobot: the episode column.
+        #[arg(
+            long = "episode",
+            value_name = "COLUMN",
+            default_value = "episode_index"
+        )]
+        episode_column: String,
     },
     /// Fit a policy on every round of the dataset and write a policy artifact.
     Train {
@@ -178,6 +202,49 @@ fn add(
     println!(
         "round {round}: {} steps ({} by the learner), {} falls",
         info.steps, info.learner_steps, info.failures
+    );
+    Ok(())
+}
+
+/// Appends expert demonstrations from tables as a round the teacher drove.
+fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) -> Result<()> {
+    let mut ds = Dataset::open(dataset)?;
+    let mut digests = Vec::new();
+    for file in files {
+        digests.push(file_digest(file)?.0);
+    }
+    let source = format!(
+        "demonstrations {} observation={} action={}",
+        digests.join(","),
+        columns
+            .observations
+            .iter()
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join(","),
+        columns.action
+    );
+    if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
+        println!(
+            "round {} already holds these demonstrations",
+            existing.round
+        );
+        return Ok(());
+    }
+    let episodes = read_demo_round(files, columns)?;
+    let number = ds.append(&NewRound {
+        source,
+        beta: 1.0,
+        policy: String::new(),
+        teacher: "demonstrations".into(),
+        period: 0.0,
+        timestamps: None,
+        episodes: &episodes,
+    })?;
+    let info = &ds.rounds[number as usize];
+    println!(
+        "round {number}: {} steps in {} episodes",
+        info.steps, info.episodes
     );
     Ok(())
 }
@@ -326,6 +393,33 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                 tolerance_ns: (tolerance_ms.max(0.0) * 1e6) as u64,
             };
             add_log(&dataset, &log, &topics)
+        }
+        DaggerCommand::Add {
+            dataset,
+            demonstrations,
+            lerobot,
+            observation_columns,
+            action_column,
+            episode_column,
+            ..
+        } if !demonstrations.is_empty() || lerobot.is_some() => {
+            let parse = |text: &str| {
+                text.parse::<Column>()
+                    .map_err(|e| Error::Usage(format!("column '{text}': {e}")))
+            };
+            let columns = DemoColumns {
+                episode: parse(&episode_column)?,
+                observations: observation_columns
+                    .iter()
+                    .map(|c| parse(c))
+                    .collect::<Result<_>>()?,
+                action: parse(&action_column)?,
+            };
+            let files = match &lerobot {
+                Some(folder) => lerobot_files(folder)?,
+                None => demonstrations,
+            };
+            add_demonstrations(&dataset, &files, &columns)
         }
         DaggerCommand::Add {
             dataset,

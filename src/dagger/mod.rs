@@ -9,6 +9,7 @@
 //! artifacts are not built yet.)
 
 pub mod dataset;
+pub mod demo_round;
 pub mod log_round;
 mod policy;
 

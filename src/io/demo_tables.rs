@@ -202,8 +202,60 @@ fn numbers(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<Opti
     }
 }
 
+/// Per row, the numbers of `column`: one for a number column or a list element
+/// (`name[i]`), all of them for a list column. A null is an error naming the record.
+pub fn row_vectors(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<Vec<f64>>> {
+    let values = array(path, batch, column)?;
+    let null = |row: usize| Error::input(path, format!("record {row}: column '{column}' is null"));
+    let whole_list = column.index.is_none()
+        && matches!(
+            values.data_type(),
+            DataType::List(_) | DataType::FixedSizeList(_, _)
+        );
+    if !whole_list {
+        return numbers(path, batch, column)?
+            .into_iter()
+            .enumerate()
+            .map(|(row, v)| v.map(|v| vec![v]).ok_or_else(|| null(row)))
+            .collect();
+    }
+    let items = |array: &dyn Array| -> Result<Vec<Option<f64>>> {
+        let cast = arrow::compute::cast(array, &DataType::Float64)
+            .map_err(|e| Error::input(path, format!("column '{column}': {e}")))?;
+        Ok(cast.as_primitive::<Float64Type>().iter().collect())
+    };
+    let (offsets, flat): (Vec<usize>, Vec<Option<f64>>) = match values.data_type() {
+        DataType::FixedSizeList(_, length) => {
+            let list = values.as_fixed_size_list();
+            let n = *length as usize;
+            (
+                (0..=list.len()).map(|i| i * n).collect(),
+                items(list.values().as_ref())?,
+            )
+        }
+        _ => {
+            let list = values.as_list::<i32>();
+            (
+                list.value_offsets().iter().map(|&o| o as usize).collect(),
+                items(list.values().as_ref())?,
+            )
+        }
+    };
+    (0..values.len())
+        .map(|row| {
+            if values.is_null(row) {
+                return Err(null(row));
+            }
+            flat[offsets[row]..offsets[row + 1]]
+                .iter()
+                .map(|v| v.ok_or_else(|| null(row)))
+                .collect()
+        })
+        .collect()
+}
+
 /// Episode ids as text: string columns as they are, integer ids in decimal.
-fn labels(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<String>> {
+pub fn labels(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<String>> {
     let values = array(path, batch, column)?;
     if let Some(row) = (0..values.len()).find(|&i| values.is_null(i)) {
         return Err(Error::input(
@@ -394,6 +446,20 @@ fn lerobot_columns(info: &serde_json::Value) -> Option<Columns> {
     })
 }
 
+/// The data files of a LeRobot folder, in name order.
+pub fn lerobot_files(folder: &Path) -> Result<Vec<PathBuf>> {
+    let pattern = folder.join("data/**/*.parquet");
+    let mut files: Vec<PathBuf> = glob::glob(&pattern.to_string_lossy())
+        .map_err(|e| Error::input(folder, e.to_string()))?
+        .filter_map(|entry| entry.ok())
+        .collect();
+    files.sort();
+    if files.is_empty() {
+        return Err(Error::input(folder, "has no data/**/*.parquet files"));
+    }
+    Ok(files)
+}
+
 /// Reads a LeRobot dataset folder (codebase v2.x: one file per episode; v3.x: files of
 /// several episodes). Episodes are named `<folder>-episode-<index>`; the pose comes from
 /// `observation.state` elements named x, y (and yaw) in `meta/info.json`, unless
@@ -416,6 +482,7 @@ pub fn read_lerobot(
             format!("codebase_version '{version}': LeRobot v2.x and v3.x datasets are read"),
         ));
     }
+    let files = lerobot_files(folder)?;
     let base = lerobot_columns(&info).unwrap_or_else(|| Columns {
         episode: Column::named("episode_index"),
         map: None,
@@ -427,15 +494,6 @@ pub fn read_lerobot(
     let columns = base
         .with_overrides(overrides)
         .map_err(|e| Error::Usage(e.to_string()))?;
-    let pattern = folder.join("data/**/*.parquet");
-    let mut files: Vec<PathBuf> = glob::glob(&pattern.to_string_lossy())
-        .map_err(|e| Error::input(folder, e.to_string()))?
-        .filter_map(|entry| entry.ok())
-        .collect();
-    files.sort();
-    if files.is_empty() {
-        return Err(Error::input(folder, "has no data/**/*.parquet files"));
-    }
     let prefix = format!(
         "{}-episode-",
         folder

@@ -1,0 +1,82 @@
+//! Round 0 from expert demonstrations in tables: Parquet files or LeRobot folders (v2
+//! and v3), where every step's action is the expert's own. Observations come from one
+//! or more columns (a list column gives all its elements, `name[i]` one element, a
+//! number column itself), the action from one number; rows of an episode are
+//! consecutive, in time order.
+
+use std::path::PathBuf;
+
+use super::{Actor, Step};
+use crate::error::{Error, Result};
+use crate::io::demo_tables::{Column, labels, row_vectors};
+use crate::io::tables::{Table, read_table};
+
+/// Which columns hold what.
+#[derive(Debug, Clone)]
+pub struct DemoColumns {
+    pub episode: Column,
+    pub observations: Vec<Column>,
+    pub action: Column,
+}
+
+impl Default for DemoColumns {
+    /// LeRobot's names.
+    fn default() -> Self {
+        DemoColumns {
+            episode: Column::named("episode_index"),
+            observations: vec![Column::named("observation.state")],
+            action: Column::named("action"),
+        }
+    }
+}
+
+/// The episodes of `files`, each a list of expert steps.
+pub fn read_demo_round(files: &[PathBuf], columns: &DemoColumns) -> Result<Vec<Vec<Step>>> {
+    let mut episodes: Vec<(String, Vec<Step>)> = Vec::new();
+    for file in files {
+        let batch = read_table(file, Table::DEMONSTRATIONS, true)?.batch;
+        let ids = labels(file, &batch, &columns.episode)?;
+        let parts: Vec<Vec<Vec<f64>>> = columns
+            .observations
+            .iter()
+            .map(|c| row_vectors(file, &batch, c))
+            .collect::<Result<_>>()?;
+        let actions = row_vectors(file, &batch, &columns.action)?;
+        for (row, id) in ids.iter().enumerate() {
+            if actions[row].len() != 1 {
+                return Err(Error::input(
+                    file,
+                    format!(
+                        "record {row}: the action '{}' holds {} numbers; name one element, as '{}[0]'",
+                        columns.action,
+                        actions[row].len(),
+                        columns.action.name
+                    ),
+                ));
+            }
+            let observation: Vec<f64> = parts.iter().flat_map(|p| p[row].clone()).collect();
+            let step = Step {
+                observation,
+                label: actions[row][0],
+                executed: actions[row][0],
+                actor: Actor::Teacher,
+                failed: false,
+            };
+            match episodes.last_mut() {
+                Some((last, steps)) if last == id => steps.push(step),
+                _ => {
+                    if episodes.iter().any(|(e, _)| e == id) {
+                        return Err(Error::input(
+                            file,
+                            format!(
+                                "record {row}: episode {id} resumes after another episode; rows of an episode must be consecutive"
+                            ),
+                        ));
+                    }
+                    episodes.push((id.clone(), vec![step]));
+                }
+            }
+        }
+    }
+    Ok(episodes.into_iter().map(|(_, steps)| steps).collect())
+}
