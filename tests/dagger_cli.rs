@@ -310,11 +310,29 @@ fn a_robot_log_becomes_a_round_with_unlabelled_steps_counted() {
         manifest
     );
 
+    // Without an action topic the log is the expert's own driving: a teacher round.
+    let expert = run(&[
+        "dagger",
+        "add",
+        "ds",
+        "--log",
+        "drive.mcap",
+        "--observation-topic",
+        "/lane_state",
+        "--label-topic",
+        "/teacher/steering",
+        "--tolerance-ms",
+        "20",
+    ]);
+    assert!(expert.status.success(), "{}", stderr(&expert));
     let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
     let round = &rounds.as_array().unwrap()[0];
     assert_eq!(round["steps"], 16);
     assert_eq!(round["learner_steps"], 16);
     assert_eq!(round["beta"], 0.0);
+    let expert_round = &rounds.as_array().unwrap()[1];
+    assert_eq!(expert_round["learner_steps"], 0);
+    assert_eq!(expert_round["beta"], 1.0);
     // The teacher's label is −offset: a linear policy learns it (its weight is shared
     // with the heading error, which is 0.1 × offset here).
     let trained = run(&["dagger", "train", "ds", "--out", "p"]);

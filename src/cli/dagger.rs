@@ -63,11 +63,12 @@ pub enum DaggerCommand {
         seed: u64,
         /// Instead of the simulator: a robot log (MCAP) where the learner drove and
         /// the teacher's labels were recorded on --label-topic.
-        #[arg(long, value_name = "FILE", requires_all = ["observation_topic", "action_topic", "label_topic"])]
+        #[arg(long, value_name = "FILE", requires_all = ["observation_topic", "label_topic"])]
         log: Option<PathBuf>,
         #[arg(long)]
         observation_topic: Option<String>,
-        /// The executed action (one number per message).
+        /// The executed action (one number per message). Without it the log is an
+        /// expert demonstration: the label topic is what the expert did.
         #[arg(long)]
         action_topic: Option<String>,
         /// The teacher's label (one number per message).
@@ -255,7 +256,10 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
     let (digest, _) = file_digest(log)?;
     let source = format!(
         "log {digest} observation={} action={} label={} tolerance_ns={}",
-        topics.observation, topics.action, topics.label, topics.tolerance_ns
+        topics.observation,
+        topics.action.as_deref().unwrap_or("-"),
+        topics.label,
+        topics.tolerance_ns
     );
     if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
         println!("round {} already holds {}", existing.round, log.display());
@@ -274,7 +278,7 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
     }
     let number = ds.append(&NewRound {
         source,
-        beta: 0.0,
+        beta: if topics.action.is_none() { 1.0 } else { 0.0 },
         policy: String::new(),
         teacher: topics.label.clone(),
         period: 0.0,
@@ -388,7 +392,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
         } => {
             let topics = LogTopics {
                 observation: observation_topic.unwrap_or_default(),
-                action: action_topic.unwrap_or_default(),
+                action: action_topic,
                 label: label_topic.unwrap_or_default(),
                 tolerance_ns: (tolerance_ms.max(0.0) * 1e6) as u64,
             };

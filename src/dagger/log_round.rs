@@ -4,6 +4,9 @@
 //! it in time (the nearest of each; an as-of join both ways). Observations without a
 //! label or without an executed action are counted, not kept.
 //!
+//! Without an action topic the log is an expert demonstration: the teacher drove, and
+//! its label is also the executed action.
+//!
 //! Messages become numbers by their numeric fields in schema order (a top-level
 //! `header` left out), so any message type works: a custom observation message, or
 //! `std_msgs/msg/Float64` / `Float32` for the actions.
@@ -18,7 +21,8 @@ use crate::io::mcap::{Decoders, Event, Value, scan};
 #[derive(Debug, Clone)]
 pub struct LogTopics {
     pub observation: String,
-    pub action: String,
+    /// The executed action; `None` when the teacher drove (a demonstration).
+    pub action: Option<String>,
     pub label: String,
     pub tolerance_ns: u64,
 }
@@ -95,7 +99,12 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
     let mut seen = std::collections::BTreeSet::new();
     // (log time, numbers) per topic: observation, action, label.
     let mut series: [Vec<(u64, Vec<f64>)>; 3] = Default::default();
-    let wanted = [&topics.observation, &topics.action, &topics.label];
+    let demonstration = topics.action.is_none();
+    let action_topic = topics
+        .action
+        .clone()
+        .unwrap_or_else(|| topics.label.clone());
+    let wanted = [&topics.observation, &action_topic, &topics.label];
     scan(path, |event| {
         match event {
             Event::Channel(channel) => {
@@ -106,7 +115,8 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
                 header,
                 data,
             } => {
-                if let Some(k) = wanted.iter().position(|t| **t == channel.topic) {
+                // With no action topic, the label topic also gives the executed action.
+                for k in (0..3).filter(|&k| *wanted[k] == channel.topic) {
                     let message =
                         decoders
                             .get(channel)
@@ -169,7 +179,11 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
                     observation: observation.clone(),
                     label: labels[l].1[0],
                     executed: actions[a].1[0],
-                    actor: Actor::Learner,
+                    actor: if demonstration {
+                        Actor::Teacher
+                    } else {
+                        Actor::Learner
+                    },
                     failed: false,
                 });
                 times.push((t - first) as f64 * 1e-9);
