@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::bench::emit;
-use crate::dagger::{BetaSchedule, Learning, Policy, PolicyKind, learn};
+use crate::dagger::{BetaSchedule, Learning, Policy, PolicyKind, forward_training, learn};
 use crate::error::{Error, Result};
 use crate::sim::{Track, TrackConfig, TrackSim};
 
@@ -29,6 +29,9 @@ pub struct TrackBenchArgs {
     /// Depth of the tree policy: 3 (8 leaves) cannot copy pure pursuit exactly.
     #[arg(long, default_value_t = 3)]
     pub depth: usize,
+    /// Forward training: episodes per time step (0 leaves it out).
+    #[arg(long, default_value_t = 10)]
+    pub forward_episodes: usize,
     /// Ridge penalty of the linear policy (standardised observations).
     #[arg(long, default_value_t = 1e-3)]
     pub lambda: f64,
@@ -47,6 +50,16 @@ struct Curve {
     labels_per_iteration: f64,
 }
 
+/// Forward training's result: one policy per step of a lap.
+#[derive(Serialize)]
+struct Forward {
+    episodes_per_step: usize,
+    horizon: usize,
+    labels: usize,
+    /// Mean over seeds.
+    falls_per_lap: f64,
+}
+
 #[derive(Serialize)]
 struct TrackBenchReport {
     schema: &'static str,
@@ -56,6 +69,26 @@ struct TrackBenchReport {
     eval_laps: usize,
     teacher_falls_per_lap: f64,
     curves: Vec<Curve>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    forward_training: Option<Forward>,
+}
+
+/// Falls per lap of a non-stationary policy over `laps` separate one-lap episodes from
+/// the start line, its step counter starting at 0 in each.
+fn sequence_falls_per_lap(track: &Track, policy: &Policy, laps: usize, seed: u64) -> f64 {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut total = 0.0;
+    for _ in 0..laps {
+        let mut sim = TrackSim::new(track, 0.0);
+        let mut t = 0;
+        while sim.laps() < 1.0 && t < track.step_cap(1.0) {
+            let u = policy.act_at(t, &sim.observation());
+            sim.step(u, &mut rng);
+            t += 1;
+        }
+        total += sim.falls as f64 + if sim.laps() < 1.0 { 1.0 } else { 0.0 };
+    }
+    total / laps as f64
 }
 
 pub fn run(args: TrackBenchArgs) -> Result<()> {
@@ -116,6 +149,26 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
             labels_per_iteration: labels as f64 / (args.seeds as usize * args.iterations) as f64,
         });
     }
+    let forward_training = (args.forward_episodes > 0).then(|| {
+        let c = &track.config;
+        let horizon = (track.length() / (c.speed * c.period)).ceil() as usize;
+        let falls = (1..=args.seeds)
+            .map(|seed| {
+                let policy =
+                    forward_training(&learner, horizon, args.forward_episodes, seed, |_, _| {
+                        TrackSim::new(&track, 0.0)
+                    });
+                sequence_falls_per_lap(&track, &policy, args.eval_laps, evaluation_seed(seed))
+            })
+            .sum::<f64>()
+            / args.seeds as f64;
+        Forward {
+            episodes_per_step: args.forward_episodes,
+            horizon,
+            labels: horizon * args.forward_episodes,
+            falls_per_lap: falls,
+        }
+    });
     let report = TrackBenchReport {
         schema: "imitate.bench-track/1",
         config: track.config,
@@ -124,6 +177,7 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
         eval_laps: args.eval_laps,
         teacher_falls_per_lap: teacher,
         curves,
+        forward_training,
     };
     emit(&report, args.json, |r| {
         let mut text = format!(
@@ -146,6 +200,12 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
                 }
                 text.push('\n');
             }
+        }
+        if let Some(f) = &r.forward_training {
+            text += &format!(
+                "forward training ({} steps x {} episodes = {} labels): {:.2} falls per lap\n",
+                f.horizon, f.episodes_per_step, f.labels, f.falls_per_lap
+            );
         }
         text += &format!(
             "labels per iteration: {}",

@@ -19,6 +19,7 @@ fn describe_policy(policy: &Policy) -> Value {
         Policy::Logistic(p) => {
             json!({"kind": "logistic", "classes": p.weights.len(), "inputs": p.mean.len()})
         }
+        Policy::Sequence { steps } => json!({"kind": "sequence", "steps": steps.len()}),
         Policy::Mixture { members } => json!({
             "kind": "mixture",
             "members": members.iter().map(describe_policy).collect::<Vec<_>>(),

@@ -181,6 +181,42 @@ pub fn learn<E: Environment>(
     policy
 }
 
+/// Forward training (Ross & Bagnell 2010), the finite-horizon variant: for each step
+/// t < `horizon`, `episodes` fresh episodes (from `make_env(t, episode)`) are driven by
+/// the policies already trained for steps 0..t, and the teacher labels the state each
+/// reaches at step t; the policy for step t is fitted on those labels alone. Returns the
+/// sequence. Episodes that fail on the way still give their state at step t.
+pub fn forward_training<E: Environment>(
+    learner: &PolicyLearner,
+    horizon: usize,
+    episodes: usize,
+    seed: u64,
+    mut make_env: impl FnMut(usize, usize) -> E,
+) -> Policy {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut steps: Vec<Policy> = Vec::with_capacity(horizon);
+    for t in 0..horizon {
+        let mut data: Option<Aggregate> = None;
+        for episode in 0..episodes {
+            let mut env = make_env(t, episode);
+            for policy in &steps {
+                let x = env.observe();
+                env.execute(policy.act(&x), &mut rng);
+            }
+            let x = env.observe();
+            let label = env.teacher();
+            data.get_or_insert_with(|| Aggregate::new(x.len(), learner))
+                .add(&x, label);
+        }
+        let fitted = data.map_or_else(
+            || Policy::Linear(PolicyData::new(0).fit(0.0)),
+            |d| d.fit(learner),
+        );
+        steps.push(fitted);
+    }
+    Policy::Sequence { steps }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -221,6 +257,30 @@ mod tests {
             later(&dagger) < 0.5 * later(&cloning),
             "{dagger:?} vs {cloning:?}"
         );
+    }
+
+    #[test]
+    fn forward_training_learns_one_policy_per_step_that_drives_a_lap() {
+        let track = Track::new(TrackConfig::default());
+        let learner = PolicyLearner::Tree(TreeConfig {
+            max_depth: 3,
+            ..TreeConfig::default()
+        });
+        let horizon = 140;
+        let policy = forward_training(&learner, horizon, 5, 1, |_, _| TrackSim::new(&track, 0.0));
+        let Policy::Sequence { steps } = &policy else {
+            panic!("forward training returns a sequence");
+        };
+        assert_eq!(steps.len(), horizon);
+        let mut sim = TrackSim::new(&track, 0.0);
+        let mut rng = ChaCha8Rng::seed_from_u64(9);
+        let mut t = 0;
+        while sim.laps() < 1.0 && t < 400 {
+            let u = policy.act_at(t, &sim.observation());
+            sim.step(u, &mut rng);
+            t += 1;
+        }
+        assert!(sim.laps() >= 1.0 && sim.falls <= 1, "{} falls", sim.falls);
     }
 
     #[test]

@@ -56,6 +56,11 @@ pub enum Policy {
     },
     /// Discrete actions: the most probable class, as a number.
     Logistic(LogisticPolicy),
+    /// Forward training's non-stationary policy: the t-th member acts at step t (the
+    /// last one after the horizon).
+    Sequence {
+        steps: Vec<Policy>,
+    },
     /// The uniform mixture of several rounds' policies, as the seed returns it: each
     /// episode is driven by one member drawn uniformly (`for_episode`).
     Mixture {
@@ -72,6 +77,15 @@ impl Policy {
             Policy::Tree { tree } => tree.predict(x).clamp(-1.0, 1.0),
             Policy::Logistic(p) => p.most_probable(x) as f64,
             Policy::Mixture { members } => members.first().map_or(0.0, |m| m.act(x)),
+            Policy::Sequence { steps } => steps.first().map_or(0.0, |m| m.act(x)),
+        }
+    }
+
+    /// The action at step `t` of an episode: only a sequence depends on it.
+    pub fn act_at(&self, t: usize, x: &[f64]) -> f64 {
+        match self {
+            Policy::Sequence { steps } if !steps.is_empty() => steps[t.min(steps.len() - 1)].act(x),
+            other => other.act(x),
         }
     }
 
