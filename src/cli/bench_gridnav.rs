@@ -6,6 +6,7 @@ use std::cell::RefCell;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::bench::emit;
@@ -152,43 +153,50 @@ pub fn run(args: GridnavBenchArgs) -> Result<()> {
         ("behaviour-cloning", Learning::Supervised),
         ("dagger", Learning::Dagger(BetaSchedule::FirstRound)),
     ] {
-        let mut sums: Vec<(f64, f64, usize)> = vec![(0.0, 0.0, 0); args.iterations];
-        for seed in 1..=args.seeds {
-            let world = generate_world(&WorldConfig {
-                seed,
-                maps: 2,
-                width: 48,
-                height: 48,
-                demonstrations_per_map: 1,
-                ..WorldConfig::default()
+        // Seeds run in parallel; their points are summed in seed order.
+        let runs: Vec<Vec<Point>> = (1..=args.seeds)
+            .into_par_iter()
+            .map(|seed| -> Result<Vec<Point>> {
+                let world = generate_world(&WorldConfig {
+                    seed,
+                    maps: 2,
+                    width: 48,
+                    height: 48,
+                    demonstrations_per_map: 1,
+                    ..WorldConfig::default()
+                })
+                .map_err(Error::Failed)?;
+                let (train_map, eval_map) = (&world.truth[0], &world.truth[1]);
+                let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xe7a1);
+                let pairs: Vec<(Cell, Cell)> = (0..args.evaluation_pairs)
+                    .map(|_| random_pair(eval_map, &mut rng))
+                    .collect();
+                let chain_seed = RefCell::new(seed * 1000);
+                let mut points = Vec::new();
+                learn(
+                    learning,
+                    &learner,
+                    args.iterations,
+                    seed,
+                    |_| {
+                        *chain_seed.borrow_mut() += 1;
+                        Episodes::new(train_map, *chain_seed.borrow())
+                    },
+                    |env: &Episodes| env.labels >= args.labels,
+                    |_, policy| points.push(evaluate(policy, eval_map, &pairs)),
+                );
+                Ok(points)
             })
-            .map_err(Error::Failed)?;
-            let (train_map, eval_map) = (&world.truth[0], &world.truth[1]);
-            let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xe7a1);
-            let pairs: Vec<(Cell, Cell)> = (0..args.evaluation_pairs)
-                .map(|_| random_pair(eval_map, &mut rng))
-                .collect();
-            let chain_seed = RefCell::new(seed * 1000);
-            learn(
-                learning,
-                &learner,
-                args.iterations,
-                seed,
-                |_| {
-                    *chain_seed.borrow_mut() += 1;
-                    Episodes::new(train_map, *chain_seed.borrow())
-                },
-                |env: &Episodes| env.labels >= args.labels,
-                |round, policy| {
-                    let point = evaluate(policy, eval_map, &pairs);
-                    let s = &mut sums[round];
-                    s.0 += point.success_rate;
-                    if point.cost_ratio.is_finite() {
-                        s.1 += point.cost_ratio;
-                        s.2 += 1;
-                    }
-                },
-            );
+            .collect::<Result<_>>()?;
+        let mut sums: Vec<(f64, f64, usize)> = vec![(0.0, 0.0, 0); args.iterations];
+        for points in &runs {
+            for (s, point) in sums.iter_mut().zip(points) {
+                s.0 += point.success_rate;
+                if point.cost_ratio.is_finite() {
+                    s.1 += point.cost_ratio;
+                    s.2 += 1;
+                }
+            }
         }
         curves.push(Curve {
             learning: name,

@@ -6,6 +6,7 @@ use std::cell::Cell;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::bench::emit;
@@ -109,36 +110,44 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
         ("behaviour-cloning", Learning::Supervised),
         ("dagger", Learning::Dagger(BetaSchedule::FirstRound)),
     ] {
-        let mut per_iteration = vec![Vec::new(); args.iterations];
-        let mut labels = 0usize;
-        for seed in 1..=args.seeds {
-            // Each iteration's lap starts somewhere else on the circuit.
-            let mut starts = ChaCha8Rng::seed_from_u64(seed);
-            let steps = Cell::new(0usize);
-            let cap = track.step_cap(1.0);
-            learn(
-                learning,
-                &learner,
-                args.iterations,
-                seed,
-                |_| {
-                    steps.set(0);
-                    TrackSim::new(&track, starts.random::<f64>() * track.length())
-                },
-                |sim| {
-                    steps.set(steps.get() + 1);
-                    sim.laps() >= 1.0 || steps.get() > cap
-                },
-                |round, policy: &Policy| {
-                    labels += steps.get() - 1;
-                    per_iteration[round].push(track.falls_per_lap(
-                        args.eval_laps,
-                        evaluation_seed(seed),
-                        |s| policy.act(&s.observation()),
-                    ));
-                },
-            );
-        }
+        // Seeds run in parallel; results are gathered in seed order.
+        let runs: Vec<(Vec<f64>, usize)> = (1..=args.seeds)
+            .into_par_iter()
+            .map(|seed| {
+                // Each iteration's lap starts somewhere else on the circuit.
+                let mut starts = ChaCha8Rng::seed_from_u64(seed);
+                let steps = Cell::new(0usize);
+                let cap = track.step_cap(1.0);
+                let (mut falls, mut labels) = (Vec::new(), 0usize);
+                learn(
+                    learning,
+                    &learner,
+                    args.iterations,
+                    seed,
+                    |_| {
+                        steps.set(0);
+                        TrackSim::new(&track, starts.random::<f64>() * track.length())
+                    },
+                    |sim| {
+                        steps.set(steps.get() + 1);
+                        sim.laps() >= 1.0 || steps.get() > cap
+                    },
+                    |_, policy: &Policy| {
+                        labels += steps.get() - 1;
+                        falls.push(track.falls_per_lap(
+                            args.eval_laps,
+                            evaluation_seed(seed),
+                            |s| policy.act(&s.observation()),
+                        ));
+                    },
+                );
+                (falls, labels)
+            })
+            .collect();
+        let labels: usize = runs.iter().map(|r| r.1).sum();
+        let per_iteration: Vec<Vec<f64>> = (0..args.iterations)
+            .map(|i| runs.iter().map(|r| r.0[i]).collect())
+            .collect();
         curves.push(Curve {
             learning: name,
             falls_per_lap: per_iteration
@@ -153,6 +162,7 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
         let c = &track.config;
         let horizon = (track.length() / (c.speed * c.period)).ceil() as usize;
         let falls = (1..=args.seeds)
+            .into_par_iter()
             .map(|seed| {
                 let policy =
                     forward_training(&learner, horizon, args.forward_episodes, seed, |_, _| {
@@ -160,6 +170,9 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
                     });
                 sequence_falls_per_lap(&track, &policy, args.eval_laps, evaluation_seed(seed))
             })
+            // Summed in seed order, so the figure does not depend on the thread count.
+            .collect::<Vec<f64>>()
+            .iter()
             .sum::<f64>()
             / args.seeds as f64;
         Forward {
