@@ -12,11 +12,11 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::bench::emit;
-use crate::artifact::{ArtifactBuilder, Lineage, digest_input, read_manifest};
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input};
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
 use crate::dagger::demo_round::{DemoColumns, read_demo_round};
 use crate::dagger::log_round::{LogTopics, read_log_round};
-use crate::dagger::{Aggregate, Policy, PolicyKind, rollout};
+use crate::dagger::{Aggregate, PolicyKind, load_policy_artifact, rollout};
 use crate::error::{Error, Result};
 use crate::io::demo_tables::{Column, lerobot_files};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
@@ -132,21 +132,6 @@ fn track() -> Track {
     Track::new(TrackConfig::default())
 }
 
-/// A policy artifact's policy and digest.
-fn load_policy(dir: &Path) -> Result<(Policy, String)> {
-    let manifest = read_manifest(dir, "policy")?;
-    let file = manifest
-        .files_with_role("policy")
-        .next()
-        .ok_or_else(|| Error::input(dir, "lists no policy file"))?;
-    let path = dir.join(&file.path);
-    let bytes =
-        std::fs::read(&path).map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
-    let policy: Policy = serde_json::from_slice(&bytes)
-        .map_err(|e| Error::input(&path, format!("is not a policy: {e}")))?;
-    Ok((policy, manifest.digest))
-}
-
 fn add(
     dataset: &Path,
     policy: Option<&Path>,
@@ -161,7 +146,7 @@ fn add(
             format!("holds '{}' data, not track", ds.info.environment),
         ));
     }
-    let loaded = policy.map(load_policy).transpose()?;
+    let loaded = policy.map(load_policy_artifact).transpose()?;
     let beta = beta.unwrap_or(if loaded.is_some() { 0.0 } else { 1.0 });
     if !(0.0..=1.0).contains(&beta) {
         return Err(Error::Usage("--beta must be in [0, 1]".into()));
@@ -449,7 +434,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             if laps == 0 {
                 return Err(Error::Usage("--laps must be at least 1".into()));
             }
-            let (loaded, digest) = load_policy(&policy)?;
+            let (loaded, digest) = load_policy_artifact(&policy)?;
             // A mixture is rolled out with one member, drawn from the seed.
             let loaded = loaded
                 .for_episode(&mut ChaCha8Rng::seed_from_u64(seed))

@@ -8,12 +8,12 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use crate::dagger::load_policy_artifact;
 use crate::error::{Error, Result};
 use crate::io::png::write_png;
 use crate::report::costmap_artifact::{CostmapArtifact, read_any_manifest};
 use crate::report::dagger_diff::{
-    DatasetDiff, PolicyDiff, dagger_summary, dataset_diff, is_track_policy, load_policy,
-    policy_diff,
+    DatasetDiff, PolicyDiff, dagger_summary, dataset_diff, is_track_policy, policy_diff,
 };
 use crate::report::diff::{
     CostmapDiff, FileChanges, Threshold, costmap_diff, file_changes, summary,
@@ -145,8 +145,8 @@ pub fn run(args: DiffArgs) -> Result<()> {
         && is_track_policy(&new_dir)
     {
         Some(policy_diff(
-            &load_policy(&old_dir)?,
-            &load_policy(&new_dir)?,
+            &load_policy_artifact(&old_dir)?.0,
+            &load_policy_artifact(&new_dir)?.0,
             args.tolerance,
         ))
     } else {

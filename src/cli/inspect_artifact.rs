@@ -7,8 +7,8 @@ use std::path::Path;
 use serde_json::{Value, json};
 
 use crate::artifact::MANIFEST;
-use crate::dagger::Policy;
 use crate::dagger::dataset::Dataset;
+use crate::dagger::{Policy, load_policy_artifact};
 use crate::error::{Error, Result};
 
 /// A policy in a few words: its kind and size.
@@ -56,12 +56,7 @@ pub fn inspect_folder(dir: &Path) -> Result<Value> {
             report["rounds"] = serde_json::to_value(&dataset.rounds).expect("rounds serialise");
         }
         Some("policy") => {
-            let policy_path = dir.join("policy.json");
-            let policy: Policy = serde_json::from_slice(
-                &std::fs::read(&policy_path)
-                    .map_err(|e| Error::io(format!("reading {}", policy_path.display()), e))?,
-            )
-            .map_err(|e| Error::input(&policy_path, format!("is not a policy: {e}")))?;
+            let (policy, _) = load_policy_artifact(dir)?;
             report["policy"] = describe_policy(&policy);
         }
         _ => {}

@@ -19,6 +19,7 @@ use serde::{Deserialize, Serialize};
 
 pub use policy::{
     Aggregate, LinearPolicy, LogisticPolicy, Policy, PolicyData, PolicyKind, PolicyLearner,
+    load_policy_artifact,
 };
 
 use crate::sim::TrackSim;

@@ -33,6 +33,23 @@ impl PolicyKind {
     }
 }
 
+/// The policy of a policy artifact folder (the file its manifest lists with role
+/// `policy`) and the artifact's digest.
+pub fn load_policy_artifact(dir: &std::path::Path) -> crate::error::Result<(Policy, String)> {
+    use crate::error::Error;
+    let manifest = crate::artifact::read_manifest(dir, "policy")?;
+    let file = manifest
+        .files_with_role("policy")
+        .next()
+        .ok_or_else(|| Error::input(dir, "lists no policy file"))?;
+    let path = dir.join(&file.path);
+    let bytes =
+        std::fs::read(&path).map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
+    let policy: Policy = serde_json::from_slice(&bytes)
+        .map_err(|e| Error::input(&path, format!("is not a policy: {e}")))?;
+    Ok((policy, manifest.digest))
+}
+
 /// How a policy is fitted to the aggregated labels.
 #[derive(Debug, Clone, PartialEq)]
 pub enum PolicyLearner {

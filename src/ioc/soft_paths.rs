@@ -108,7 +108,6 @@ pub struct SoftGoal {
     edge: Vec<f64>,
     length: Vec<f64>,
     goal: usize,
-    goal_cell: Cell,
     horizon: usize,
     /// V_k for k = 0..=horizon, each a window's worth.
     values: Vec<Vec<f64>>,
@@ -194,18 +193,9 @@ impl SoftGoal {
             edge,
             length,
             goal,
-            goal_cell,
             horizon,
             values,
         }
-    }
-
-    pub fn window(&self) -> &Window {
-        &self.window
-    }
-
-    pub fn goal(&self) -> Cell {
-        self.goal_cell
     }
 
     /// Soft cost-to-go from `cell` with the full horizon: −log of the summed

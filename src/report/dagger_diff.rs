@@ -10,7 +10,7 @@ use serde::Serialize;
 
 use crate::dagger::Policy;
 use crate::dagger::dataset::Dataset;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::sim::track::OBSERVATION_NAMES;
 use crate::sim::{Track, TrackConfig, TrackSim};
 
@@ -25,13 +25,6 @@ pub struct PolicyDiff {
     /// Falls per lap of each on the same laps (track policies only).
     pub old_falls_per_lap: Option<f64>,
     pub new_falls_per_lap: Option<f64>,
-}
-
-/// The policy of a policy artifact.
-pub fn load_policy(dir: &Path) -> Result<Policy> {
-    let path = dir.join("policy.json");
-    let bytes = std::fs::read(&path).map_err(|_| Error::input(dir, "has no policy.json"))?;
-    serde_json::from_slice(&bytes).map_err(|e| Error::input(&path, format!("is not a policy: {e}")))
 }
 
 /// The observations of a lap the teacher drives (seeded noise): the states a lane
