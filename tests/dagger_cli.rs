@@ -48,6 +48,13 @@ fn rounds_grow_the_dataset_and_train_policies() {
     assert_eq!(rounds[0]["learner_steps"], 0);
     assert_eq!(rounds[1]["learner_steps"], rounds[1]["steps"]);
     assert_eq!(rounds[1]["beta"], 0.0);
+    // Statistics from the steps: how far the learner's actions were from the teacher's
+    // where it drove, and the states each round visited.
+    assert!(rounds[0]["learner_disagreement"].is_null());
+    assert!(rounds[1]["learner_disagreement"].as_f64().unwrap() > 0.0);
+    assert!(!rounds[1]["observation_mean"].as_array().unwrap().is_empty());
+    let table = stdout(&run(&["dagger", "status", "ds"]));
+    assert!(table.contains("disagree"), "{table}");
     assert!(
         dir.path()
             .join("ds/data/round=001/part-000.parquet")
@@ -123,6 +130,8 @@ fn dagger_pipeline(selection: &str) -> tempfile::TempDir {
     let text = std::fs::read_to_string(repo().join("pipelines/dagger-track.yaml"))
         .unwrap()
         .replace("rounds: 10", "rounds: 4")
+        // Episodes run in parallel: the reproducibility check below covers them.
+        .replace("laps: 1", "episodes: 3\n      laps: 1")
         .replace("selection: best", &format!("selection: {selection}"));
     std::fs::create_dir_all(dir.path().join("pipelines")).unwrap();
     std::fs::write(dir.path().join("pipelines/dagger-track.yaml"), text).unwrap();
@@ -174,6 +183,7 @@ fn the_dagger_stage_writes_a_policy_artifact_reproducibly() {
         ],
     ));
     assert_eq!(status.as_array().unwrap().len(), 4);
+    assert_eq!(status[0]["episodes"], 3);
     // Make-style: nothing to do the second time; from scratch on 2 threads, the same bytes.
     let again = run("2");
     assert!(again.status.success(), "{}", stderr(&again));
@@ -541,4 +551,119 @@ fn expert_demonstrations_from_lerobot_become_round_zero() {
     assert!(stderr(&narrow).contains("1 values"), "{}", stderr(&narrow));
     let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
     assert_eq!(rounds.as_array().unwrap().len(), 1);
+}
+
+#[test]
+fn gridnav_rounds_walk_a_costmap_and_train_a_discrete_policy() {
+    let dir = tempfile::tempdir().unwrap();
+    let costs = dir.path().join("costs.parquet");
+    std::fs::copy(
+        repo().join("testdata/world/truth/terrain-000.parquet"),
+        &costs,
+    )
+    .unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let init = run(&[
+        "dagger",
+        "init",
+        "ds",
+        "--env",
+        "gridnav",
+        "--costs",
+        "costs.parquet",
+    ]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    let first = run(&["dagger", "add", "ds", "--episodes", "4", "--seed", "1"]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let trained = run(&[
+        "dagger",
+        "train",
+        "ds",
+        "--out",
+        "p0",
+        "--learner",
+        "logistic",
+    ]);
+    assert!(trained.status.success(), "{}", stderr(&trained));
+    let policy: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("p0/policy.json")).unwrap()).unwrap();
+    assert_eq!(policy["kind"], "logistic");
+    let second = run(&[
+        "dagger",
+        "add",
+        "ds",
+        "--policy",
+        "p0",
+        "--episodes",
+        "4",
+        "--seed",
+        "2",
+    ]);
+    assert!(second.status.success(), "{}", stderr(&second));
+    let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
+    assert_eq!(rounds[0]["episodes"], 4);
+    assert_eq!(rounds[1]["learner_steps"], rounds[1]["steps"]);
+    // Statistics over gridnav's 11 observation values.
+    assert_eq!(rounds[1]["observation_mean"].as_array().unwrap().len(), 11);
+    let walked = json(&run(&[
+        "dagger",
+        "rollout",
+        "p0",
+        "--dataset",
+        "ds",
+        "--pairs",
+        "5",
+        "--json",
+    ]));
+    let success = walked["learner"]["success_rate"].as_f64().unwrap();
+    assert!((0.0..=1.0).contains(&success));
+
+    // Moves are classes: a regression learner is refused.
+    let tree = run(&["dagger", "train", "ds", "--out", "pt", "--learner", "tree"]);
+    assert_eq!(tree.status.code(), Some(2), "{}", stderr(&tree));
+    // The costmap changed under the dataset: refused, nothing written.
+    let manifest = std::fs::read(dir.path().join("ds/manifest.json")).unwrap();
+    std::fs::copy(
+        repo().join("testdata/world/truth/terrain-001.parquet"),
+        &costs,
+    )
+    .unwrap();
+    let changed = run(&["dagger", "add", "ds", "--seed", "3"]);
+    assert_eq!(changed.status.code(), Some(2), "{}", stderr(&changed));
+    assert!(
+        stderr(&changed).contains("changed since"),
+        "{}",
+        stderr(&changed)
+    );
+    assert_eq!(
+        std::fs::read(dir.path().join("ds/manifest.json")).unwrap(),
+        manifest
+    );
+    // gridnav needs a costmap.
+    let bare = run(&["dagger", "init", "ds2", "--env", "gridnav"]);
+    assert_eq!(bare.status.code(), Some(2), "{}", stderr(&bare));
+}
+
+#[test]
+fn logistic_regression_refuses_continuous_labels() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    assert!(run(&["dagger", "init", "ds"]).status.success());
+    assert!(run(&["dagger", "add", "ds"]).status.success());
+    let out = run(&[
+        "dagger",
+        "train",
+        "ds",
+        "--out",
+        "p",
+        "--learner",
+        "logistic",
+    ]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("is not a class index"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!dir.path().join("p").exists());
 }

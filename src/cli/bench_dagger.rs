@@ -123,6 +123,7 @@ pub fn run(args: DaggerScaleArgs) -> Result<()> {
                 schema: "imitate.dagger-dataset/1".into(),
                 observation_names: (0..DIMS).map(|j| format!("x{j}")).collect(),
                 environment: "synthetic".into(),
+                costs: None,
             },
         )?;
         let mut seed = 0;

@@ -4,7 +4,7 @@
 
 use std::cell::RefCell;
 
-use rand::{RngExt, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -13,7 +13,7 @@ use super::bench::emit;
 use crate::dagger::{BetaSchedule, Environment, Learning, Policy, PolicyLearner, learn};
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
-use crate::sim::gridnav::GridNav;
+use crate::sim::gridnav::{Evaluation, GridNav, evaluate, random_episode, random_pair};
 use crate::sim::{WorldConfig, generate_world};
 
 #[derive(Debug, clap::Args)]
@@ -32,12 +32,8 @@ pub struct GridnavBenchArgs {
     pub json: bool,
 }
 
-#[derive(Serialize)]
-struct Point {
-    success_rate: f64,
-    /// Mean over successful episodes of the learner's path cost / the teacher's.
-    cost_ratio: f64,
-}
+/// One iteration's success rate and mean cost ratio (learner over teacher).
+type Point = Evaluation;
 
 #[derive(Serialize)]
 struct Curve {
@@ -51,18 +47,6 @@ struct GridnavReport {
     seeds: u64,
     labels_per_iteration: usize,
     curves: Vec<Curve>,
-}
-
-/// Random start/goal pairs at least a third of the map apart.
-fn random_pair(costs: &Grid<f32>, rng: &mut ChaCha8Rng) -> (Cell, Cell) {
-    let (w, h) = (costs.geo.width, costs.geo.height);
-    loop {
-        let a = Cell::new(rng.random_range(0..h), rng.random_range(0..w));
-        let b = Cell::new(rng.random_range(0..h), rng.random_range(0..w));
-        if (a.distance_squared(b) as f64).sqrt() >= f64::from(w.min(h)) / 3.0 {
-            return (a, b);
-        }
-    }
 }
 
 /// Episodes one after another on a map: a new random one starts when one ends.
@@ -86,12 +70,7 @@ impl<'a> Episodes<'a> {
     }
 
     fn fresh(costs: &'a Grid<f32>, rng: &mut ChaCha8Rng) -> GridNav<'a> {
-        loop {
-            let (a, b) = random_pair(costs, rng);
-            if let Some(nav) = GridNav::new(costs, a, b) {
-                return nav;
-            }
-        }
+        random_episode(costs, rng).expect("generated worlds have reachable pairs")
     }
 }
 
@@ -114,27 +93,10 @@ impl Environment for Episodes<'_> {
     }
 }
 
-fn evaluate(policy: &Policy, costs: &Grid<f32>, pairs: &[(Cell, Cell)]) -> Point {
-    let (mut successes, mut ratios) = (0usize, Vec::new());
-    for &(a, b) in pairs {
-        let mut nav = GridNav::new(costs, a, b).expect("pairs are reachable");
-        while !nav.over() {
-            let m = policy.act(&nav.observation()).round().clamp(0.0, 7.0) as usize;
-            nav.step(m);
-        }
-        if nav.reached() {
-            successes += 1;
-            ratios.push(nav.cost / nav.optimal_cost.max(f64::MIN_POSITIVE));
-        }
-    }
-    Point {
-        success_rate: successes as f64 / pairs.len().max(1) as f64,
-        cost_ratio: if ratios.is_empty() {
-            f64::NAN
-        } else {
-            ratios.iter().sum::<f64>() / ratios.len() as f64
-        },
-    }
+fn evaluate_policy(policy: &Policy, costs: &Grid<f32>, pairs: &[(Cell, Cell)]) -> Point {
+    evaluate(costs, pairs, |x| {
+        policy.act(x).round().clamp(0.0, 7.0) as usize
+    })
 }
 
 pub fn run(args: GridnavBenchArgs) -> Result<()> {
@@ -183,7 +145,7 @@ pub fn run(args: GridnavBenchArgs) -> Result<()> {
                         Episodes::new(train_map, *chain_seed.borrow())
                     },
                     |env: &Episodes| env.labels >= args.labels,
-                    |_, policy| points.push(evaluate(policy, eval_map, &pairs)),
+                    |_, policy| points.push(evaluate_policy(policy, eval_map, &pairs)),
                 );
                 Ok(points)
             })

@@ -98,7 +98,12 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
             "bench track needs --iterations, --seeds and --eval-laps of at least 1".into(),
         ));
     }
-    let learner = args.learner.learner(args.depth, args.lambda);
+    if args.learner == PolicyKind::Logistic {
+        return Err(Error::Usage(
+            "the track's steering is continuous: --learner ridge or tree".into(),
+        ));
+    }
+    let learner = args.learner.learner(args.depth, args.lambda, 0);
     let track = Track::new(TrackConfig::default());
     let evaluation_seed = |seed: u64| seed.wrapping_mul(7919).wrapping_add(1);
     let teacher = (1..=args.seeds)

@@ -12,22 +12,29 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::bench::emit;
+use super::plan::load as load_costs;
 use crate::artifact::{ArtifactBuilder, Lineage, digest_input};
-use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
+use crate::dagger::dataset::{CostsSource, Dataset, DatasetInfo, NewRound, RoundInfo};
 use crate::dagger::demo_round::{DemoColumns, read_demo_round};
 use crate::dagger::log_round::{LogTopics, read_log_round};
-use crate::dagger::{Aggregate, PolicyKind, load_policy_artifact, rollout};
+use crate::dagger::query::RoundStatistics;
+use crate::dagger::{Aggregate, PolicyKind, gridnav_round, load_policy_artifact, track_round};
 use crate::error::{Error, Result};
+use crate::grid::Grid;
 use crate::io::demo_tables::{Column, lerobot_files};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
+use crate::sim::gridnav::{self, Evaluation, evaluate, random_episode};
 use crate::sim::track::OBSERVATION_NAMES;
-use crate::sim::{Track, TrackConfig, TrackSim};
+use crate::sim::{Track, TrackConfig};
 
 /// The simulators rounds can come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum Env {
     /// The lane-keeping circuit with a pure-pursuit teacher.
     Track,
+    /// A reactive walker on a costmap (--costs) with the planner as teacher; moves
+    /// are discrete (train with --learner logistic or tree).
+    Gridnav,
     /// Robot logs (`add --log`): the observations are named with --observations.
     Log,
 }
@@ -45,6 +52,12 @@ pub enum DaggerCommand {
         /// the log's observation messages hold them.
         #[arg(long, value_delimiter = ',')]
         observations: Vec<String>,
+        /// With --env gridnav: the true costmap (a costmap table or artifact folder).
+        #[arg(long, value_name = "PATH")]
+        costs: Option<PathBuf>,
+        /// With --env gridnav and an artifact of several maps: which one.
+        #[arg(long)]
+        map: Option<String>,
     },
     /// Drive laps (the teacher, or --policy mixed with the teacher at --beta), label
     /// every step with the teacher's action and append them as a round.
@@ -57,6 +70,11 @@ pub enum DaggerCommand {
         /// 0 with one).
         #[arg(long)]
         beta: Option<f64>,
+        /// Episodes, driven in parallel from random starts (the same round at any
+        /// thread count).
+        #[arg(long, default_value_t = 1)]
+        episodes: usize,
+        /// Laps per episode.
         #[arg(long, default_value_t = 1)]
         laps: usize,
         #[arg(long, default_value_t = 0)]
@@ -110,11 +128,19 @@ pub enum DaggerCommand {
         #[arg(long, default_value_t = 3)]
         depth: usize,
     },
-    /// Drive a policy artifact on the environment and report falls per lap.
+    /// Drive a policy artifact on the track and report falls per lap, or with
+    /// --dataset of a gridnav dataset, on its costmap between random start/goal pairs
+    /// and report the success rate and path-cost ratio.
     Rollout {
         policy: PathBuf,
+        /// A gridnav dataset whose costmap to walk.
+        #[arg(long, value_name = "DIR")]
+        dataset: Option<PathBuf>,
         #[arg(long, default_value_t = 3)]
         laps: usize,
+        /// With --dataset: start/goal pairs.
+        #[arg(long, default_value_t = 30)]
+        pairs: usize,
         #[arg(long, default_value_t = 0)]
         seed: u64,
         #[arg(long)]
@@ -128,6 +154,41 @@ pub enum DaggerCommand {
     },
 }
 
+/// A round in `dagger status`: what `meta/rounds.parquet` lists and what its steps say.
+#[derive(Serialize)]
+struct RoundStatus<'a> {
+    #[serde(flatten)]
+    info: &'a RoundInfo,
+    #[serde(flatten)]
+    statistics: &'a RoundStatistics,
+}
+
+/// Digest of a grid's size and costs (what a gridnav dataset's rounds depend on).
+fn grid_digest(grid: &Grid<f32>) -> String {
+    let mut hasher = blake3::Hasher::new();
+    hasher.update(&grid.geo.width.to_le_bytes());
+    hasher.update(&grid.geo.height.to_le_bytes());
+    for c in &grid.data {
+        hasher.update(&c.to_le_bytes());
+    }
+    format!("blake3:{}", hasher.finalize().to_hex())
+}
+
+/// The costmap of a gridnav dataset, refused if it changed since `dagger init`.
+fn gridnav_costs(dataset: &Path, source: &CostsSource) -> Result<Grid<f32>> {
+    let (_, grid) = load_costs(&source.path, source.map.as_deref())?;
+    if grid_digest(&grid) != source.digest {
+        return Err(Error::input(
+            &source.path,
+            format!(
+                "changed since the dataset {} was created on it (its rounds would not agree)",
+                dataset.display()
+            ),
+        ));
+    }
+    Ok(grid)
+}
+
 fn track() -> Track {
     Track::new(TrackConfig::default())
 }
@@ -136,53 +197,68 @@ fn add(
     dataset: &Path,
     policy: Option<&Path>,
     beta: Option<f64>,
+    episodes: usize,
     laps: usize,
     seed: u64,
 ) -> Result<()> {
     let mut ds = Dataset::open(dataset)?;
-    if ds.info.environment != "track" {
-        return Err(Error::input(
-            dataset,
-            format!("holds '{}' data, not track", ds.info.environment),
-        ));
-    }
+    let costs = match (ds.info.environment.as_str(), &ds.info.costs) {
+        ("track", _) => None,
+        ("gridnav", Some(source)) => Some(gridnav_costs(dataset, source)?),
+        (other, _) => {
+            return Err(Error::input(
+                dataset,
+                format!(
+                    "holds '{other}' data: add rounds with --log, --lerobot or --demonstrations"
+                ),
+            ));
+        }
+    };
     let loaded = policy.map(load_policy_artifact).transpose()?;
     let beta = beta.unwrap_or(if loaded.is_some() { 0.0 } else { 1.0 });
     if !(0.0..=1.0).contains(&beta) {
         return Err(Error::Usage("--beta must be in [0, 1]".into()));
     }
-    if laps == 0 {
-        return Err(Error::Usage("--laps must be at least 1".into()));
+    if laps == 0 || episodes == 0 {
+        return Err(Error::Usage(
+            "--laps and --episodes must be at least 1".into(),
+        ));
     }
     let digest = loaded.as_ref().map(|(_, d)| d.clone()).unwrap_or_default();
-    let source = format!("track laps={laps} seed={seed} beta={beta} policy={digest}");
+    let source = match costs {
+        None => {
+            format!("track episodes={episodes} laps={laps} seed={seed} beta={beta} policy={digest}")
+        }
+        Some(_) => format!("gridnav episodes={episodes} seed={seed} beta={beta} policy={digest}"),
+    };
     if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
         println!("round {} already holds {source}", existing.round);
         return Ok(());
     }
     let track = track();
-    let mut sim = TrackSim::new(&track, 0.0);
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let cap = track.step_cap(laps as f64);
-    let mut count = 0;
-    let steps = rollout(
-        &mut sim,
-        loaded.as_ref().map(|(p, _)| p),
-        beta,
-        &mut rng,
-        |sim| {
-            count += 1;
-            sim.laps() >= laps as f64 || count > cap
-        },
-    );
+    let driver = loaded.as_ref().map(|(p, _)| p);
+    let (episodes, teacher, period) = match &costs {
+        None => (
+            track_round(&track, driver, beta, laps, episodes, seed, 0),
+            "pure-pursuit",
+            track.config.period,
+        ),
+        Some(costs) => (
+            gridnav_round(costs, driver, beta, episodes, seed, 0).ok_or_else(|| {
+                Error::input(dataset, "its costmap has no reachable start/goal pair")
+            })?,
+            "planner",
+            1.0,
+        ),
+    };
     let round = ds.append(&NewRound {
         source,
         beta,
         policy: digest,
-        teacher: "pure-pursuit".into(),
-        period: track.config.period,
+        teacher: teacher.into(),
+        period,
         timestamps: None,
-        episodes: &[steps],
+        episodes: &episodes,
     })?;
     let info = &ds.rounds[round as usize];
     println!(
@@ -285,7 +361,16 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
     if ds.steps() == 0 {
         return Err(Error::input(dataset, "holds no steps to train on"));
     }
-    let learner = learner.learner(depth, lambda);
+    let classes = match learner {
+        PolicyKind::Logistic => action_classes(&ds, dataset)?,
+        PolicyKind::Ridge | PolicyKind::Tree if ds.info.environment == "gridnav" => {
+            return Err(Error::Usage(
+                "gridnav's moves are classes, not numbers: --learner logistic".into(),
+            ));
+        }
+        PolicyKind::Ridge | PolicyKind::Tree => 0,
+    };
+    let learner = learner.learner(depth, lambda, classes);
     // Ridge keeps only the sufficient statistics; a tree needs the rows.
     let mut data = Aggregate::new(ds.info.observation_names.len(), &learner);
     ds.for_each_round(|_, steps| {
@@ -323,6 +408,88 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
     Ok(())
 }
 
+/// The number of discrete actions in a dataset (the largest label + 1), refusing labels
+/// that are not class indices.
+fn action_classes(ds: &Dataset, dataset: &Path) -> Result<usize> {
+    const MOST_CLASSES: f64 = 256.0;
+    let mut largest = 0.0f64;
+    ds.for_each_round(|info, steps| {
+        for (i, &label) in steps.labels.iter().enumerate() {
+            if !(label >= 0.0 && label < MOST_CLASSES && label.fract() == 0.0) {
+                return Err(Error::input(
+                    dataset,
+                    format!(
+                        "round {} step {i}: label {label} is not a class index (logistic \
+                         regression needs discrete actions 0, 1, ... below {MOST_CLASSES})",
+                        info.round
+                    ),
+                ));
+            }
+            largest = largest.max(label);
+        }
+        Ok(())
+    })?;
+    Ok(largest as usize + 1)
+}
+
+#[derive(Serialize)]
+struct GridnavRolloutReport {
+    schema: &'static str,
+    policy: String,
+    pairs: usize,
+    /// The policy's success rate and mean cost ratio; the teacher's are 1 and 1.
+    learner: Evaluation,
+}
+
+/// Walks a (discrete-move) policy between `pairs` random start/goal pairs of a gridnav
+/// dataset's costmap.
+fn rollout_gridnav(
+    policy: &Path,
+    dataset: &Path,
+    pairs: usize,
+    seed: u64,
+    json: bool,
+) -> Result<()> {
+    if pairs == 0 {
+        return Err(Error::Usage("--pairs must be at least 1".into()));
+    }
+    let ds = Dataset::open(dataset)?;
+    let source = match (ds.info.environment.as_str(), &ds.info.costs) {
+        ("gridnav", Some(source)) => source,
+        (other, _) => {
+            return Err(Error::input(
+                dataset,
+                format!("holds '{other}' data, not gridnav (track rollouts need no --dataset)"),
+            ));
+        }
+    };
+    let costs = gridnav_costs(dataset, source)?;
+    let (loaded, digest) = load_policy_artifact(policy)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let loaded = loaded.for_episode(&mut rng).clone();
+    let chosen = (0..pairs)
+        .map(|_| random_episode(&costs, &mut rng).map(|nav| (nav.position, nav.goal)))
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| Error::input(&source.path, "has no reachable start/goal pair"))?;
+    let report = GridnavRolloutReport {
+        schema: "imitate.dagger-gridnav-rollout/1",
+        policy: digest,
+        pairs,
+        learner: evaluate(&costs, &chosen, |x| {
+            loaded.act(x).round().clamp(0.0, 7.0) as usize
+        }),
+    };
+    emit(&report, json, |r| {
+        format!(
+            "{} start/goal pairs: {:.0} % reached, path cost {:.3}× the teacher's",
+            r.pairs,
+            100.0 * r.learner.success_rate,
+            r.learner.cost_ratio
+        )
+    });
+    Ok(())
+}
+
 #[derive(Serialize)]
 struct RolloutReport {
     schema: &'static str,
@@ -338,16 +505,25 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             dataset,
             env,
             observations,
+            costs,
+            map,
         } => {
+            if costs.is_some() != (env == Env::Gridnav) || (map.is_some() && costs.is_none()) {
+                return Err(Error::Usage(
+                    "--env gridnav needs --costs (and only it takes --costs and --map)".into(),
+                ));
+            }
             let (names, environment) = match env {
-                Env::Track if observations.is_empty() => {
-                    (OBSERVATION_NAMES.map(String::from).to_vec(), "track")
-                }
-                Env::Track => {
+                Env::Track | Env::Gridnav if !observations.is_empty() => {
                     return Err(Error::Usage(
-                        "--observations goes with --env log (track's are fixed)".into(),
+                        "--observations goes with --env log (the simulators' are fixed)".into(),
                     ));
                 }
+                Env::Track => (OBSERVATION_NAMES.map(String::from).to_vec(), "track"),
+                Env::Gridnav => (
+                    gridnav::OBSERVATION_NAMES.map(String::from).to_vec(),
+                    "gridnav",
+                ),
                 Env::Log if observations.is_empty() => {
                     return Err(Error::Usage(
                         "--env log needs --observations NAME,NAME,...".into(),
@@ -355,12 +531,32 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                 }
                 Env::Log => (observations, "log"),
             };
+            let costs = match costs {
+                Some(path) => {
+                    let (_, grid) = load_costs(&path, map.as_deref())?;
+                    if random_episode(&grid, &mut ChaCha8Rng::seed_from_u64(0)).is_none() {
+                        return Err(Error::input(
+                            &path,
+                            "has no reachable start and goal a third of the map apart",
+                        ));
+                    }
+                    let path = std::path::absolute(&path)
+                        .map_err(|e| Error::io(format!("resolving {}", path.display()), e))?;
+                    Some(CostsSource {
+                        path,
+                        map,
+                        digest: grid_digest(&grid),
+                    })
+                }
+                None => None,
+            };
             Dataset::create(
                 &dataset,
                 DatasetInfo {
                     schema: "imitate.dagger-dataset/1".into(),
                     observation_names: names,
                     environment: environment.into(),
+                    costs,
                 },
             )?;
             println!("{}: an empty {environment} dataset", dataset.display());
@@ -414,10 +610,11 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             dataset,
             policy,
             beta,
+            episodes,
             laps,
             seed,
             ..
-        } => add(&dataset, policy.as_deref(), beta, laps, seed),
+        } => add(&dataset, policy.as_deref(), beta, episodes, laps, seed),
         DaggerCommand::Train {
             dataset,
             out,
@@ -427,9 +624,18 @@ pub fn run(command: DaggerCommand) -> Result<()> {
         } => train(&dataset, &out, learner, lambda, depth),
         DaggerCommand::Rollout {
             policy,
+            dataset: Some(dataset),
+            pairs,
+            seed,
+            json,
+            ..
+        } => rollout_gridnav(&policy, &dataset, pairs, seed, json),
+        DaggerCommand::Rollout {
+            policy,
             laps,
             seed,
             json,
+            ..
         } => {
             if laps == 0 {
                 return Err(Error::Usage("--laps must be at least 1".into()));
@@ -457,18 +663,37 @@ pub fn run(command: DaggerCommand) -> Result<()> {
         }
         DaggerCommand::Status { dataset, json } => {
             let ds = Dataset::open(&dataset)?;
-            emit(&ds.rounds, json, |rounds| {
+            let statistics = ds.statistics()?;
+            let rounds: Vec<RoundStatus> = (ds.rounds.iter())
+                .zip(&statistics)
+                .map(|(info, statistics)| RoundStatus { info, statistics })
+                .collect();
+            emit(&rounds, json, |rounds| {
                 let mut text = format!(
-                    "{}: {} rounds, {} steps ({})\nround  steps  learner  falls  beta  source\n",
+                    "{}: {} rounds, {} steps ({})\n\
+                     round  steps  learner  disagree  falls  beta  source\n",
                     dataset.display(),
                     rounds.len(),
                     ds.steps(),
                     ds.info.environment
                 );
-                for r in rounds {
+                for RoundStatus {
+                    info: r,
+                    statistics,
+                } in rounds
+                {
+                    let disagreement = statistics
+                        .learner_disagreement
+                        .map_or("-".to_string(), |d| format!("{d:.3}"));
                     text += &format!(
-                        "{:>5}  {:>5}  {:>7}  {:>5}  {:>4.2}  {}\n",
-                        r.round, r.steps, r.learner_steps, r.failures, r.beta, r.source
+                        "{:>5}  {:>5}  {:>7}  {:>8}  {:>5}  {:>4.2}  {}\n",
+                        r.round,
+                        r.steps,
+                        r.learner_steps,
+                        disagreement,
+                        r.failures,
+                        r.beta,
+                        r.source
                     );
                 }
                 text.trim_end().to_string()

@@ -29,6 +29,7 @@ use arrow::array::{
 use arrow::datatypes::{DataType, Field, Schema};
 use serde::{Deserialize, Serialize};
 
+use super::query::{RoundStatistics, round_statistics};
 use super::{Actor, PolicyData, Step};
 use crate::artifact::{FileEntry, Lineage, MANIFEST, artifact_digest};
 use crate::error::{Error, Result};
@@ -43,8 +44,24 @@ const ROUNDS: &str = "meta/rounds.parquet";
 pub struct DatasetInfo {
     pub schema: String,
     pub observation_names: Vec<String>,
-    /// What made the data (e.g. "track"), for people reading the folder.
+    /// What made the data ("track", "gridnav", "log", "demonstrations").
     pub environment: String,
+    /// For `gridnav`: the costmap the episodes walk and the teacher plans on.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub costs: Option<CostsSource>,
+}
+
+/// Where a `gridnav` dataset's costmap comes from, and the digest of its costs, so that
+/// later rounds are refused if it changed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CostsSource {
+    /// A costmap table or artifact folder, as `imitate plan` takes.
+    pub path: PathBuf,
+    /// The map within an artifact folder holding several.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
+    /// blake3 of the grid's size and costs.
+    pub digest: String,
 }
 
 /// One row of `meta/rounds.parquet`.
@@ -117,6 +134,14 @@ impl Dataset {
             info,
             rounds,
         })
+    }
+
+    /// Per-round statistics of the steps (a polars scan of the listed partitions).
+    pub fn statistics(&self) -> Result<Vec<RoundStatistics>> {
+        let files: Vec<PathBuf> = (self.rounds.iter())
+            .map(|r| self.dir.join(partition(r.round)))
+            .collect();
+        round_statistics(&self.dir, &files, self.info.observation_names.len())
     }
 
     pub fn steps(&self) -> u64 {
@@ -511,6 +536,7 @@ mod tests {
             schema: "imitate.dagger-dataset/1".into(),
             observation_names: vec!["a".into(), "b".into()],
             environment: "test".into(),
+            costs: None,
         }
     }
 
@@ -573,6 +599,41 @@ mod tests {
             .unwrap();
         assert_eq!(labels[2], (vec![2.0, 4.0], 0.4f32 as f64));
         assert_eq!(reopened.policy_data().unwrap().len(), 4);
+    }
+
+    #[test]
+    fn statistics_describe_each_listed_round() {
+        let dir = tempfile::tempdir().unwrap();
+        let mut ds = Dataset::create(dir.path(), info()).unwrap();
+        let teacher = vec![vec![
+            step(1.0, 0.1, Actor::Teacher),
+            step(3.0, 0.2, Actor::Teacher),
+        ]];
+        let mut learner = vec![vec![
+            step(2.0, 0.5, Actor::Learner),
+            step(2.0, 0.5, Actor::Learner),
+            step(2.0, 0.5, Actor::Teacher),
+        ]];
+        // The learner was off by 0.3 and 0.4 where it drove (the teacher's step is not
+        // counted): root mean square 0.354.
+        learner[0][0].executed = 0.8;
+        learner[0][1].executed = 0.1;
+        ds.append(&round("teacher", &teacher)).unwrap();
+        ds.append(&round("learner", &learner)).unwrap();
+        // A partition no round lists (left by a killed append) is not scanned.
+        let orphan = dir.path().join(partition(2));
+        std::fs::create_dir_all(orphan.parent().unwrap()).unwrap();
+        std::fs::copy(dir.path().join(partition(1)), &orphan).unwrap();
+
+        let stats = ds.statistics().unwrap();
+        assert_eq!(stats.len(), 2);
+        assert_eq!(stats[0].learner_disagreement, None);
+        assert_eq!(stats[0].observation_mean, [2.0, 4.0]);
+        let sd = std::f64::consts::SQRT_2;
+        assert!((stats[0].observation_std[0] - sd).abs() < 1e-12);
+        let rms = stats[1].learner_disagreement.unwrap();
+        assert!((rms - (0.125f64).sqrt()).abs() < 1e-6, "{rms}");
+        assert_eq!(stats[1].observation_std, [0.0, 0.0]);
     }
 
     #[test]

@@ -2,7 +2,8 @@
 //! recorded on their own topic and not executed. Each observation message becomes a
 //! step when an executed-action message and a label message lie within a tolerance of
 //! it in time (the nearest of each; an as-of join both ways). Observations without a
-//! label or without an executed action are counted, not kept.
+//! label or without an executed action are counted, not kept. The join is polars'
+//! (`query.rs`).
 //!
 //! Without an action topic the log is an expert demonstration: the teacher drove, and
 //! its label is also the executed action.
@@ -13,6 +14,7 @@
 
 use std::path::Path;
 
+use super::query::nearest_within;
 use super::{Actor, Step};
 use crate::error::{Error, Result};
 use crate::io::mcap::{Decoders, Event, Value, scan};
@@ -76,21 +78,6 @@ fn message_numbers(message: &Value) -> Vec<f64> {
         other => numbers(other, &mut out),
     }
     out
-}
-
-/// The index of the time in `sorted` nearest to `t` within `tolerance` (the earlier on
-/// ties).
-fn nearest(sorted: &[u64], t: u64, tolerance: u64) -> Option<usize> {
-    let after = sorted.partition_point(|&s| s < t);
-    let candidates = [
-        after.checked_sub(1),
-        (after < sorted.len()).then_some(after),
-    ];
-    candidates
-        .into_iter()
-        .flatten()
-        .filter(|&i| sorted[i].abs_diff(t) <= tolerance)
-        .min_by_key(|&i| (sorted[i].abs_diff(t), i))
 }
 
 /// Reads the round from the log at `path`.
@@ -164,14 +151,16 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
         s.sort_by_key(|(t, _)| *t);
     }
     let [observations, actions, labels] = series;
-    let action_times: Vec<u64> = actions.iter().map(|(t, _)| *t).collect();
-    let label_times: Vec<u64> = labels.iter().map(|(t, _)| *t).collect();
+    let times_of = |series: &[(u64, Vec<f64>)]| series.iter().map(|(t, _)| *t).collect::<Vec<_>>();
+    let observation_times = times_of(&observations);
+    let nearest_label =
+        nearest_within(&observation_times, &times_of(&labels), topics.tolerance_ns)?;
+    let nearest_action =
+        nearest_within(&observation_times, &times_of(&actions), topics.tolerance_ns)?;
     let (mut steps, mut times, mut unlabelled, mut without_action) = (Vec::new(), Vec::new(), 0, 0);
     let first = observations.first().map_or(0, |(t, _)| *t);
-    for (t, observation) in &observations {
-        let label = nearest(&label_times, *t, topics.tolerance_ns);
-        let action = nearest(&action_times, *t, topics.tolerance_ns);
-        match (label, action) {
+    for (k, (t, observation)) in observations.iter().enumerate() {
+        match (nearest_label[k], nearest_action[k]) {
             (None, _) => unlabelled += 1,
             (_, None) => without_action += 1,
             (Some(l), Some(a)) => {
@@ -197,20 +186,4 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
         unlabelled,
         without_action,
     })
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn nearest_within_tolerance_prefers_the_closer_then_the_earlier() {
-        let times = [10, 20, 30];
-        assert_eq!(nearest(&times, 24, 5), Some(1));
-        assert_eq!(nearest(&times, 26, 5), Some(2));
-        assert_eq!(nearest(&times, 25, 5), Some(1));
-        assert_eq!(nearest(&times, 40, 5), None);
-        assert_eq!(nearest(&times, 0, 10), Some(0));
-        assert_eq!(nearest(&[], 5, 10), None);
-    }
 }

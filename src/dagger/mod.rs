@@ -5,13 +5,14 @@
 //!
 //! This module holds the loop over in-memory rounds: β schedules, rollouts that keep
 //! both the executed and the teacher's action, and policies fitted from the aggregate's
-//! sufficient statistics. (The on-disk dataset, `imitate dagger ...` and policy
-//! artifacts are not built yet.)
+//! sufficient statistics. The dataset on disk is `dataset`, the rounds from logs and
+//! demonstrations `log_round` and `demo_round`, and the polars queries over them `query`.
 
 pub mod dataset;
 pub mod demo_round;
 pub mod log_round;
 mod policy;
+pub mod query;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -22,8 +23,11 @@ pub use policy::{
     load_policy_artifact,
 };
 
-use crate::sim::TrackSim;
-use crate::sim::gridnav::GridNav;
+use rayon::prelude::*;
+
+use crate::grid::Grid;
+use crate::sim::gridnav::{GridNav, random_episode};
+use crate::sim::{Track, TrackSim};
 
 /// A system a policy drives and a teacher labels.
 pub trait Environment {
@@ -133,6 +137,68 @@ pub fn rollout<E: Environment>(
         });
     }
     steps
+}
+
+/// Runs `episode` for episodes 0..`episodes` in parallel, in order of their index, each
+/// with random stream (`round` << 32 | e) of `seed`: the same round at any thread count.
+fn parallel_episodes<T: Send>(
+    episodes: usize,
+    seed: u64,
+    round: usize,
+    episode: impl Fn(&mut ChaCha8Rng) -> T + Sync,
+) -> Vec<T> {
+    (0..episodes)
+        .into_par_iter()
+        .map(|e| {
+            let mut rng = ChaCha8Rng::seed_from_u64(seed);
+            rng.set_stream(((round as u64) << 32) | e as u64);
+            episode(&mut rng)
+        })
+        .collect()
+}
+
+/// One round on the track: `episodes` episodes of `laps` laps from random starts, driven
+/// in parallel by `driver` (the teacher when `None`; a mixture draws its member per
+/// episode) mixed with the teacher at `beta`.
+pub fn track_round(
+    track: &Track,
+    driver: Option<&Policy>,
+    beta: f64,
+    laps: usize,
+    episodes: usize,
+    seed: u64,
+    round: usize,
+) -> Vec<Vec<Step>> {
+    let cap = track.step_cap(laps as f64);
+    parallel_episodes(episodes, seed, round, |rng| {
+        let start = rng.random::<f64>() * track.length();
+        let mut sim = TrackSim::new(track, start);
+        let driver = driver.map(|p| p.for_episode(rng).clone());
+        let mut count = 0;
+        rollout(&mut sim, driver.as_ref(), beta, rng, |s| {
+            count += 1;
+            s.laps() >= laps as f64 || count > cap
+        })
+    })
+}
+
+/// One round of `gridnav` on `costs`: `episodes` walks between random reachable pairs,
+/// in parallel as `track_round`. `None` when the map has no reachable pair.
+pub fn gridnav_round(
+    costs: &Grid<f32>,
+    driver: Option<&Policy>,
+    beta: f64,
+    episodes: usize,
+    seed: u64,
+    round: usize,
+) -> Option<Vec<Vec<Step>>> {
+    parallel_episodes(episodes, seed, round, |rng| {
+        let mut nav = random_episode(costs, rng)?;
+        let driver = driver.map(|p| p.for_episode(rng).clone());
+        Some(rollout(&mut nav, driver.as_ref(), beta, rng, GridNav::over))
+    })
+    .into_iter()
+    .collect()
 }
 
 /// How the rounds gather their labels.

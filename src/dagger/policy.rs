@@ -18,17 +18,21 @@ pub enum PolicyKind {
     Ridge,
     /// A regression tree.
     Tree,
+    /// Multinomial logistic regression, for discrete actions (class indices 0, 1, ...).
+    Logistic,
 }
 
 impl PolicyKind {
-    /// The learner of this kind, with a tree's depth or ridge's penalty.
-    pub fn learner(self, depth: usize, lambda: f64) -> PolicyLearner {
+    /// The learner of this kind, with a tree's depth, or the penalty of ridge and
+    /// logistic regression; `classes` is the number of discrete actions (logistic only).
+    pub fn learner(self, depth: usize, lambda: f64, classes: usize) -> PolicyLearner {
         match self {
             PolicyKind::Ridge => PolicyLearner::Ridge { lambda },
             PolicyKind::Tree => PolicyLearner::Tree(TreeConfig {
                 max_depth: depth,
                 ..TreeConfig::default()
             }),
+            PolicyKind::Logistic => PolicyLearner::Logistic { classes, lambda },
         }
     }
 }

@@ -6,6 +6,7 @@
 //! number are blocked.
 
 mod grid;
+mod huge_pages;
 mod mdp;
 mod queue;
 

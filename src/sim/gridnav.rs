@@ -5,6 +5,10 @@
 //! episode ends at the goal (a success) or after three times the teacher's number of
 //! steps (a failure).
 
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+use serde::Serialize;
+
 use crate::grid::{Cell, Grid};
 use crate::plan::{CostField, Moves, cost_to_go, edge_cost};
 
@@ -24,6 +28,87 @@ pub const MOVES: [(i32, i32); 8] = [
 /// and the log-cost of each neighbour relative to the current cell (cells off the map
 /// count as 10).
 pub const OBSERVATION_DIMS: usize = 11;
+
+/// Names of the observation's values, in order.
+pub const OBSERVATION_NAMES: [&str; OBSERVATION_DIMS] = [
+    "goal_row",
+    "goal_col",
+    "log_goal_distance",
+    "cost_up",
+    "cost_left",
+    "cost_right",
+    "cost_down",
+    "cost_up_left",
+    "cost_up_right",
+    "cost_down_left",
+    "cost_down_right",
+];
+
+/// Tries for a reachable random pair before a map is declared unusable.
+const PAIR_ATTEMPTS: usize = 1000;
+
+/// A random start and goal at least a third of the map's smaller side apart (they may
+/// be blocked or disconnected: `episode` checks).
+pub fn random_pair(costs: &Grid<f32>, rng: &mut ChaCha8Rng) -> (Cell, Cell) {
+    let (w, h) = (costs.geo.width, costs.geo.height);
+    loop {
+        let a = Cell::new(rng.random_range(0..h), rng.random_range(0..w));
+        let b = Cell::new(rng.random_range(0..h), rng.random_range(0..w));
+        if (a.distance_squared(b) as f64).sqrt() >= f64::from(w.min(h)) / 3.0 {
+            return (a, b);
+        }
+    }
+}
+
+/// An episode between a random reachable pair, or `None` when a thousand tries found
+/// none (a map mostly blocked, or too small).
+pub fn random_episode<'a>(costs: &'a Grid<f32>, rng: &mut ChaCha8Rng) -> Option<GridNav<'a>> {
+    if costs.geo.width.min(costs.geo.height) < 3 {
+        return None;
+    }
+    (0..PAIR_ATTEMPTS).find_map(|_| {
+        let (a, b) = random_pair(costs, rng);
+        GridNav::new(costs, a, b)
+    })
+}
+
+/// How a policy does on a set of start/goal pairs.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct Evaluation {
+    pub success_rate: f64,
+    /// Mean over successful episodes of the policy's path cost over the teacher's
+    /// (NaN when none succeeded).
+    pub cost_ratio: f64,
+}
+
+/// Drives `act` (observation → move) from each start to its goal.
+pub fn evaluate(
+    costs: &Grid<f32>,
+    pairs: &[(Cell, Cell)],
+    act: impl Fn(&[f64]) -> usize,
+) -> Evaluation {
+    let (mut successes, mut ratios) = (0usize, Vec::new());
+    for &(a, b) in pairs {
+        let Some(mut nav) = GridNav::new(costs, a, b) else {
+            continue;
+        };
+        while !nav.over() {
+            nav.step(act(&nav.observation()));
+        }
+        if nav.reached() {
+            successes += 1;
+            ratios.push(nav.cost / nav.optimal_cost.max(f64::MIN_POSITIVE));
+        }
+    }
+    Evaluation {
+        success_rate: successes as f64 / pairs.len().max(1) as f64,
+        cost_ratio: if ratios.is_empty() {
+            f64::NAN
+        } else {
+            ratios.iter().sum::<f64>() / ratios.len() as f64
+        },
+    }
+}
 
 /// One episode on one map.
 pub struct GridNav<'a> {

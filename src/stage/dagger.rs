@@ -6,21 +6,20 @@
 
 use std::path::PathBuf;
 
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::ArtifactBuilder;
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
-use crate::dagger::{Aggregate, BetaSchedule, Policy, PolicyKind, PolicyLearner, rollout};
+use crate::dagger::{Aggregate, BetaSchedule, Policy, PolicyKind, PolicyLearner, track_round};
 use crate::error::{Error, Result};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::sim::track::OBSERVATION_NAMES;
-use crate::sim::{Track, TrackConfig, TrackSim};
+use crate::sim::{Track, TrackConfig};
 
 pub const KIND: &str = "dagger";
-const VERSION: u32 = 1;
+/// 2: episodes per round, each from its own random stream.
+const VERSION: u32 = 2;
 
 /// Which policy the artifact returns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -38,6 +37,9 @@ pub enum Selection {
 mod defaults {
     pub fn rounds() -> usize {
         10
+    }
+    pub fn episodes() -> usize {
+        1
     }
     pub fn laps() -> usize {
         1
@@ -70,7 +72,11 @@ pub struct DaggerParams {
     pub env: String,
     #[serde(default = "defaults::rounds")]
     pub rounds: usize,
-    /// Laps per round (the teacher labels every step).
+    /// Episodes per round, driven in parallel (each from its own seeded stream, so the
+    /// round is the same at any thread count).
+    #[serde(default = "defaults::episodes")]
+    pub episodes: usize,
+    /// Laps per episode (the teacher labels every step).
     #[serde(default = "defaults::laps")]
     pub laps: usize,
     /// β schedule: {kind: first-round}, {kind: linear, rounds: N}, {kind: exponential, p: P}.
@@ -113,8 +119,11 @@ impl DaggerParams {
                 self.env
             ));
         }
-        if self.rounds == 0 || self.laps == 0 || self.validation_laps == 0 {
-            return bad("rounds, laps and validation_laps must be at least 1");
+        if self.rounds == 0 || self.episodes == 0 || self.laps == 0 || self.validation_laps == 0 {
+            return bad("rounds, episodes, laps and validation_laps must be at least 1");
+        }
+        if self.learner == PolicyKind::Logistic {
+            return bad("the track's steering is continuous: learner ridge or tree");
         }
         if !(1..=16).contains(&self.depth) {
             return bad("depth must be in 1..=16");
@@ -131,7 +140,7 @@ impl DaggerParams {
     }
 
     fn learner(&self) -> PolicyLearner {
-        self.learner.learner(self.depth, self.lambda)
+        self.learner.learner(self.depth, self.lambda, 0)
     }
 }
 
@@ -173,13 +182,12 @@ impl Stage for DaggerParams {
                 schema: "imitate.dagger-dataset/1".into(),
                 observation_names: OBSERVATION_NAMES.map(String::from).to_vec(),
                 environment: "track".into(),
+                costs: None,
             },
         )?;
-        let mut rng = ChaCha8Rng::seed_from_u64(self.seed);
         let mut aggregate = Aggregate::new(OBSERVATION_NAMES.len(), &learner);
         let mut policies: Vec<Policy> = Vec::new();
         let mut metrics = Vec::new();
-        let cap = track.step_cap(self.laps as f64);
         let validation_seed = self.seed.wrapping_add(0x5eed);
         for round in 0..self.rounds {
             let beta = if self.supervised {
@@ -187,15 +195,20 @@ impl Stage for DaggerParams {
             } else {
                 self.beta.beta(round)
             };
-            let start = rng.random::<f64>() * track.length();
-            let mut sim = TrackSim::new(&track, start);
-            let driver = policies.last().map(|p| p.for_episode(&mut rng).clone());
-            let driver = if self.supervised { None } else { driver };
-            let mut count = 0;
-            let steps = rollout(&mut sim, driver.as_ref(), beta, &mut rng, |s| {
-                count += 1;
-                s.laps() >= self.laps as f64 || count > cap
-            });
+            let driver = if self.supervised {
+                None
+            } else {
+                policies.last()
+            };
+            let episodes = track_round(
+                &track,
+                driver,
+                beta,
+                self.laps,
+                self.episodes,
+                self.seed,
+                round,
+            );
             let number = dataset.append(&NewRound {
                 source: format!("round {round}"),
                 beta,
@@ -203,7 +216,7 @@ impl Stage for DaggerParams {
                 teacher: "pure-pursuit".into(),
                 period: track.config.period,
                 timestamps: None,
-                episodes: &[steps],
+                episodes: &episodes,
             })?;
             // Train on what the dataset holds (as `imitate dagger train` would).
             let written = dataset.round_steps(number)?;
