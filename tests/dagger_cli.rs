@@ -618,6 +618,29 @@ fn gridnav_rounds_walk_a_costmap_and_train_a_discrete_policy() {
     let success = walked["learner"]["success_rate"].as_f64().unwrap();
     assert!((0.0..=1.0).contains(&success));
 
+    let trees = run(&[
+        "dagger",
+        "train",
+        "ds",
+        "--out",
+        "pc",
+        "--learner",
+        "class-tree",
+        "--depth",
+        "6",
+    ]);
+    assert!(trees.status.success(), "{}", stderr(&trees));
+    let walked = json(&run(&[
+        "dagger",
+        "rollout",
+        "pc",
+        "--dataset",
+        "ds",
+        "--pairs",
+        "5",
+        "--json",
+    ]));
+    assert!(walked["learner"]["success_rate"].as_f64().unwrap() >= 0.0);
     // Moves are classes: a regression learner is refused.
     let tree = run(&["dagger", "train", "ds", "--out", "pt", "--learner", "tree"]);
     assert_eq!(tree.status.code(), Some(2), "{}", stderr(&tree));
@@ -666,4 +689,57 @@ fn logistic_regression_refuses_continuous_labels() {
         stderr(&out)
     );
     assert!(!dir.path().join("p").exists());
+}
+
+#[test]
+fn the_dagger_stage_walks_gridnav_on_a_costmap() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("pipelines/dagger-gridnav.yaml"))
+        .unwrap()
+        .replace("rounds: 8", "rounds: 3")
+        .replace("episodes: 6", "episodes: 2")
+        .replace("validation_pairs: 20", "validation_pairs: 4")
+        .replace(
+            "testdata/world",
+            &repo().join("testdata/world").display().to_string(),
+        );
+    std::fs::create_dir_all(dir.path().join("pipelines")).unwrap();
+    let pipeline = dir.path().join("pipelines/dagger-gridnav.yaml");
+    std::fs::write(&pipeline, &text).unwrap();
+    let out = imitate(dir.path(), &["run", "pipelines/dagger-gridnav.yaml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let artifact = dir.path().join("out/dagger-gridnav/policy");
+    let metrics: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(artifact.join("metrics.json")).unwrap()).unwrap();
+    assert_eq!(metrics["summary"]["env"], "gridnav");
+    assert_eq!(metrics["rounds"].as_array().unwrap().len(), 3);
+    let success = metrics["summary"]["validation_success_rate"]
+        .as_f64()
+        .unwrap();
+    assert!((0.0..=1.0).contains(&success));
+    assert_eq!(
+        metrics["summary"]["teacher"]["validation_success_rate"],
+        1.0
+    );
+    let policy: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(artifact.join("policy.json")).unwrap()).unwrap();
+    assert_eq!(policy["kind"], "class-trees");
+
+    // Moves are classes: a regression learner is refused, as is gridnav without costs.
+    for (from, to) in [
+        ("learner: class-tree", "learner: tree"),
+        (
+            &*format!(
+                "costs: {}",
+                repo()
+                    .join("testdata/world/truth/terrain-000.parquet")
+                    .display()
+            ),
+            "",
+        ),
+    ] {
+        std::fs::write(&pipeline, text.replace(from, to)).unwrap();
+        let bad = imitate(dir.path(), &["run", "pipelines/dagger-gridnav.yaml"]);
+        assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
+    }
 }

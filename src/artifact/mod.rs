@@ -4,9 +4,11 @@
 //! identical inputs give a byte-identical artifact.
 
 mod builder;
+mod costs;
 mod manifest;
 
 pub use builder::{ArtifactBuilder, copy_artifact};
+pub use costs::load_costs;
 pub use manifest::{
     FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest, digest_input,
     digest_input_with, read_manifest, stage_key,

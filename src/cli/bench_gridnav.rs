@@ -10,10 +10,10 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::bench::emit;
-use crate::dagger::{BetaSchedule, Environment, Learning, Policy, PolicyLearner, learn};
+use crate::dagger::{BetaSchedule, Environment, Learning, Policy, PolicyKind, learn};
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
-use crate::sim::gridnav::{Evaluation, GridNav, evaluate, random_episode, random_pair};
+use crate::sim::gridnav::{Evaluation, GridNav, MOVES, evaluate, random_episode, random_pair};
 use crate::sim::{WorldConfig, generate_world};
 
 #[derive(Debug, clap::Args)]
@@ -28,6 +28,12 @@ pub struct GridnavBenchArgs {
     /// Start/goal pairs on the evaluation map.
     #[arg(long, default_value_t = 30)]
     pub evaluation_pairs: usize,
+    /// A learner for discrete moves: logistic or class-tree.
+    #[arg(long, value_enum, default_value = "logistic")]
+    pub learner: PolicyKind,
+    /// Depth of class trees.
+    #[arg(long, default_value_t = 6)]
+    pub depth: usize,
     #[arg(long)]
     pub json: bool,
 }
@@ -46,6 +52,7 @@ struct GridnavReport {
     schema: &'static str,
     seeds: u64,
     labels_per_iteration: usize,
+    learner: PolicyKind,
     curves: Vec<Curve>,
 }
 
@@ -106,10 +113,12 @@ pub fn run(args: GridnavBenchArgs) -> Result<()> {
                 .into(),
         ));
     }
-    let learner = PolicyLearner::Logistic {
-        classes: 8,
-        lambda: 1e-4,
-    };
+    if !args.learner.discrete() {
+        return Err(Error::Usage(
+            "gridnav's moves are classes: --learner logistic or class-tree".into(),
+        ));
+    }
+    let learner = args.learner.learner(args.depth, 1e-4, MOVES.len());
     let mut curves = Vec::new();
     for (name, learning) in [
         ("behaviour-cloning", Learning::Supervised),
@@ -175,14 +184,16 @@ pub fn run(args: GridnavBenchArgs) -> Result<()> {
         schema: "imitate.bench-gridnav/1",
         seeds: args.seeds,
         labels_per_iteration: args.labels,
+        learner: args.learner,
         curves,
     };
     emit(&report, args.json, |r| {
         let mut text = format!(
-            "gridnav: success rate and cost ratio on an unseen map ({} seeds, {} labels per iteration)\n\
+            "gridnav: success rate and cost ratio on an unseen map ({} seeds, {} labels per iteration, {:?})\n\
              iteration  {}\n",
             r.seeds,
             r.labels_per_iteration,
+            r.learner,
             r.curves
                 .iter()
                 .map(|c| format!("{:>28}", c.learning))

@@ -98,7 +98,7 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
             "bench track needs --iterations, --seeds and --eval-laps of at least 1".into(),
         ));
     }
-    if args.learner == PolicyKind::Logistic {
+    if args.learner.discrete() {
         return Err(Error::Usage(
             "the track's steering is continuous: --learner ridge or tree".into(),
         ));

@@ -12,8 +12,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use super::bench::emit;
-use super::plan::load as load_costs;
-use crate::artifact::{ArtifactBuilder, Lineage, digest_input};
+use crate::artifact::{ArtifactBuilder, Lineage, digest_input, load_costs};
 use crate::dagger::dataset::{CostsSource, Dataset, DatasetInfo, NewRound, RoundInfo};
 use crate::dagger::demo_round::{DemoColumns, read_demo_round};
 use crate::dagger::log_round::{LogTopics, read_log_round};
@@ -361,14 +360,14 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
     if ds.steps() == 0 {
         return Err(Error::input(dataset, "holds no steps to train on"));
     }
-    let classes = match learner {
-        PolicyKind::Logistic => action_classes(&ds, dataset)?,
-        PolicyKind::Ridge | PolicyKind::Tree if ds.info.environment == "gridnav" => {
-            return Err(Error::Usage(
-                "gridnav's moves are classes, not numbers: --learner logistic".into(),
-            ));
-        }
-        PolicyKind::Ridge | PolicyKind::Tree => 0,
+    let classes = if learner.discrete() {
+        action_classes(&ds, dataset)?
+    } else if ds.info.environment == "gridnav" {
+        return Err(Error::Usage(
+            "gridnav's moves are classes, not numbers: --learner logistic or class-tree".into(),
+        ));
+    } else {
+        0
     };
     let learner = learner.learner(depth, lambda, classes);
     // Ridge keeps only the sufficient statistics; a tree needs the rows.
@@ -419,8 +418,8 @@ fn action_classes(ds: &Dataset, dataset: &Path) -> Result<usize> {
                 return Err(Error::input(
                     dataset,
                     format!(
-                        "round {} step {i}: label {label} is not a class index (logistic \
-                         regression needs discrete actions 0, 1, ... below {MOST_CLASSES})",
+                        "round {} step {i}: label {label} is not a class index (a discrete \
+                         learner needs actions 0, 1, ... below {MOST_CLASSES})",
                         info.round
                     ),
                 ));

@@ -15,7 +15,8 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 
-use super::plan::{load, locate};
+use super::plan::locate;
+use crate::artifact::load_costs;
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
 use crate::io::fs::write_bytes_atomic;
@@ -89,7 +90,7 @@ pub fn run(args: ForecastArgs) -> Result<()> {
     if !(1..=64).contains(&args.scale) {
         return Err(Error::Usage("--scale must be in 1..=64".into()));
     }
-    let (name, costs) = load(&args.costmap, args.map.as_deref())?;
+    let (name, costs) = load_costs(&args.costmap, args.map.as_deref())?;
     let at = |text: &str, what: &str| locate(&costs, &name, &args.costmap, text, what, args.cells);
     let observed: Vec<Cell> = args
         .observed

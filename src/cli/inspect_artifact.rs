@@ -19,6 +19,11 @@ fn describe_policy(policy: &Policy) -> Value {
         Policy::Logistic(p) => {
             json!({"kind": "logistic", "classes": p.weights.len(), "inputs": p.mean.len()})
         }
+        Policy::ClassTrees { trees } => json!({
+            "kind": "class-trees",
+            "classes": trees.len(),
+            "leaves": trees.iter().map(|t| t.leaves()).sum::<usize>(),
+        }),
         Policy::Sequence { steps } => json!({"kind": "sequence", "steps": steps.len()}),
         Policy::Mixture { members } => json!({
             "kind": "mixture",

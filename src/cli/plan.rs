@@ -7,11 +7,10 @@ use clap::Args;
 use serde::Serialize;
 
 use super::bench::Planner;
-use crate::artifact::read_manifest;
+use crate::artifact::load_costs;
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
 use crate::io::png::write_png;
-use crate::io::tables::read_costmap;
 use crate::plan::{Connectivity, GridPlanner, Moves};
 use crate::report::{Preview, render_preview};
 
@@ -53,43 +52,6 @@ struct PlanOutput {
     cost: f64,
     cells: Vec<[u32; 2]>,
     world: Vec<[f64; 2]>,
-}
-
-/// Loads the costmap named by `path` (an artifact folder or a table) and its map name.
-pub(super) fn load(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {
-    if !path.is_dir() {
-        return read_costmap(path);
-    }
-    let manifest = read_manifest(path, "costmap")?;
-    let files: Vec<_> = manifest.files_with_role("costmap").collect();
-    let names: Vec<String> = files
-        .iter()
-        .map(|f| {
-            f.path
-                .trim_start_matches("costmaps/")
-                .trim_end_matches(".parquet")
-                .to_string()
-        })
-        .collect();
-    let chosen = match map {
-        Some(m) => names.iter().position(|n| n == m).ok_or_else(|| {
-            Error::Usage(format!(
-                "{} has no map '{m}' (it has: {})",
-                path.display(),
-                names.join(", ")
-            ))
-        })?,
-        None if files.len() == 1 => 0,
-        None => {
-            return Err(Error::Usage(format!(
-                "{} holds {} maps; choose one with --map ({})",
-                path.display(),
-                files.len(),
-                names.join(", ")
-            )));
-        }
-    };
-    read_costmap(&path.join(&files[chosen].path))
 }
 
 fn parse_point(text: &str, what: &str) -> Result<[f64; 2]> {
@@ -143,7 +105,7 @@ pub(super) fn locate(
 }
 
 pub fn run(args: PlanArgs) -> Result<()> {
-    let (name, costs) = load(&args.costmap, args.map.as_deref())?;
+    let (name, costs) = load_costs(&args.costmap, args.map.as_deref())?;
     let geo = &costs.geo;
     let locate =
         |text: &str, what: &str| locate(&costs, &name, &args.costmap, text, what, args.cells);

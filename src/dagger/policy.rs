@@ -6,6 +6,7 @@
 //! fit on the standardised observations come from them exactly, however many rounds
 //! were added: a dataset larger than memory trains in one pass per round.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
@@ -20,6 +21,8 @@ pub enum PolicyKind {
     Tree,
     /// Multinomial logistic regression, for discrete actions (class indices 0, 1, ...).
     Logistic,
+    /// Classification trees for discrete actions: one tree per class.
+    ClassTree,
 }
 
 impl PolicyKind {
@@ -33,7 +36,19 @@ impl PolicyKind {
                 ..TreeConfig::default()
             }),
             PolicyKind::Logistic => PolicyLearner::Logistic { classes, lambda },
+            PolicyKind::ClassTree => PolicyLearner::ClassTrees {
+                classes,
+                config: TreeConfig {
+                    max_depth: depth,
+                    ..TreeConfig::default()
+                },
+            },
         }
+    }
+
+    /// Whether the kind predicts class indices (discrete actions) rather than numbers.
+    pub fn discrete(self) -> bool {
+        matches!(self, PolicyKind::Logistic | PolicyKind::ClassTree)
     }
 }
 
@@ -65,6 +80,9 @@ pub enum PolicyLearner {
     /// Multinomial logistic regression over `classes` discrete actions (labels are the
     /// class indices), with this L2 penalty on standardised observations.
     Logistic { classes: usize, lambda: f64 },
+    /// One regression tree per class fitted to the class's indicator: squared error on
+    /// a one-hot target is the Gini impurity, so each is a one-vs-rest CART.
+    ClassTrees { classes: usize, config: TreeConfig },
 }
 
 /// A fitted policy: the action (in [−1, 1]) for an observation.
@@ -77,6 +95,10 @@ pub enum Policy {
     },
     /// Discrete actions: the most probable class, as a number.
     Logistic(LogisticPolicy),
+    /// Discrete actions: the class whose tree scores highest (the first on ties).
+    ClassTrees {
+        trees: Vec<RegressionTree>,
+    },
     /// Forward training's non-stationary policy: the t-th member acts at step t (the
     /// last one after the horizon).
     Sequence {
@@ -97,6 +119,10 @@ impl Policy {
             Policy::Linear(p) => p.act(x),
             Policy::Tree { tree } => tree.predict(x).clamp(-1.0, 1.0),
             Policy::Logistic(p) => p.most_probable(x) as f64,
+            Policy::ClassTrees { trees } => {
+                let scores = trees.iter().map(|t| t.predict(x));
+                first_largest(scores) as f64
+            }
             Policy::Mixture { members } => members.first().map_or(0.0, |m| m.act(x)),
             Policy::Sequence { steps } => steps.first().map_or(0.0, |m| m.act(x)),
         }
@@ -121,6 +147,17 @@ impl Policy {
             _ => self,
         }
     }
+}
+
+/// The index of the largest score, the first on ties.
+fn first_largest(scores: impl Iterator<Item = f64>) -> usize {
+    let mut best = (f64::NEG_INFINITY, 0);
+    for (k, score) in scores.enumerate() {
+        if score > best.0 {
+            best = (score, k);
+        }
+    }
+    best.1
 }
 
 /// Every label so far: the sufficient statistics, and the rows when the learner needs
@@ -163,6 +200,19 @@ impl Aggregate {
                 *classes,
                 *lambda,
             )),
+            PolicyLearner::ClassTrees { classes, config } => {
+                let weights = vec![1.0; self.labels.len()];
+                let trees = (0..*classes)
+                    .into_par_iter()
+                    .map(|k| {
+                        let indicator: Vec<f64> = (self.labels.iter())
+                            .map(|&label| f64::from(u8::from(label == k as f64)))
+                            .collect();
+                        RegressionTree::fit(&self.rows, self.dims, &indicator, &weights, config)
+                    })
+                    .collect();
+                Policy::ClassTrees { trees }
+            }
             PolicyLearner::Tree(config) => {
                 let weights = vec![1.0; self.labels.len()];
                 Policy::Tree {
@@ -228,10 +278,7 @@ impl LogisticPolicy {
 
     /// The class of highest probability (the lowest index on ties).
     pub fn most_probable(&self, x: &[f64]) -> usize {
-        let scores = self.scores(x);
-        (0..scores.len())
-            .max_by(|&a, &b| scores[a].total_cmp(&scores[b]).then(b.cmp(&a)))
-            .unwrap_or(0)
+        first_largest(self.scores(x).into_iter())
     }
 
     /// Fits by full-batch gradient descent on the mean cross-entropy plus λ‖w‖² (the
@@ -366,9 +413,8 @@ impl PolicyData {
 mod tests {
     use super::*;
 
-    #[test]
-    fn logistic_regression_separates_classes() {
-        // Class = which of three regions x[0] falls in.
+    /// Class = which of three regions x[0] falls in; x[1] is noise.
+    fn three_regions() -> (Vec<f64>, Vec<f64>) {
         let (mut rows, mut labels) = (Vec::new(), Vec::new());
         for k in 0..300 {
             let x = (k as f64 / 300.0) * 6.0 - 3.0;
@@ -381,10 +427,37 @@ mod tests {
                 2.0
             });
         }
+        (rows, labels)
+    }
+
+    #[test]
+    fn logistic_regression_separates_classes() {
+        let (rows, labels) = three_regions();
         let p = LogisticPolicy::fit(&rows, 2, &labels, 3, 1e-4);
         assert_eq!(p.most_probable(&[-2.5, 0.0]), 0);
         assert_eq!(p.most_probable(&[0.0, 0.0]), 1);
         assert_eq!(p.most_probable(&[2.5, 0.0]), 2);
+    }
+
+    #[test]
+    fn class_trees_separate_classes_a_line_cannot() {
+        // Classes 0 and 2 on the outside, 1 in the middle... and 0 again beyond 2.5:
+        // no single linear score orders them, one tree per class does.
+        let (rows, mut labels) = three_regions();
+        for (k, label) in labels.iter_mut().enumerate() {
+            if rows[2 * k] > 2.5 {
+                *label = 0.0;
+            }
+        }
+        let learner = PolicyKind::ClassTree.learner(3, 0.0, 3);
+        let mut data = Aggregate::new(2, &learner);
+        for (row, &label) in rows.chunks(2).zip(&labels) {
+            data.add(row, label);
+        }
+        let policy = data.fit(&learner);
+        for (x, class) in [(-2.5, 0.0), (0.0, 1.0), (2.0, 2.0), (2.9, 0.0)] {
+            assert_eq!(policy.act(&[x, 0.0]), class, "at {x}");
+        }
     }
 
     #[test]

@@ -74,8 +74,12 @@ pub fn is_track_policy(dir: &Path) -> bool {
         Some(m) if m.get("observation_names").is_some() => {
             m["observation_names"] == serde_json::json!(OBSERVATION_NAMES)
         }
-        // The dagger stage's artifacts are track policies.
-        Some(m) => m.get("schema").and_then(|s| s.as_str()) == Some("imitate.dagger-metrics/1"),
+        // The dagger stage's artifacts: version 1 drove only the track, version 2 says.
+        Some(m) => match m.get("schema").and_then(|s| s.as_str()) {
+            Some("imitate.dagger-metrics/1") => true,
+            Some("imitate.dagger-metrics/2") => m["summary"]["env"] == "track",
+            _ => false,
+        },
         None => false,
     }
 }

@@ -1,24 +1,30 @@
-//! `dagger`: N rounds of DAgger (or behaviour cloning) against a built-in simulator, in
-//! a pipeline. Out comes a policy artifact: the selected policy (`policy.json`), every
-//! round's policy (`policies/round-NNN.json`), the aggregated dataset the rounds wrote
-//! (`dataset/`, the layout of `imitate dagger`), and per round the labels gathered and
-//! the falls per lap on validation laps.
+//! `dagger`: N rounds of DAgger (or behaviour cloning) against a built-in simulator
+//! (`track`, or `gridnav` on a costmap another stage or file provides), in a pipeline.
+//! Out comes a policy artifact: the selected policy (`policy.json`), every round's policy
+//! (`policies/round-NNN.json`), the aggregated dataset the rounds wrote (`dataset/`, the
+//! layout of `imitate dagger`), and per round the labels gathered and the validation:
+//! falls per lap on the track, success rate and path-cost ratio on gridnav.
 
 use std::path::PathBuf;
 
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::{Stage, StageReport, commit_artifact, resolved};
-use crate::artifact::ArtifactBuilder;
+use crate::artifact::{ArtifactBuilder, load_costs};
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
-use crate::dagger::{Aggregate, BetaSchedule, Policy, PolicyKind, PolicyLearner, track_round};
+use crate::dagger::{
+    Aggregate, BetaSchedule, Policy, PolicyKind, PolicyLearner, Step, gridnav_round, track_round,
+};
 use crate::error::{Error, Result};
+use crate::grid::{Cell, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
-use crate::sim::track::OBSERVATION_NAMES;
-use crate::sim::{Track, TrackConfig};
+use crate::sim::gridnav::{self, evaluate, random_episode};
+use crate::sim::{Track, TrackConfig, track};
 
 pub const KIND: &str = "dagger";
-/// 2: episodes per round, each from its own random stream.
+/// 2: episodes per round, each from its own random stream; gridnav; metrics/2.
 const VERSION: u32 = 2;
 
 /// Which policy the artifact returns.
@@ -62,21 +68,32 @@ mod defaults {
     pub fn validation_laps() -> usize {
         3
     }
+    pub fn validation_pairs() -> usize {
+        20
+    }
 }
 
 /// Parameters of `uses: dagger`.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DaggerParams {
-    /// The simulator: `track`.
+    /// The simulator: `track` (continuous steering) or `gridnav` (8 moves on `costs`).
     pub env: String,
+    /// For gridnav: the true costmap (a costmap table or artifact folder); a
+    /// dependency, so the stage reruns when it changes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub costs: Option<PathBuf>,
+    /// For gridnav and an artifact of several maps: which one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub map: Option<String>,
     #[serde(default = "defaults::rounds")]
     pub rounds: usize,
     /// Episodes per round, driven in parallel (each from its own seeded stream, so the
     /// round is the same at any thread count).
     #[serde(default = "defaults::episodes")]
     pub episodes: usize,
-    /// Laps per episode (the teacher labels every step).
+    /// Track: laps per episode (the teacher labels every step). A gridnav episode
+    /// walks from a random start to a random goal.
     #[serde(default = "defaults::laps")]
     pub laps: usize,
     /// β schedule: {kind: first-round}, {kind: linear, rounds: N}, {kind: exponential, p: P}.
@@ -93,11 +110,95 @@ pub struct DaggerParams {
     pub lambda: f64,
     #[serde(default = "defaults::selection")]
     pub selection: Selection,
+    /// Track: laps each round's policy drives for validation.
     #[serde(default = "defaults::validation_laps")]
     pub validation_laps: usize,
+    /// Gridnav: start/goal pairs each round's policy walks for validation.
+    #[serde(default = "defaults::validation_pairs")]
+    pub validation_pairs: usize,
     #[serde(default)]
     pub seed: u64,
     pub out: PathBuf,
+}
+
+/// How well a policy drove its validation episodes.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+#[serde(untagged)]
+enum Validation {
+    Track {
+        validation_falls_per_lap: f64,
+    },
+    Gridnav {
+        validation_success_rate: f64,
+        /// Mean path cost over the teacher's on the pairs reached (NaN when none).
+        validation_cost_ratio: f64,
+    },
+}
+
+impl Validation {
+    /// Smaller is better: falls; or failures, then path cost.
+    fn key(&self) -> (f64, f64) {
+        match *self {
+            Validation::Track {
+                validation_falls_per_lap,
+            } => (validation_falls_per_lap, 0.0),
+            Validation::Gridnav {
+                validation_success_rate,
+                validation_cost_ratio,
+            } => (
+                -validation_success_rate,
+                if validation_cost_ratio.is_nan() {
+                    f64::INFINITY
+                } else {
+                    validation_cost_ratio
+                },
+            ),
+        }
+    }
+
+    /// The expected validation of the uniform mixture (each episode runs one member).
+    fn mean(all: &[Validation]) -> Validation {
+        let n = all.len().max(1) as f64;
+        match all.first() {
+            Some(Validation::Gridnav { .. }) => {
+                let rates = all.iter().map(|v| -v.key().0);
+                let ratios: Vec<f64> = (all.iter())
+                    .filter_map(|v| match *v {
+                        Validation::Gridnav {
+                            validation_cost_ratio: r,
+                            ..
+                        } if r.is_finite() => Some(r),
+                        _ => None,
+                    })
+                    .collect();
+                Validation::Gridnav {
+                    validation_success_rate: rates.sum::<f64>() / n,
+                    validation_cost_ratio: ratios.iter().sum::<f64>() / ratios.len() as f64,
+                }
+            }
+            _ => Validation::Track {
+                validation_falls_per_lap: all.iter().map(|v| v.key().0).sum::<f64>() / n,
+            },
+        }
+    }
+}
+
+impl std::fmt::Display for Validation {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match *self {
+            Validation::Track {
+                validation_falls_per_lap,
+            } => write!(f, "{validation_falls_per_lap:.2} falls per lap"),
+            Validation::Gridnav {
+                validation_success_rate,
+                validation_cost_ratio,
+            } => write!(
+                f,
+                "{:.0} % reached, path cost {validation_cost_ratio:.3}× the teacher's",
+                100.0 * validation_success_rate
+            ),
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -107,23 +208,138 @@ struct RoundMetrics {
     steps: u64,
     learner_steps: u64,
     falls_while_gathering: u64,
-    validation_falls_per_lap: f64,
+    #[serde(flatten)]
+    validation: Validation,
+}
+
+/// The simulator a run drives, with what it needs.
+enum World {
+    Track(Track),
+    Gridnav {
+        costs: Grid<f32>,
+        /// The validation pairs, the same for every round.
+        pairs: Vec<(Cell, Cell)>,
+    },
+}
+
+impl World {
+    fn name(&self) -> &'static str {
+        match self {
+            World::Track(_) => "track",
+            World::Gridnav { .. } => "gridnav",
+        }
+    }
+
+    fn observation_names(&self) -> Vec<String> {
+        match self {
+            World::Track(_) => track::OBSERVATION_NAMES.map(String::from).to_vec(),
+            World::Gridnav { .. } => gridnav::OBSERVATION_NAMES.map(String::from).to_vec(),
+        }
+    }
+
+    /// The teacher's name and the control period (s).
+    fn teacher(&self) -> (&'static str, f64) {
+        match self {
+            World::Track(track) => ("pure-pursuit", track.config.period),
+            World::Gridnav { .. } => ("planner", 1.0),
+        }
+    }
+
+    fn round(
+        &self,
+        params: &DaggerParams,
+        driver: Option<&Policy>,
+        beta: f64,
+        round: usize,
+    ) -> Result<Vec<Vec<Step>>> {
+        let (episodes, seed) = (params.episodes, params.seed);
+        match self {
+            World::Track(track) => Ok(track_round(
+                track,
+                driver,
+                beta,
+                params.laps,
+                episodes,
+                seed,
+                round,
+            )),
+            World::Gridnav { costs, .. } => {
+                gridnav_round(costs, driver, beta, episodes, seed, round).ok_or_else(|| {
+                    Error::Failed("dagger: the costmap has no reachable pair".into())
+                })
+            }
+        }
+    }
+
+    /// `drive` (observation → action) on the validation episodes.
+    fn validate(&self, params: &DaggerParams, drive: impl Fn(&[f64]) -> f64) -> Validation {
+        let seed = params.seed.wrapping_add(0x5eed);
+        match self {
+            World::Track(track) => Validation::Track {
+                validation_falls_per_lap: track
+                    .falls_per_lap(params.validation_laps, seed, |s| drive(&s.observation())),
+            },
+            World::Gridnav { costs, pairs } => {
+                let reached = evaluate(costs, pairs, |x| drive(x).round().clamp(0.0, 7.0) as usize);
+                Validation::Gridnav {
+                    validation_success_rate: reached.success_rate,
+                    validation_cost_ratio: reached.cost_ratio,
+                }
+            }
+        }
+    }
+
+    /// The teacher on the validation episodes.
+    fn validate_teacher(&self, params: &DaggerParams) -> Validation {
+        match self {
+            World::Track(track) => Validation::Track {
+                validation_falls_per_lap: track.falls_per_lap(
+                    params.validation_laps,
+                    params.seed.wrapping_add(0x5eed),
+                    |s| s.teacher(),
+                ),
+            },
+            // The teacher is the planner: it reaches every goal at the optimal cost.
+            World::Gridnav { .. } => Validation::Gridnav {
+                validation_success_rate: 1.0,
+                validation_cost_ratio: 1.0,
+            },
+        }
+    }
 }
 
 impl DaggerParams {
     fn validate(&self) -> Result<()> {
         let bad = |what: &str| Err(Error::Usage(format!("dagger: {what}")));
-        if self.env != "track" {
-            return bad(&format!(
-                "env '{}' is not a simulator imitate has (track)",
-                self.env
-            ));
+        match self.env.as_str() {
+            "track" if self.costs.is_some() || self.map.is_some() => {
+                return bad("costs and map go with env gridnav");
+            }
+            "track" if self.learner.discrete() => {
+                return bad("the track's steering is continuous: learner ridge or tree");
+            }
+            "gridnav" if self.costs.is_none() => {
+                return bad("env gridnav needs costs (a costmap table or artifact)");
+            }
+            "gridnav" if !self.learner.discrete() => {
+                return bad("gridnav's moves are classes: learner logistic or class-tree");
+            }
+            "track" | "gridnav" => {}
+            other => {
+                return bad(&format!(
+                    "env '{other}' is not a simulator imitate has (track, gridnav)"
+                ));
+            }
         }
-        if self.rounds == 0 || self.episodes == 0 || self.laps == 0 || self.validation_laps == 0 {
-            return bad("rounds, episodes, laps and validation_laps must be at least 1");
-        }
-        if self.learner == PolicyKind::Logistic {
-            return bad("the track's steering is continuous: learner ridge or tree");
+        if self.rounds == 0
+            || self.episodes == 0
+            || self.laps == 0
+            || self.validation_laps == 0
+            || self.validation_pairs == 0
+        {
+            return bad(
+                "rounds, episodes, laps, validation_laps and validation_pairs must be at least 1",
+            );
         }
         if !(1..=16).contains(&self.depth) {
             return bad("depth must be in 1..=16");
@@ -140,7 +356,28 @@ impl DaggerParams {
     }
 
     fn learner(&self) -> PolicyLearner {
-        self.learner.learner(self.depth, self.lambda, 0)
+        self.learner
+            .learner(self.depth, self.lambda, gridnav::MOVES.len())
+    }
+
+    fn world(&self) -> Result<World> {
+        match &self.costs {
+            None => Ok(World::Track(Track::new(TrackConfig::default()))),
+            Some(path) => {
+                let (_, costs) = load_costs(path, self.map.as_deref())?;
+                let mut rng = ChaCha8Rng::seed_from_u64(self.seed.wrapping_add(0x5eed));
+                let pairs = (0..self.validation_pairs)
+                    .map(|_| random_episode(&costs, &mut rng).map(|nav| (nav.position, nav.goal)))
+                    .collect::<Option<Vec<_>>>()
+                    .ok_or_else(|| {
+                        Error::input(
+                            path,
+                            "has no reachable start and goal a third of the map apart",
+                        )
+                    })?;
+                Ok(World::Gridnav { costs, pairs })
+            }
+        }
     }
 }
 
@@ -158,7 +395,7 @@ impl Stage for DaggerParams {
     }
 
     fn deps(&self) -> Vec<PathBuf> {
-        Vec::new()
+        self.costs.iter().cloned().collect()
     }
 
     fn out(&self) -> PathBuf {
@@ -168,7 +405,7 @@ impl Stage for DaggerParams {
     fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
         self.validate()?;
         let learner = self.learner();
-        let track = Track::new(TrackConfig::default());
+        let world = self.world()?;
         let mut out = ArtifactBuilder::new(&self.out)?;
         let dataset_dir = out
             .file("dataset/meta/info.json", "dataset-info")?
@@ -176,19 +413,20 @@ impl Stage for DaggerParams {
             .and_then(|meta| meta.parent())
             .expect("dataset/meta/info.json has two parents")
             .to_path_buf();
+        let observation_names = world.observation_names();
+        let mut aggregate = Aggregate::new(observation_names.len(), &learner);
         let mut dataset = Dataset::create(
             &dataset_dir,
             DatasetInfo {
                 schema: "imitate.dagger-dataset/1".into(),
-                observation_names: OBSERVATION_NAMES.map(String::from).to_vec(),
-                environment: "track".into(),
+                observation_names,
+                environment: world.name().into(),
                 costs: None,
             },
         )?;
-        let mut aggregate = Aggregate::new(OBSERVATION_NAMES.len(), &learner);
+        let (teacher, period) = world.teacher();
         let mut policies: Vec<Policy> = Vec::new();
         let mut metrics = Vec::new();
-        let validation_seed = self.seed.wrapping_add(0x5eed);
         for round in 0..self.rounds {
             let beta = if self.supervised {
                 1.0
@@ -200,21 +438,13 @@ impl Stage for DaggerParams {
             } else {
                 policies.last()
             };
-            let episodes = track_round(
-                &track,
-                driver,
-                beta,
-                self.laps,
-                self.episodes,
-                self.seed,
-                round,
-            );
+            let episodes = world.round(self, driver, beta, round)?;
             let number = dataset.append(&NewRound {
                 source: format!("round {round}"),
                 beta,
                 policy: String::new(),
-                teacher: "pure-pursuit".into(),
-                period: track.config.period,
+                teacher: teacher.into(),
+                period,
                 timestamps: None,
                 episodes: &episodes,
             })?;
@@ -231,11 +461,7 @@ impl Stage for DaggerParams {
                 steps: info.steps,
                 learner_steps: info.learner_steps,
                 falls_while_gathering: info.failures,
-                validation_falls_per_lap: track.falls_per_lap(
-                    self.validation_laps,
-                    validation_seed,
-                    |s| policy.act(&s.observation()),
-                ),
+                validation: world.validate(self, |x| policy.act(x)),
             });
             write_bytes_atomic(
                 &out.file(&format!("policies/round-{round:03}.json"), "round-policy")?,
@@ -252,27 +478,28 @@ impl Stage for DaggerParams {
                 "dataset",
             )?;
         }
-        let falls: Vec<f64> = metrics.iter().map(|m| m.validation_falls_per_lap).collect();
-        let (selected, selected_falls, chosen_round) = match self.selection {
+        let validations: Vec<Validation> = metrics.iter().map(|m| m.validation).collect();
+        let (selected, selected_validation, chosen_round) = match self.selection {
             Selection::Last => (
                 policies[policies.len() - 1].clone(),
-                falls[falls.len() - 1],
+                validations[validations.len() - 1],
                 Some(policies.len() - 1),
             ),
             Selection::Best => {
-                let best = (0..falls.len())
+                let best = (0..validations.len())
                     .rev()
-                    .min_by(|&a, &b| falls[a].total_cmp(&falls[b]))
+                    .min_by(|&a, &b| {
+                        let (ka, kb) = (validations[a].key(), validations[b].key());
+                        ka.0.total_cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+                    })
                     .expect("at least one round");
-                (policies[best].clone(), falls[best], Some(best))
+                (policies[best].clone(), validations[best], Some(best))
             }
-            // Each episode runs one member drawn uniformly: its expected falls per lap
-            // are the members' mean.
             Selection::Mixture => (
                 Policy::Mixture {
                     members: policies.clone(),
                 },
-                falls.iter().sum::<f64>() / falls.len() as f64,
+                Validation::mean(&validations),
                 None,
             ),
         };
@@ -280,16 +507,22 @@ impl Stage for DaggerParams {
             &out.file("policy.json", "policy")?,
             &to_json_bytes(&selected),
         )?;
-        let teacher = track.falls_per_lap(self.validation_laps, validation_seed, |s| s.teacher());
-        let summary_metrics = serde_json::json!({
+        let teacher_validation = world.validate_teacher(self);
+        let mut summary_metrics = serde_json::json!({
+            "env": world.name(),
             "selection": self.selection,
             "selected_round": chosen_round,
-            "validation_falls_per_lap": selected_falls,
-            "teacher_falls_per_lap": teacher,
             "labels": dataset.steps(),
+            "teacher": teacher_validation,
         });
+        if let (Some(summary), serde_json::Value::Object(selected)) = (
+            summary_metrics.as_object_mut(),
+            serde_json::to_value(selected_validation).expect("plain numbers"),
+        ) {
+            summary.extend(selected);
+        }
         let all_metrics = serde_json::json!({
-            "schema": "imitate.dagger-metrics/1",
+            "schema": "imitate.dagger-metrics/2",
             "summary": summary_metrics,
             "rounds": metrics,
         });
@@ -298,7 +531,7 @@ impl Stage for DaggerParams {
             &to_json_bytes(&all_metrics),
         )?;
         let summary = format!(
-            "{} rounds, {} labels; {} policy{}: {:.2} falls per lap on {} validation laps (teacher {:.2})",
+            "{} rounds, {} labels; {} policy{}: {selected_validation} on validation (teacher: {teacher_validation})",
             self.rounds,
             dataset.steps(),
             serde_json::to_value(self.selection)
@@ -308,9 +541,6 @@ impl Stage for DaggerParams {
             chosen_round
                 .map(|r| format!(" (round {r})"))
                 .unwrap_or_default(),
-            selected_falls,
-            self.validation_laps,
-            teacher
         );
         commit_artifact(self, extra_deps, out, "policy", summary_metrics, summary)
     }
