@@ -7,7 +7,6 @@ use std::collections::BinaryHeap;
 
 use serde::{Deserialize, Serialize};
 
-use super::huge_pages;
 use super::queue::{Buckets, Heap, MinQueue};
 use crate::grid::{Cell, CellPath, GeoRef, Grid};
 
@@ -284,7 +283,6 @@ impl GridPlanner {
         // overwritten), branch-free: on large maps this pass is a fair share of a search.
         let (mut min_cost, mut max_cost) = (f32::INFINITY, 0.0f32);
         let mut nodes = Vec::with_capacity(n);
-        huge_pages::advise(&mut nodes);
         nodes.resize(pw, blocked);
         for src in costs.data.chunks_exact(w.max(1)).take(h) {
             nodes.push(blocked);

@@ -6,7 +6,6 @@
 //! number are blocked.
 
 mod grid;
-mod huge_pages;
 mod mdp;
 mod queue;
 
