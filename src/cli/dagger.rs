@@ -414,7 +414,7 @@ fn action_classes(ds: &Dataset, dataset: &Path) -> Result<usize> {
     let mut largest = 0.0f64;
     ds.for_each_round(|info, steps| {
         for (i, &label) in steps.labels.iter().enumerate() {
-            if !(label >= 0.0 && label < MOST_CLASSES && label.fract() == 0.0) {
+            if !((0.0..MOST_CLASSES).contains(&label) && label.fract() == 0.0) {
                 return Err(Error::input(
                     dataset,
                     format!(
