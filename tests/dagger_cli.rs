@@ -723,11 +723,11 @@ fn the_dagger_stage_walks_gridnav_on_a_costmap() {
     );
     let policy: serde_json::Value =
         serde_json::from_slice(&std::fs::read(artifact.join("policy.json")).unwrap()).unwrap();
-    assert_eq!(policy["kind"], "class-trees");
+    assert_eq!(policy["kind"], "logistic");
 
     // Moves are classes: a regression learner is refused, as is gridnav without costs.
     for (from, to) in [
-        ("learner: class-tree", "learner: tree"),
+        ("learner: logistic", "learner: tree"),
         (
             &*format!(
                 "costs: {}",

@@ -100,12 +100,16 @@ pub fn round_statistics(
         aggregates.push(observation(k).mean().alias(format!("mean_{k}")));
         aggregates.push(observation(k).std(1).alias(format!("std_{k}")));
     }
+    // The streaming engine reads the partitions in batches: memory stays bounded by the
+    // groups (one per round), not the dataset.
     let table = steps
         .group_by([col("round")])
         .agg(aggregates)
         .sort(["round"], SortMultipleOptions::default())
-        .collect()
-        .map_err(fail)?;
+        .collect_with_engine(Engine::Streaming)
+        .map_err(fail)?
+        // One query, one table (several come only from multi-sink plans).
+        .unwrap_single();
     let floats = |name: &str| -> Result<Vec<Option<f64>>> {
         let column = table
             .column(name)
