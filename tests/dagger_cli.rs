@@ -743,3 +743,35 @@ fn the_dagger_stage_walks_gridnav_on_a_costmap() {
         assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
     }
 }
+
+#[test]
+fn the_dagger_stage_runs_forward_training_on_the_track() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(repo().join("pipelines/dagger-track.yaml"))
+        .unwrap()
+        .replace("rounds: 10", "forward: true\n      episodes: 3");
+    std::fs::create_dir_all(dir.path().join("pipelines")).unwrap();
+    let pipeline = dir.path().join("pipelines/forward.yaml");
+    std::fs::write(&pipeline, &text).unwrap();
+    let out = imitate(dir.path(), &["run", "pipelines/forward.yaml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let artifact = dir.path().join("out/dagger-track/policy");
+    let metrics: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(artifact.join("metrics.json")).unwrap()).unwrap();
+    let summary = &metrics["summary"];
+    assert_eq!(summary["algorithm"], "forward-training");
+    let horizon = summary["horizon"].as_u64().unwrap();
+    // One round per step of the lap, one label per episode in each.
+    assert_eq!(summary["labels"].as_u64().unwrap(), 3 * horizon);
+    assert_eq!(metrics["rounds"].as_array().unwrap().len() as u64, horizon);
+    let policy: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(artifact.join("policy.json")).unwrap()).unwrap();
+    assert_eq!(policy["kind"], "sequence");
+    assert_eq!(policy["steps"].as_array().unwrap().len() as u64, horizon);
+
+    // Forward training needs the track's fixed horizon, and is not behaviour cloning.
+    let both = text.replace("forward: true", "forward: true\n      supervised: true");
+    std::fs::write(&pipeline, both).unwrap();
+    let bad = imitate(dir.path(), &["run", "pipelines/forward.yaml"]);
+    assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
+}

@@ -74,24 +74,6 @@ struct TrackBenchReport {
     forward_training: Option<Forward>,
 }
 
-/// Falls per lap of a non-stationary policy over `laps` separate one-lap episodes from
-/// the start line, its step counter starting at 0 in each.
-fn sequence_falls_per_lap(track: &Track, policy: &Policy, laps: usize, seed: u64) -> f64 {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut total = 0.0;
-    for _ in 0..laps {
-        let mut sim = TrackSim::new(track, 0.0);
-        let mut t = 0;
-        while sim.laps() < 1.0 && t < track.step_cap(1.0) {
-            let u = policy.act_at(t, &sim.observation());
-            sim.step(u, &mut rng);
-            t += 1;
-        }
-        total += sim.falls as f64 + if sim.laps() < 1.0 { 1.0 } else { 0.0 };
-    }
-    total / laps as f64
-}
-
 pub fn run(args: TrackBenchArgs) -> Result<()> {
     if args.iterations == 0 || args.seeds == 0 || args.eval_laps == 0 {
         return Err(Error::Usage(
@@ -164,16 +146,17 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
         });
     }
     let forward_training = (args.forward_episodes > 0).then(|| {
-        let c = &track.config;
-        let horizon = (track.length() / (c.speed * c.period)).ceil() as usize;
+        let horizon = track.lap_steps();
         let falls = (1..=args.seeds)
             .into_par_iter()
             .map(|seed| {
-                let policy =
-                    forward_training(&learner, horizon, args.forward_episodes, seed, |_, _| {
+                let trained =
+                    forward_training(&learner, horizon, args.forward_episodes, seed, |_| {
                         TrackSim::new(&track, 0.0)
                     });
-                sequence_falls_per_lap(&track, &policy, args.eval_laps, evaluation_seed(seed))
+                track.lap_falls_per_lap(args.eval_laps, evaluation_seed(seed), |t, sim| {
+                    trained.policy.act_at(t, &sim.observation())
+                })
             })
             // Summed in seed order, so the figure does not depend on the thread count.
             .collect::<Vec<f64>>()

@@ -248,40 +248,62 @@ pub fn learn<E: Environment>(
     policy
 }
 
+/// What forward training returns: the non-stationary policy and, per step t, the states
+/// the episodes reached at t with the teacher's labels (what each step's policy was fitted
+/// on).
+pub struct ForwardTraining {
+    pub policy: Policy,
+    pub labels: Vec<Vec<Step>>,
+}
+
 /// Forward training (Ross & Bagnell 2010), the finite-horizon variant: for each step
-/// t < `horizon`, `episodes` fresh episodes (from `make_env(t, episode)`) are driven by
-/// the policies already trained for steps 0..t, and the teacher labels the state each
-/// reaches at step t; the policy for step t is fitted on those labels alone. Returns the
-/// sequence. Episodes that fail on the way still give their state at step t.
+/// t < `horizon`, `episodes` fresh episodes (from `make_env`, in parallel as
+/// `track_round`) are driven by the policies already trained for steps 0..t, and the
+/// teacher labels the state each reaches at step t; the policy for step t is fitted on
+/// those labels alone. Episodes that fail on the way still give their state at step t.
 pub fn forward_training<E: Environment>(
     learner: &PolicyLearner,
     horizon: usize,
     episodes: usize,
     seed: u64,
-    mut make_env: impl FnMut(usize, usize) -> E,
-) -> Policy {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    make_env: impl Fn(&mut ChaCha8Rng) -> E + Sync,
+) -> ForwardTraining {
     let mut steps: Vec<Policy> = Vec::with_capacity(horizon);
+    let mut labels = Vec::with_capacity(horizon);
     for t in 0..horizon {
-        let mut data: Option<Aggregate> = None;
-        for episode in 0..episodes {
-            let mut env = make_env(t, episode);
+        let reached = parallel_episodes(episodes, seed, t, |rng| {
+            let mut env = make_env(rng);
             for policy in &steps {
                 let x = env.observe();
-                env.execute(policy.act(&x), &mut rng);
+                env.execute(policy.act(&x), rng);
             }
-            let x = env.observe();
+            let observation = env.observe();
             let label = env.teacher();
-            data.get_or_insert_with(|| Aggregate::new(x.len(), learner))
-                .add(&x, label);
-        }
-        let fitted = data.map_or_else(
-            || Policy::Linear(PolicyData::new(0).fit(0.0)),
-            |d| d.fit(learner),
-        );
+            Step {
+                observation,
+                label,
+                executed: label,
+                actor: Actor::Teacher,
+                failed: false,
+            }
+        });
+        let fitted = match reached.first() {
+            Some(first) => {
+                let mut data = Aggregate::new(first.observation.len(), learner);
+                for step in &reached {
+                    data.add(&step.observation, step.label);
+                }
+                data.fit(learner)
+            }
+            None => Policy::Linear(PolicyData::new(0).fit(0.0)),
+        };
         steps.push(fitted);
+        labels.push(reached);
     }
-    Policy::Sequence { steps }
+    ForwardTraining {
+        policy: Policy::Sequence { steps },
+        labels,
+    }
 }
 
 #[cfg(test)]
@@ -334,20 +356,16 @@ mod tests {
             ..TreeConfig::default()
         });
         let horizon = 140;
-        let policy = forward_training(&learner, horizon, 5, 1, |_, _| TrackSim::new(&track, 0.0));
-        let Policy::Sequence { steps } = &policy else {
+        let trained = forward_training(&learner, horizon, 5, 1, |_| TrackSim::new(&track, 0.0));
+        let Policy::Sequence { steps } = &trained.policy else {
             panic!("forward training returns a sequence");
         };
         assert_eq!(steps.len(), horizon);
-        let mut sim = TrackSim::new(&track, 0.0);
-        let mut rng = ChaCha8Rng::seed_from_u64(9);
-        let mut t = 0;
-        while sim.laps() < 1.0 && t < 400 {
-            let u = policy.act_at(t, &sim.observation());
-            sim.step(u, &mut rng);
-            t += 1;
-        }
-        assert!(sim.laps() >= 1.0 && sim.falls <= 1, "{} falls", sim.falls);
+        assert_eq!(trained.labels.len(), horizon);
+        assert!(trained.labels.iter().all(|at_t| at_t.len() == 5));
+        let falls =
+            track.lap_falls_per_lap(1, 9, |t, sim| trained.policy.act_at(t, &sim.observation()));
+        assert!(falls <= 1.0, "{falls} falls");
     }
 
     #[test]

@@ -157,6 +157,36 @@ impl Track {
         (sim.falls as f64 + missing) / laps.max(1) as f64
     }
 
+    /// Falls per lap of a driver that also sees the step index (a non-stationary
+    /// policy), over `laps` separate one-lap episodes from the start line, each counting
+    /// steps from 0. An unfinished lap counts as a fall.
+    pub fn lap_falls_per_lap(
+        &self,
+        laps: usize,
+        seed: u64,
+        drive: impl Fn(usize, &TrackSim) -> f64,
+    ) -> f64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut total = 0.0;
+        for _ in 0..laps {
+            let mut sim = TrackSim::new(self, 0.0);
+            let mut t = 0;
+            while sim.laps() < 1.0 && t < self.step_cap(1.0) {
+                let u = drive(t, &sim);
+                sim.step(u, &mut rng);
+                t += 1;
+            }
+            total += sim.falls as f64 + if sim.laps() < 1.0 { 1.0 } else { 0.0 };
+        }
+        total / laps.max(1) as f64
+    }
+
+    /// Control steps of one lap at the nominal speed: the horizon of forward training.
+    pub fn lap_steps(&self) -> usize {
+        let c = &self.config;
+        (self.length() / (c.speed * c.period)).ceil() as usize
+    }
+
     fn sample(&self, s: f64) -> usize {
         let n = self.xs.len();
         ((s / self.spacing).round() as i64).rem_euclid(n as i64) as usize

@@ -15,16 +15,18 @@ use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::{ArtifactBuilder, load_costs};
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
 use crate::dagger::{
-    Aggregate, BetaSchedule, Policy, PolicyKind, PolicyLearner, Step, gridnav_round, track_round,
+    Aggregate, BetaSchedule, Policy, PolicyKind, PolicyLearner, Step, forward_training,
+    gridnav_round, track_round,
 };
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::sim::gridnav::{self, evaluate, random_episode};
-use crate::sim::{Track, TrackConfig, track};
+use crate::sim::{Track, TrackConfig, TrackSim, track};
 
 pub const KIND: &str = "dagger";
-/// 2: episodes per round, each from its own random stream; gridnav; metrics/2.
+/// 2: episodes per round, each from its own random stream; gridnav; forward training;
+/// metrics/2.
 const VERSION: u32 = 2;
 
 /// Which policy the artifact returns.
@@ -102,6 +104,12 @@ pub struct DaggerParams {
     /// Behaviour cloning instead of DAgger: the teacher drives every round.
     #[serde(default)]
     pub supervised: bool,
+    /// Forward training instead (track only): one policy per step of a lap from the start
+    /// line, step t's fitted on the states `episodes` episodes driven by the earlier
+    /// steps' policies reach at t. Round t of the dataset holds step t's labels; the
+    /// policy is the sequence (`rounds`, `beta` and `selection` do not apply).
+    #[serde(default)]
+    pub forward: bool,
     #[serde(default = "defaults::learner")]
     pub learner: PolicyKind,
     #[serde(default = "defaults::depth")]
@@ -324,6 +332,12 @@ impl DaggerParams {
             "gridnav" if !self.learner.discrete() => {
                 return bad("gridnav's moves are classes: learner logistic or class-tree");
             }
+            "gridnav" if self.forward => {
+                return bad("forward training needs a fixed horizon: env track");
+            }
+            _ if self.forward && self.supervised => {
+                return bad("forward and supervised are two different algorithms: choose one");
+            }
             "track" | "gridnav" => {}
             other => {
                 return bad(&format!(
@@ -381,6 +395,111 @@ impl DaggerParams {
     }
 }
 
+/// The dataset the rounds go to, inside the artifact (`dataset/`).
+fn create_dataset(out: &mut ArtifactBuilder, world: &World) -> Result<Dataset> {
+    let dataset_dir = out
+        .file("dataset/meta/info.json", "dataset-info")?
+        .parent()
+        .and_then(|meta| meta.parent())
+        .expect("dataset/meta/info.json has two parents")
+        .to_path_buf();
+    Dataset::create(
+        &dataset_dir,
+        DatasetInfo {
+            schema: "imitate.dagger-dataset/1".into(),
+            observation_names: world.observation_names(),
+            environment: world.name().into(),
+            costs: None,
+        },
+    )
+}
+
+/// Lists the dataset's files in the artifact's manifest.
+fn list_dataset(out: &mut ArtifactBuilder, dataset: &Dataset) -> Result<()> {
+    for file in ["manifest.json", "meta/rounds.parquet"] {
+        out.file(&format!("dataset/{file}"), "dataset")?;
+    }
+    for info in &dataset.rounds {
+        out.file(
+            &format!("dataset/data/round={:03}/part-000.parquet", info.round),
+            "dataset",
+        )?;
+    }
+    Ok(())
+}
+
+impl DaggerParams {
+    /// Forward training on the track: one round per step of a lap.
+    fn run_forward(
+        &self,
+        track: &Track,
+        learner: &PolicyLearner,
+        mut out: ArtifactBuilder,
+        mut dataset: Dataset,
+        extra_deps: &[PathBuf],
+    ) -> Result<StageReport> {
+        let horizon = track.lap_steps();
+        let trained = forward_training(learner, horizon, self.episodes, self.seed, |_| {
+            TrackSim::new(track, 0.0)
+        });
+        let period = track.config.period;
+        for (t, reached) in trained.labels.iter().enumerate() {
+            // Each episode gives one step: the state it reached at step t.
+            let episodes: Vec<Vec<Step>> = reached.iter().map(|s| vec![s.clone()]).collect();
+            let times = vec![t as f64 * period; episodes.len()];
+            dataset.append(&NewRound {
+                source: format!("step {t}"),
+                beta: 1.0,
+                policy: String::new(),
+                teacher: "pure-pursuit".into(),
+                period,
+                timestamps: Some(&times),
+                episodes: &episodes,
+            })?;
+        }
+        list_dataset(&mut out, &dataset)?;
+        write_bytes_atomic(
+            &out.file("policy.json", "policy")?,
+            &to_json_bytes(&trained.policy),
+        )?;
+        let seed = self.seed.wrapping_add(0x5eed);
+        let laps = self.validation_laps;
+        let validation = Validation::Track {
+            validation_falls_per_lap: track.lap_falls_per_lap(laps, seed, |t, s| {
+                trained.policy.act_at(t, &s.observation())
+            }),
+        };
+        let teacher = Validation::Track {
+            validation_falls_per_lap: track.lap_falls_per_lap(laps, seed, |_, s| s.teacher()),
+        };
+        let summary_metrics = serde_json::json!({
+            "env": "track",
+            "algorithm": "forward-training",
+            "horizon": horizon,
+            "labels": dataset.steps(),
+            "validation_falls_per_lap": validation.key().0,
+            "teacher": teacher,
+        });
+        let rounds: Vec<_> = (dataset.rounds.iter())
+            .map(|r| serde_json::json!({"round": r.round, "steps": r.steps}))
+            .collect();
+        write_bytes_atomic(
+            &out.file("metrics.json", "metrics")?,
+            &to_json_bytes(&serde_json::json!({
+                "schema": "imitate.dagger-metrics/2",
+                "summary": summary_metrics,
+                "rounds": rounds,
+            })),
+        )?;
+        let summary = format!(
+            "forward training, {horizon} steps, {} labels: {validation} on {laps} validation laps \
+             from the start line (teacher: {teacher})",
+            dataset.steps()
+        );
+        commit_artifact(self, extra_deps, out, "policy", summary_metrics, summary)
+    }
+}
+
 impl Stage for DaggerParams {
     fn kind(&self) -> &'static str {
         KIND
@@ -407,23 +526,11 @@ impl Stage for DaggerParams {
         let learner = self.learner();
         let world = self.world()?;
         let mut out = ArtifactBuilder::new(&self.out)?;
-        let dataset_dir = out
-            .file("dataset/meta/info.json", "dataset-info")?
-            .parent()
-            .and_then(|meta| meta.parent())
-            .expect("dataset/meta/info.json has two parents")
-            .to_path_buf();
-        let observation_names = world.observation_names();
-        let mut aggregate = Aggregate::new(observation_names.len(), &learner);
-        let mut dataset = Dataset::create(
-            &dataset_dir,
-            DatasetInfo {
-                schema: "imitate.dagger-dataset/1".into(),
-                observation_names,
-                environment: world.name().into(),
-                costs: None,
-            },
-        )?;
+        let mut dataset = create_dataset(&mut out, &world)?;
+        if let (true, World::Track(track)) = (self.forward, &world) {
+            return self.run_forward(track, &learner, out, dataset, extra_deps);
+        }
+        let mut aggregate = Aggregate::new(dataset.info.observation_names.len(), &learner);
         let (teacher, period) = world.teacher();
         let mut policies: Vec<Policy> = Vec::new();
         let mut metrics = Vec::new();
@@ -469,15 +576,7 @@ impl Stage for DaggerParams {
             )?;
             policies.push(policy);
         }
-        for file in ["manifest.json", "meta/rounds.parquet"] {
-            out.file(&format!("dataset/{file}"), "dataset")?;
-        }
-        for info in &dataset.rounds {
-            out.file(
-                &format!("dataset/data/round={:03}/part-000.parquet", info.round),
-                "dataset",
-            )?;
-        }
+        list_dataset(&mut out, &dataset)?;
         let validations: Vec<Validation> = metrics.iter().map(|m| m.validation).collect();
         let (selected, selected_validation, chosen_round) = match self.selection {
             Selection::Last => (
