@@ -14,6 +14,13 @@ use crate::dagger::{BetaSchedule, Learning, Policy, PolicyKind, forward_training
 use crate::error::{Error, Result};
 use crate::sim::{Track, TrackConfig, TrackSim};
 
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum BenchSelection {
+    Latest,
+    Best,
+}
+
 #[derive(Debug, clap::Args)]
 pub struct TrackBenchArgs {
     /// Iterations (one lap of teacher labels each).
@@ -30,6 +37,10 @@ pub struct TrackBenchArgs {
     /// Depth of the tree policy: 3 (8 leaves) cannot copy pure pursuit exactly.
     #[arg(long, default_value_t = 3)]
     pub depth: usize,
+    /// Which policy each iteration is scored by: its latest, or as the seed's DAgger
+    /// returns, the best so far on validation laps (other noise than the evaluation's).
+    #[arg(long, value_enum, default_value = "latest")]
+    pub selection: BenchSelection,
     /// Forward training: episodes per time step (0 leaves it out).
     #[arg(long, default_value_t = 10)]
     pub forward_episodes: usize,
@@ -68,6 +79,7 @@ struct TrackBenchReport {
     track_length: f64,
     seeds: u64,
     eval_laps: usize,
+    selection: BenchSelection,
     teacher_falls_per_lap: f64,
     curves: Vec<Curve>,
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -88,6 +100,7 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
     let learner = args.learner.learner(args.depth, args.lambda, 0);
     let track = Track::new(TrackConfig::default());
     let evaluation_seed = |seed: u64| seed.wrapping_mul(7919).wrapping_add(1);
+    let validation_seed = |seed: u64| seed.wrapping_mul(104_729).wrapping_add(3);
     let teacher = (1..=args.seeds)
         .map(|seed| track.falls_per_lap(args.eval_laps, evaluation_seed(seed), |s| s.teacher()))
         .sum::<f64>()
@@ -106,6 +119,7 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
                 let steps = Cell::new(0usize);
                 let cap = track.step_cap(1.0);
                 let (mut falls, mut labels) = (Vec::new(), 0usize);
+                let mut best: Option<(f64, Policy)> = None;
                 learn(
                     learning,
                     &learner,
@@ -121,10 +135,25 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
                     },
                     |_, policy: &Policy| {
                         labels += steps.get() - 1;
+                        let scored = match args.selection {
+                            BenchSelection::Latest => policy,
+                            BenchSelection::Best => {
+                                let validation = track.falls_per_lap(
+                                    args.eval_laps,
+                                    validation_seed(seed),
+                                    |s| policy.act(&s.observation()),
+                                );
+                                // The later round on ties, as the dagger stage.
+                                if best.as_ref().is_none_or(|(v, _)| validation <= *v) {
+                                    best = Some((validation, policy.clone()));
+                                }
+                                &best.as_ref().expect("just set").1
+                            }
+                        };
                         falls.push(track.falls_per_lap(
                             args.eval_laps,
                             evaluation_seed(seed),
-                            |s| policy.act(&s.observation()),
+                            |s| scored.act(&s.observation()),
                         ));
                     },
                 );
@@ -176,14 +205,16 @@ pub fn run(args: TrackBenchArgs) -> Result<()> {
         track_length: track.length(),
         seeds: args.seeds,
         eval_laps: args.eval_laps,
+        selection: args.selection,
         teacher_falls_per_lap: teacher,
         curves,
         forward_training,
     };
     emit(&report, args.json, |r| {
         let mut text = format!(
-            "track: falls per lap (mean of {} seeds, {} evaluation laps each); teacher: {:.2}\n\
+            "track: falls per lap of the {:?} policy (mean of {} seeds, {} evaluation laps each); teacher: {:.2}\n\
              iteration  {}\n",
+            r.selection,
             r.seeds,
             r.eval_laps,
             r.teacher_falls_per_lap,
