@@ -644,6 +644,14 @@ fn gridnav_rounds_walk_a_costmap_and_train_a_discrete_policy() {
     // Moves are classes: a regression learner is refused.
     let tree = run(&["dagger", "train", "ds", "--out", "pt", "--learner", "tree"]);
     assert_eq!(tree.status.code(), Some(2), "{}", stderr(&tree));
+    // Laps are the track's.
+    let laps = run(&["dagger", "add", "ds", "--laps", "2"]);
+    assert_eq!(laps.status.code(), Some(2), "{}", stderr(&laps));
+    assert!(
+        stderr(&laps).contains("--laps is for the track"),
+        "{}",
+        stderr(&laps)
+    );
     // The costmap changed under the dataset: refused, nothing written.
     let manifest = std::fs::read(dir.path().join("ds/manifest.json")).unwrap();
     std::fs::copy(

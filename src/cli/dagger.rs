@@ -223,6 +223,11 @@ fn add(
             "--laps and --episodes must be at least 1".into(),
         ));
     }
+    if costs.is_some() && laps != 1 {
+        return Err(Error::Usage(
+            "--laps is for the track: a gridnav episode walks from a start to a goal".into(),
+        ));
+    }
     let digest = loaded.as_ref().map(|(_, d)| d.clone()).unwrap_or_default();
     let source = match costs {
         None => {
