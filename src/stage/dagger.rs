@@ -166,27 +166,34 @@ impl Validation {
 
     /// The expected validation of the uniform mixture (each episode runs one member).
     fn mean(all: &[Validation]) -> Validation {
-        let n = all.len().max(1) as f64;
-        match all.first() {
-            Some(Validation::Gridnav { .. }) => {
-                let rates = all.iter().map(|v| -v.key().0);
-                let ratios: Vec<f64> = (all.iter())
-                    .filter_map(|v| match *v {
-                        Validation::Gridnav {
-                            validation_cost_ratio: r,
-                            ..
-                        } if r.is_finite() => Some(r),
-                        _ => None,
-                    })
-                    .collect();
+        let mean = |values: &[f64]| values.iter().sum::<f64>() / values.len() as f64;
+        let (mut falls, mut rates, mut ratios) = (Vec::new(), Vec::new(), Vec::new());
+        for validation in all {
+            match *validation {
+                Validation::Track {
+                    validation_falls_per_lap,
+                } => falls.push(validation_falls_per_lap),
                 Validation::Gridnav {
-                    validation_success_rate: rates.sum::<f64>() / n,
-                    validation_cost_ratio: ratios.iter().sum::<f64>() / ratios.len() as f64,
+                    validation_success_rate,
+                    validation_cost_ratio,
+                } => {
+                    rates.push(validation_success_rate);
+                    // Members that reached no goal have no cost ratio.
+                    if validation_cost_ratio.is_finite() {
+                        ratios.push(validation_cost_ratio);
+                    }
                 }
             }
-            _ => Validation::Track {
-                validation_falls_per_lap: all.iter().map(|v| v.key().0).sum::<f64>() / n,
-            },
+        }
+        if rates.is_empty() {
+            Validation::Track {
+                validation_falls_per_lap: mean(&falls),
+            }
+        } else {
+            Validation::Gridnav {
+                validation_success_rate: mean(&rates),
+                validation_cost_ratio: mean(&ratios),
+            }
         }
     }
 }
