@@ -8,6 +8,7 @@ use std::collections::BinaryHeap;
 use serde::{Deserialize, Serialize};
 
 use super::queue::{Buckets, Heap, MinQueue};
+use super::relax::{self, CLOSED, NO_PARENT, Node};
 use crate::grid::{Cell, CellPath, GeoRef, Grid};
 
 const SQRT_2: f64 = std::f64::consts::SQRT_2;
@@ -85,25 +86,36 @@ pub fn visitation<'a>(geo: &GeoRef, paths: impl IntoIterator<Item = &'a [Cell]>)
     counts
 }
 
+/// A finite cost above zero. Tested on the bits in one comparison (a positive finite
+/// f32's bits lie strictly between those of 0 and ∞; negatives and NaNs above ∞'s), so
+/// that loops over whole costmaps stay free of branches.
 fn passable(cost: f32) -> bool {
-    cost.is_finite() && cost > 0.0
+    cost.to_bits().wrapping_sub(1) < f32::INFINITY.to_bits() - 1
 }
 
-/// Marks a settled node in `Node::link`; the other bits hold the parent's index.
-const CLOSED: u32 = 1 << 31;
-const NO_PARENT: u32 = CLOSED - 1;
-
-/// Everything a search reads and writes about one cell, side by side so that looking
-/// at a neighbour touches one cache line.
-#[derive(Clone, Copy)]
-struct Node {
-    /// Cost from the sources; ∞ until reached.
-    dist: f64,
-    /// Half the cell's cost (edge cost = length × (half_u + half_v)); ∞ when blocked.
-    /// Halving an f32 is exact.
-    half: f32,
-    /// Parent index (or `NO_PARENT`) plus the `CLOSED` bit.
-    link: u32,
+/// The smallest and largest passable cost (∞ and 0 when none is). Eight running minima
+/// and maxima instead of one, so that the pass vectorises rather than waiting on one
+/// chain of comparisons.
+fn passable_cost_range(costs: &[f32]) -> (f64, f64) {
+    const LANES: usize = 8;
+    let (mut low, mut high) = ([f32::INFINITY; LANES], [0.0f32; LANES]);
+    let mut take = |lane: usize, c: f32| {
+        let open = passable(c);
+        low[lane] = low[lane].min(if open { c } else { f32::INFINITY });
+        high[lane] = high[lane].max(if open { c } else { 0.0 });
+    };
+    let (chunks, rest) = costs.as_chunks::<LANES>();
+    for chunk in chunks {
+        for (lane, &c) in chunk.iter().enumerate() {
+            take(lane, c);
+        }
+    }
+    for (lane, &c) in rest.iter().enumerate() {
+        take(lane, c);
+    }
+    let low = low.into_iter().fold(f32::INFINITY, f32::min);
+    let high = high.into_iter().fold(0.0, f32::max);
+    (f64::from(low), f64::from(high))
 }
 
 /// A planner over one costmap. The costmap is copied once into a grid with a one-cell
@@ -177,10 +189,10 @@ impl<const N: usize> Frontier for AstarOpen<N> {
 /// Relaxes the edges out of `u`, handing each neighbour whose cost went down to the
 /// frontier and recording first reaches in `touched` (when `TRACK`). Generic over the
 /// neighbourhood (N = 4 or 8) and the corner rule, so that every combination compiles to
-/// straight-line code with constant offsets and lengths: this is where Dijkstra and A*
-/// spend their time. All candidates are compared first, without branches, into a bit
-/// mask; only the neighbours that improve (about 1 in 6 on random costs) are then
-/// visited, which saves most of the mispredicted branches of relaxing one at a time.
+/// straight-line code: this is where Dijkstra and A* spend their time. All eight steps
+/// are evaluated at once, without branches, into a bit mask (`relax::candidates`); only
+/// the neighbours that improve (about 1 in 6 on random costs) are then visited, which
+/// saves most of the mispredicted branches of relaxing one at a time.
 #[inline(always)]
 fn expand<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
     nodes: &mut [Node],
@@ -189,28 +201,21 @@ fn expand<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
     frontier: &mut impl Frontier,
     touched: &mut Vec<u32>,
 ) {
-    let du = nodes[u].dist;
-    let hu = f64::from(nodes[u].half);
-    let (up, down) = (u - row, u + row);
-    // Orthogonal neighbours first, then the corners, in a fixed order (the tie-break).
-    let neighbours = [up, u - 1, u + 1, down, up - 1, up + 1, down - 1, down + 1];
-    let lengths = [1.0, 1.0, 1.0, 1.0, SQRT_2, SQRT_2, SQRT_2, SQRT_2];
-    let mut candidates = [0.0f64; 8];
-    let mut improved = 0u32;
-    for k in 0..N {
-        let v = neighbours[k];
-        debug_assert!(v < nodes.len());
-        // SAFETY: `u` is an inner cell of the padded grid (only passable cells are
-        // ever queued, and the border is blocked), so its neighbours lie within `nodes`.
-        let node = unsafe { nodes.get_unchecked(v) };
-        // Blocked cells need no test: their half cost is ∞, so they never improve.
-        candidates[k] = du + lengths[k] * (hu + f64::from(node.half));
-        improved |= u32::from(candidates[k] < node.dist) << k;
+    // SAFETY: `u` is an inner cell of the padded grid (only passable cells are ever
+    // queued, and the border is blocked), so its neighbours lie within `nodes`.
+    let relax::Candidates {
+        costs,
+        mut improved,
+    } = unsafe { relax::candidates(nodes, row, u) };
+    let neighbours = relax::neighbours(u, row);
+    if N == 4 {
+        improved &= 0b1111;
     }
     if N == 8 && NO_CORNER_CUTTING {
+        let [up, left, right, down, ..] = neighbours;
         let open = |i: usize| u32::from(nodes[i].half != f32::INFINITY);
-        let (open_up, open_left) = (open(up), open(u - 1));
-        let (open_right, open_down) = (open(u + 1), open(down));
+        let (open_up, open_left) = (open(up), open(left));
+        let (open_right, open_down) = (open(right), open(down));
         let corners_allowed = (open_up & open_left) << 4
             | (open_up & open_right) << 5
             | (open_down & open_left) << 6
@@ -226,9 +231,9 @@ fn expand<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
         if TRACK && old == f64::INFINITY {
             touched.push(v as u32);
         }
-        node.dist = candidates[k];
+        node.dist = costs[k];
         node.link = u as u32;
-        frontier.reached(v, old, candidates[k]);
+        frontier.reached(v, old, costs[k]);
     }
 }
 
@@ -274,31 +279,21 @@ impl GridPlanner {
         let pw = w + 2;
         let n = pw * (h + 2);
         assert!(n < NO_PARENT as usize, "grids up to 2^31 cells");
-        let blocked = Node {
-            dist: f64::INFINITY,
-            half: f32::INFINITY,
-            link: NO_PARENT,
-        };
+        let blocked = Node::BLOCKED;
         // Written once, row by row with the border around (not filled and then
         // overwritten), branch-free: on large maps this pass is a fair share of a search.
-        let (mut min_cost, mut max_cost) = (f32::INFINITY, 0.0f32);
         let mut nodes = Vec::with_capacity(n);
         nodes.resize(pw, blocked);
         for src in costs.data.chunks_exact(w.max(1)).take(h) {
             nodes.push(blocked);
-            nodes.extend(src.iter().map(|&c| {
-                let open = passable(c);
-                min_cost = min_cost.min(if open { c } else { f32::INFINITY });
-                max_cost = max_cost.max(if open { c } else { 0.0 });
-                Node {
-                    half: if open { 0.5 * c } else { f32::INFINITY },
-                    ..blocked
-                }
+            nodes.extend(src.iter().map(|&c| Node {
+                half: if passable(c) { 0.5 * c } else { f32::INFINITY },
+                ..blocked
             }));
             nodes.push(blocked);
         }
         nodes.resize(n, blocked);
-        let (min_cost, max_cost) = (f64::from(min_cost), f64::from(max_cost));
+        let (min_cost, max_cost) = passable_cost_range(&costs.data);
         GridPlanner {
             geo: costs.geo.clone(),
             width: w,
@@ -626,6 +621,26 @@ mod tests {
                 .all(|w| step_allowed(costs, w[0], w[1], moves))
         );
         assert!((path_cost(costs, &route.cells) - route.cost).abs() <= 1e-9 * route.cost.max(1.0));
+    }
+
+    #[test]
+    fn passable_means_finite_and_positive() {
+        let edge_cases = [
+            0.0,
+            -0.0,
+            f32::from_bits(1),
+            f32::MIN_POSITIVE,
+            1.0,
+            f32::MAX,
+            f32::INFINITY,
+            -1.0,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            -f32::NAN,
+        ];
+        for c in edge_cases {
+            assert_eq!(passable(c), c.is_finite() && c > 0.0, "{c:e}");
+        }
     }
 
     #[test]

@@ -8,6 +8,7 @@
 mod grid;
 mod mdp;
 mod queue;
+mod relax;
 
 pub use grid::{
     Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
