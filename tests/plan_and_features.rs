@@ -4,6 +4,7 @@ mod common;
 
 use common::*;
 use imitate::grid::{GeoRef, Grid};
+use imitate::io::geotiff::write_geotiff;
 use imitate::io::tables::write_costmap;
 
 /// A 5 x 4 costmap of ones with a wall in column 2, open only in the top row.
@@ -127,6 +128,111 @@ fn unreachable_goals_fail_with_exit_code_1() {
     let out = plan(dir.path(), &["--cells", "--start", "0,0", "--goal", "0,2"]);
     assert_eq!(out.status.code(), Some(1), "{}", stderr(&out));
     assert!(stderr(&out).contains("no path"));
+}
+
+/// The cost and cells of a successful `imitate plan` run.
+fn planned(out: &std::process::Output) -> (f64, serde_json::Value) {
+    assert!(out.status.success(), "{}", stderr(out));
+    let json: serde_json::Value = serde_json::from_str(&stdout(out)).unwrap();
+    (json["cost"].as_f64().unwrap(), json["cells"].clone())
+}
+
+#[test]
+fn plans_on_a_geotiff_as_on_the_same_table() {
+    let dir = tempfile::tempdir().unwrap();
+    let table = walled(dir.path());
+    let (_, costs) = imitate::io::tables::read_costmap(&table).unwrap();
+    // The wall as nodata (NaN): blocked, as ∞ is in the table.
+    let values: Vec<f32> = costs
+        .data
+        .iter()
+        .map(|&c| if c.is_finite() { c } else { f32::NAN })
+        .collect();
+    write_geotiff(&dir.path().join("walled.tif"), &costs.geo, &values).unwrap();
+    let query = ["--cells", "--start", "0,0", "--goal", "0,4"];
+    let from_table = planned(&plan(dir.path(), &query));
+    let mut args = vec!["plan", "walled.tif"];
+    args.extend_from_slice(&query);
+    assert_eq!(planned(&imitate(dir.path(), &args)), from_table);
+
+    let mut negative = values.clone();
+    negative[1] = -1.0;
+    write_geotiff(&dir.path().join("negative.tif"), &costs.geo, &negative).unwrap();
+    args[1] = "negative.tif";
+    let out = imitate(dir.path(), &args);
+    assert_input_error(
+        &out,
+        &[
+            "negative.tif",
+            "band 'band1', cell (row 0, col 1): cost -1 is negative",
+        ],
+    );
+    args[1] = "walled.tif";
+    args.extend_from_slice(&["--map", "band2"]);
+    let out = imitate(dir.path(), &args);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(stderr(&out).contains("has no band 'band2' (it has: band1)"));
+}
+
+#[test]
+fn plans_on_real_rasters_and_movingai_maps() {
+    let Some(movingai) = shared_data("movingai") else {
+        return;
+    };
+    let map = movingai.join("arena.map");
+    let grid = imitate::io::movingai::read_map(&map).unwrap();
+    let scenarios =
+        imitate::io::movingai::read_scenarios(&movingai.join("arena.map.scen"), &grid.geo).unwrap();
+    let dir = tempfile::tempdir().unwrap();
+    for scenario in scenarios.iter().step_by(40) {
+        let (start, goal) = (scenario.start, scenario.goal);
+        let out = imitate(
+            dir.path(),
+            &[
+                "plan",
+                map.to_str().unwrap(),
+                "--cells",
+                "--start",
+                &format!("{},{}", start.row, start.col),
+                "--goal",
+                &format!("{},{}", goal.row, goal.col),
+                "--no-corner-cutting",
+            ],
+        );
+        let (cost, _) = planned(&out);
+        let optimal = scenario.optimal_length;
+        assert!(
+            (cost - optimal).abs() <= 1e-4 * optimal,
+            "{cost} vs {optimal}"
+        );
+    }
+
+    let Some(raster) = shared_data("raster") else {
+        return;
+    };
+    // Real GeoTIFFs are read, and what makes them unusable as costs is named: a
+    // hillshade that is nodata (255) or 0 everywhere, and a float raster with negatives.
+    let shade = raster.join("rasterio_shade.tif");
+    let query = ["--cells", "--start", "100,100", "--goal", "900,900"];
+    let mut args = vec!["plan", shade.to_str().unwrap()];
+    args.extend_from_slice(&query);
+    let out = imitate(dir.path(), &args);
+    assert_input_error(
+        &out,
+        &["rasterio_shade.tif", "--start 100,100 is on a blocked cell"],
+    );
+    let floats = raster.join("rasterio_float_nan.tif");
+    args[1] = floats.to_str().unwrap();
+    let out = imitate(dir.path(), &args);
+    assert_input_error(
+        &out,
+        &[
+            "rasterio_float_nan.tif",
+            // Its transformation matrix has a positive y scale: stored south-up, so
+            // the second stored row is row 1.
+            "band 'band1', cell (row 1, col 1): cost -0.23 is negative",
+        ],
+    );
 }
 
 #[test]

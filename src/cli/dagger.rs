@@ -51,7 +51,8 @@ pub enum DaggerCommand {
         /// the log's observation messages hold them.
         #[arg(long, value_delimiter = ',')]
         observations: Vec<String>,
-        /// With --env gridnav: the true costmap (a costmap table or artifact folder).
+        /// With --env gridnav: the true costmap (artifact folder, costmap table, GeoTIFF or
+        /// MovingAI `.map`).
         #[arg(long, value_name = "PATH")]
         costs: Option<PathBuf>,
         /// With --env gridnav and an artifact of several maps: which one.

@@ -16,7 +16,8 @@ use crate::report::{Preview, render_preview};
 
 #[derive(Debug, Args)]
 pub struct PlanArgs {
-    /// A costmap artifact folder (written by `learch`) or a `costmap/1` Parquet file.
+    /// A costmap artifact folder (written by `learch`), a `costmap/1` Parquet file, a
+    /// GeoTIFF of costs (nodata and zero cells blocked) or a MovingAI `.map` grid.
     pub costmap: PathBuf,
     /// Start as "x,y" in the map frame (metres), or "row,col" with --cells.
     #[arg(long, allow_hyphen_values = true)]
@@ -27,7 +28,7 @@ pub struct PlanArgs {
     /// Read --start and --goal as "row,col" cells.
     #[arg(long)]
     pub cells: bool,
-    /// Which map of an artifact (default: its only one).
+    /// Which map of an artifact, or band of a GeoTIFF (band1, ...); default: its only one.
     #[arg(long)]
     pub map: Option<String>,
     #[arg(long, value_enum, default_value_t = Connectivity::Eight)]

@@ -55,7 +55,7 @@ pub struct DatasetInfo {
 /// later rounds are refused if it changed.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CostsSource {
-    /// A costmap table or artifact folder, as `imitate plan` takes.
+    /// A costmap as `imitate plan` takes it (artifact folder, table, GeoTIFF or `.map`).
     pub path: PathBuf,
     /// The map within an artifact folder holding several.
     #[serde(default, skip_serializing_if = "Option::is_none")]

@@ -81,7 +81,7 @@ mod defaults {
 pub struct DaggerParams {
     /// The simulator: `track` (continuous steering) or `gridnav` (8 moves on `costs`).
     pub env: String,
-    /// For gridnav: the true costmap (a costmap table or artifact folder); a
+    /// For gridnav: the true costmap (as `imitate plan` takes it); a
     /// dependency, so the stage reruns when it changes.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub costs: Option<PathBuf>,
