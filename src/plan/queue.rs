@@ -89,11 +89,17 @@ impl Buckets {
     #[inline(always)]
     fn bucket(&self, key: f64) -> usize {
         debug_assert!(key.is_finite() && key >= 0.0);
+        self.bucket_of_scaled(key * self.inverse_width)
+    }
+
+    /// `bucket` of a key already multiplied by `inverse_width`.
+    #[inline(always)]
+    fn bucket_of_scaled(&self, scaled: f64) -> usize {
         // `as usize` would saturate and test for NaN on every call, and x86 has no
-        // direct f64 → u64 conversion; keys are finite, non-negative and far below
-        // 2^63 buckets, so one signed conversion is exact.
-        // SAFETY: `key * inverse_width` is finite and in i64's range (see above).
-        let index: i64 = unsafe { (key * self.inverse_width).to_int_unchecked() };
+        // direct f64 → u64 conversion; scaled keys are finite, non-negative and far
+        // below 2^63, so one signed conversion is exact.
+        // SAFETY: `scaled` is finite and in i64's range (see above).
+        let index: i64 = unsafe { scaled.to_int_unchecked() };
         (index as usize).max(self.cursor)
     }
 
@@ -120,11 +126,9 @@ impl MinQueue for Buckets {
     #[inline(always)]
     fn decrease(&mut self, node: u32, old: f64, key: f64) {
         let bucket = self.bucket(key);
-        // ∞ (not yet queued) becomes a bucket index no key reaches.
-        let scaled_old = (old * self.inverse_width).min(NEVER_QUEUED);
-        // SAFETY: finite, non-negative and below 2^63 (see `bucket`).
-        let old_bucket = unsafe { scaled_old.to_int_unchecked::<i64>() } as usize;
-        let push = old_bucket.max(self.cursor) != bucket;
+        // ∞ (not yet queued) becomes a bucket no key reaches.
+        let old_bucket = self.bucket_of_scaled((old * self.inverse_width).min(NEVER_QUEUED));
+        let push = old_bucket != bucket;
         let slot = &mut self.slots[bucket & self.mask];
         slot.reserve(1);
         slot.spare_capacity_mut()[0].write(node);

@@ -160,20 +160,20 @@ mod sse2 {
         unsafe {
             let du = _mm_set1_pd((*p.add(u)).dist);
             let hu = _mm_set1_pd(f64::from((*p.add(u)).half));
+            // Both pairs of a row are a corner, then an orthogonal neighbour.
             let lengths = _mm_setr_pd(SQRT_2, 1.0);
             let (up, down) = (u - row, u + row);
             let rows = [
                 three_and_one(p, up - 1, u - 1),
                 three_and_one(p, down - 1, u + 1),
             ];
-            let lengths = [lengths, _mm_setr_pd(SQRT_2, 1.0)];
             let mut by_lane = [0.0f64; 8];
             let mut lanes = 0;
             for (r, pairs) in rows.into_iter().enumerate() {
                 for (j, (dist, half)) in pairs.into_iter().enumerate() {
                     let lane = 4 * r + 2 * j;
                     // du + length × (hu + half): the scalar path's operations, in order.
-                    let cost = _mm_add_pd(du, _mm_mul_pd(lengths[j], _mm_add_pd(hu, half)));
+                    let cost = _mm_add_pd(du, _mm_mul_pd(lengths, _mm_add_pd(hu, half)));
                     _mm_storeu_pd(by_lane.as_mut_ptr().add(lane), cost);
                     lanes |= _mm_movemask_pd(_mm_cmplt_pd(cost, dist)) << lane;
                 }
