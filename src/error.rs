@@ -43,6 +43,12 @@ impl Error {
         }
     }
 
+    /// A write to a pipe whose reader has gone (`imitate cat ... | head`): the reader
+    /// took what it wanted, so the command line ends quietly with success.
+    pub fn is_broken_pipe(&self) -> bool {
+        matches!(self, Error::Io { source, .. } if source.kind() == std::io::ErrorKind::BrokenPipe)
+    }
+
     /// Exit code of the command line: 2 for what the user must fix, 1 otherwise.
     pub fn exit_code(&self) -> i32 {
         match self {

@@ -14,6 +14,9 @@ fn main() {
         .with_writer(std::io::stderr)
         .init();
     if let Err(e) = imitate::cli::run(cli) {
+        if e.is_broken_pipe() {
+            return;
+        }
         eprintln!("error: {e}");
         std::process::exit(e.exit_code());
     }

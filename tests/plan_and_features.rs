@@ -113,6 +113,43 @@ fn bad_plan_requests_are_explained() {
     assert!(out.status.success(), "4-connected also finds the gap");
 }
 
+/// Runs `imitate ARGS` in `dir` with its stdout closed before it prints anything, as
+/// `imitate ... | head -c 10` does once head has had enough.
+fn into_closed_pipe(dir: &std::path::Path, args: &[&str]) -> std::process::Output {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_imitate"))
+        .current_dir(dir)
+        .args(args)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    drop(child.stdout.take());
+    child.wait_with_output().unwrap()
+}
+
+#[test]
+fn output_into_a_closed_pipe_ends_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    walled(dir.path());
+    let log = repo().join("testdata/world/logs/terrain-000.mcap");
+    for args in [
+        vec![
+            "plan",
+            "walled.parquet",
+            "--cells",
+            "--start",
+            "0,0",
+            "--goal",
+            "0,4",
+        ],
+        vec!["cat", log.to_str().unwrap()],
+    ] {
+        let out = into_closed_pipe(dir.path(), &args);
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {}", stderr(&out));
+        assert!(stderr(&out).is_empty(), "{args:?}: {}", stderr(&out));
+    }
+}
+
 #[test]
 fn unreachable_goals_fail_with_exit_code_1() {
     let dir = tempfile::tempdir().unwrap();

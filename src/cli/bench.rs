@@ -105,12 +105,12 @@ pub enum Planner {
 /// Prints a report: JSON for scripts, or the text `describe` makes for people.
 pub(super) fn emit<T: Serialize>(report: &T, json: bool, describe: impl FnOnce(&T) -> String) {
     if json {
-        println!(
+        outln!(
             "{}",
             serde_json::to_string(report).expect("reports serialise")
         );
     } else {
-        println!("{}", describe(report));
+        outln!("{}", describe(report));
     }
 }
 

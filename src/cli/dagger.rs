@@ -237,7 +237,7 @@ fn add(
         Some(_) => format!("gridnav episodes={episodes} seed={seed} beta={beta} policy={digest}"),
     };
     if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
-        println!("round {} already holds {source}", existing.round);
+        outln!("round {} already holds {source}", existing.round);
         return Ok(());
     }
     let track = track();
@@ -266,9 +266,11 @@ fn add(
         episodes: &episodes,
     })?;
     let info = &ds.rounds[round as usize];
-    println!(
+    outln!(
         "round {round}: {} steps ({} by the learner), {} falls",
-        info.steps, info.learner_steps, info.failures
+        info.steps,
+        info.learner_steps,
+        info.failures
     );
     Ok(())
 }
@@ -292,7 +294,7 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
         columns.action
     );
     if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
-        println!(
+        outln!(
             "round {} already holds these demonstrations",
             existing.round
         );
@@ -309,9 +311,10 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
         episodes: &episodes,
     })?;
     let info = &ds.rounds[number as usize];
-    println!(
+    outln!(
         "round {number}: {} steps in {} episodes",
-        info.steps, info.episodes
+        info.steps,
+        info.episodes
     );
     Ok(())
 }
@@ -328,7 +331,7 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
         topics.tolerance_ns
     );
     if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
-        println!("round {} already holds {}", existing.round, log.display());
+        outln!("round {} already holds {}", existing.round, log.display());
         return Ok(());
     }
     let round = read_log_round(log, topics)?;
@@ -351,7 +354,7 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
         timestamps: Some(&round.times),
         episodes: std::slice::from_ref(&round.steps),
     })?;
-    println!(
+    outln!(
         "round {number}: {} steps from {}; skipped {} observations without a label and {} without an executed action",
         round.steps.len(),
         log.display(),
@@ -409,7 +412,7 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
         vec![digest_input(&dataset.join(crate::artifact::MANIFEST))?],
     );
     let manifest = artifact.commit("policy", lineage, metrics)?;
-    println!("{}\t{}", out.display(), manifest.digest);
+    outln!("{}\t{}", out.display(), manifest.digest);
     Ok(())
 }
 
@@ -564,7 +567,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                     costs,
                 },
             )?;
-            println!("{}: an empty {environment} dataset", dataset.display());
+            outln!("{}: an empty {environment} dataset", dataset.display());
             Ok(())
         }
         DaggerCommand::Add {

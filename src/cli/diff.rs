@@ -182,7 +182,7 @@ pub fn run(args: DiffArgs) -> Result<()> {
         Format::Text => render_text(&report),
         Format::Markdown => render_markdown(&report, &args.images),
     };
-    print!("{text}");
+    out!("{text}");
     if failed.is_empty() {
         Ok(())
     } else {

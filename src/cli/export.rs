@@ -67,7 +67,7 @@ pub fn run(args: ExportArgs) -> Result<()> {
                 }
             };
             result?;
-            println!("{}", path.display());
+            outln!("{}", path.display());
         }
     }
     Ok(())

@@ -216,6 +216,6 @@ pub fn run(args: ForecastArgs) -> Result<()> {
     };
     let json = serde_json::to_string_pretty(&output).expect("forecasts serialise");
     write_bytes_atomic(&args.out.join("forecast.json"), json.as_bytes())?;
-    println!("{json}");
+    outln!("{json}");
     Ok(())
 }

@@ -117,11 +117,11 @@ pub fn run(args: LogArgs) -> Result<()> {
         .collect();
     if args.json {
         let json = serde_json::json!({ "schema": "imitate.log/1", "artifact": wanted, "versions": report });
-        println!("{json}");
+        outln!("{json}");
     } else {
         for v in &report {
             let mark = if v.current { " (current)" } else { "" };
-            println!(
+            outln!(
                 "{} {}{mark}: {}",
                 v.finished,
                 v.digest,

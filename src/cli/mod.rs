@@ -1,5 +1,20 @@
 //! The command line: one file per subcommand; `main.rs` only calls `run`.
 
+/// `print!` for command output: when the reader goes away (`imitate ... | head`), the
+/// command ends quietly instead of panicking on the closed pipe.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::cli::write_stdout(format_args!($($arg)*))
+    };
+}
+
+/// `println!` for command output, as `out!`.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::cli::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
+    };
+}
+
 mod bench;
 mod bench_dagger;
 mod bench_gridnav;
@@ -150,8 +165,8 @@ pub fn run(cli: Cli) -> Result<()> {
             })?;
             for o in outcomes {
                 match &o.digest {
-                    Some(digest) => println!("{}\t{}\t{digest}", o.name, o.out.display()),
-                    None => println!(
+                    Some(digest) => outln!("{}\t{}\t{digest}", o.name, o.out.display()),
+                    None => outln!(
                         "{}\t{}\twould run: {}",
                         o.name,
                         o.out.display(),
@@ -174,13 +189,13 @@ pub fn run(cli: Cli) -> Result<()> {
             let stale = outcomes.iter().filter(|o| !o.reasons.is_empty()).count();
             if json {
                 let report = serde_json::json!({ "schema": "imitate.status/1", "stale": stale, "stages": outcomes });
-                println!("{report}");
+                outln!("{report}");
             } else {
                 for o in &outcomes {
                     if o.reasons.is_empty() {
-                        println!("{}: up to date", o.name);
+                        outln!("{}: up to date", o.name);
                     } else {
-                        println!("{}: stale: {}", o.name, o.reasons.join("; "));
+                        outln!("{}: stale: {}", o.name, o.reasons.join("; "));
                     }
                 }
             }
@@ -219,5 +234,19 @@ fn run_stage(stage: &dyn Stage) -> Result<()> {
 
 /// stdout carries data: one line per output, "stage<TAB>path<TAB>digest".
 fn print_report(name: &str, report: &StageReport) {
-    println!("{name}\t{}\t{}", report.output.display(), report.digest);
+    outln!("{name}\t{}\t{}", report.output.display(), report.digest);
+}
+
+/// Writes command output to stdout. A closed pipe ends the process with success, as
+/// Unix tools do (the reader took what it wanted); any other failure is an error.
+pub(crate) fn write_stdout(text: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut stdout = std::io::stdout().lock();
+    if let Err(e) = stdout.write_fmt(text).and_then(|()| stdout.flush()) {
+        if e.kind() == std::io::ErrorKind::BrokenPipe {
+            std::process::exit(0);
+        }
+        eprintln!("error: writing to stdout: {e}");
+        std::process::exit(1);
+    }
 }

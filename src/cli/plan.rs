@@ -149,7 +149,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
             })
             .collect(),
     };
-    println!(
+    outln!(
         "{}",
         serde_json::to_string(&output).expect("plans serialise")
     );

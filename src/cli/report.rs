@@ -195,8 +195,8 @@ pub fn run(args: ReportArgs) -> Result<()> {
     }
     write_bytes_atomic(&args.out.join("report.md"), md.as_bytes())?;
     write_bytes_atomic(&args.out.join("report.html"), html.as_bytes())?;
-    println!("{}", args.out.join("report.md").display());
-    println!("{}", args.out.join("report.html").display());
+    outln!("{}", args.out.join("report.md").display());
+    outln!("{}", args.out.join("report.html").display());
     Ok(())
 }
 
