@@ -132,6 +132,9 @@ pub struct GridPlanner {
     max_cost: f64,
     /// Cells reached by the current query, to reset before the next one.
     touched: Vec<u32>,
+    /// Whether the planner answers more than one query, and so must track and reset
+    /// what each one reached (one-shot planners skip that work).
+    reused: bool,
 }
 
 /// Where a search puts the neighbours whose cost went down.
@@ -303,6 +306,15 @@ impl GridPlanner {
             min_cost,
             max_cost,
             touched: Vec::new(),
+            reused: true,
+        }
+    }
+
+    /// A planner for one query, which need not track what it reaches.
+    fn single_query(costs: &Grid<f32>, moves: Moves) -> Self {
+        GridPlanner {
+            reused: false,
+            ..GridPlanner::new(costs, moves)
         }
     }
 
@@ -361,14 +373,14 @@ impl GridPlanner {
     }
 
     /// Dijkstra from `sources` until `stop` is settled (or everything reachable is).
-    /// Without `stop` the planner is not reused, so reached cells go untracked.
+    /// Reached cells are tracked only when the planner answers further queries.
     fn run_dijkstra<const N: usize, const NO_CORNER_CUTTING: bool>(
         &mut self,
         sources: &[usize],
         stop: Option<usize>,
     ) {
         let buckets = Buckets::new(self.min_cost, self.longest_step() * self.max_cost);
-        match (buckets, stop.is_some()) {
+        match (buckets, self.reused) {
             (Some(q), true) => self.search::<N, NO_CORNER_CUTTING, true>(q, sources, stop),
             (Some(q), false) => self.search::<N, NO_CORNER_CUTTING, false>(q, sources, stop),
             (None, true) => {
@@ -411,6 +423,18 @@ impl GridPlanner {
     }
 
     fn run_astar<const N: usize, const NO_CORNER_CUTTING: bool>(&mut self, s: usize, g: usize) {
+        if self.reused {
+            self.astar_search::<N, NO_CORNER_CUTTING, true>(s, g);
+        } else {
+            self.astar_search::<N, NO_CORNER_CUTTING, false>(s, g);
+        }
+    }
+
+    fn astar_search<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
+        &mut self,
+        s: usize,
+        g: usize,
+    ) {
         let row = self.width + 2;
         let mut open = AstarOpen::<N> {
             heap: BinaryHeap::new(),
@@ -431,13 +455,14 @@ impl GridPlanner {
             if u == g {
                 break;
             }
-            expand::<N, NO_CORNER_CUTTING, true>(nodes, row, u, &mut open, touched);
+            expand::<N, NO_CORNER_CUTTING, TRACK>(nodes, row, u, &mut open, touched);
         }
     }
 
     /// Full Dijkstra from one or more sources: the cost-to-go (cost-to-come) field and
     /// the tree of cheapest paths. Blocked or off-grid sources are ignored.
     pub fn into_cost_to_go(mut self, sources: &[Cell]) -> CostField {
+        self.reused = false;
         let starts: Vec<usize> = sources
             .iter()
             .filter(|&&c| self.open(c))
@@ -487,12 +512,12 @@ pub fn cost_to_go(costs: &Grid<f32>, sources: &[Cell], moves: Moves) -> CostFiel
 
 /// Dijkstra from `start`, stopping when `goal` is settled.
 pub fn dijkstra(costs: &Grid<f32>, start: Cell, goal: Cell, moves: Moves) -> Option<Route> {
-    GridPlanner::new(costs, moves).dijkstra(start, goal)
+    GridPlanner::single_query(costs, moves).dijkstra(start, goal)
 }
 
 /// A* from `start` to `goal` (see `GridPlanner::astar`).
 pub fn astar(costs: &Grid<f32>, start: Cell, goal: Cell, moves: Moves) -> Option<Route> {
-    GridPlanner::new(costs, moves).astar(start, goal)
+    GridPlanner::single_query(costs, moves).astar(start, goal)
 }
 
 /// The cheapest 8-connected path (corner cutting allowed) from `start` to `goal`, or
