@@ -13,8 +13,10 @@ fn walled(dir: &std::path::Path) -> std::path::PathBuf {
         width: 5,
         height: 4,
         resolution: 2.0,
+        resolution_y: None,
         origin: [10.0, 20.0],
         frame: "map".into(),
+        degrees: false,
     };
     let mut costs = Grid::filled(geo, 1.0f32);
     for row in 0..3 {
@@ -157,8 +159,10 @@ fn unreachable_goals_fail_with_exit_code_1() {
         width: 3,
         height: 1,
         resolution: 1.0,
+        resolution_y: None,
         origin: [0.0, 0.0],
         frame: "map".into(),
+        degrees: false,
     };
     let costs = Grid::from_vec(geo, vec![1.0, f32::INFINITY, 1.0]);
     write_costmap(&dir.path().join("walled.parquet"), "cut", &costs).unwrap();
@@ -365,4 +369,94 @@ fn features_with_operators_from_the_command_line() {
     );
     assert_input_error(&out, &["terrain-000.parquet", "no layer 'height'"]);
     assert!(!ws.path().join("fs2").exists());
+    // A bank: the elevation layer by its name, imagery operators on the others.
+    let out = imitate(
+        ws.path(),
+        &[
+            "features",
+            "--dataset",
+            "ds",
+            "--out",
+            "fs3",
+            "--bank",
+            "auto",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(ws.path().join("fs3/manifest.json")).unwrap())
+            .unwrap();
+    let names: Vec<&str> = manifest["metrics"]["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    for expected in [
+        "elevation/slope_deg",
+        "elevation/relief_16c",
+        "vegetation/blur_3c",
+        "nd(vegetation,water)",
+        "road/above_q90",
+        "brightness",
+        "bias",
+    ] {
+        assert!(names.contains(&expected), "{expected} in {names:?}");
+    }
+    assert!(!names.iter().any(|n| n.starts_with("vegetation/slope")));
+}
+
+#[test]
+fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
+    let Some(rasters) = common::shared_data("raster") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let spot = rasters.join("osgeo_spot_chicago_utm.tif");
+    let out = imitate(
+        dir.path(),
+        &[
+            "bench",
+            "terrain",
+            spot.to_str().unwrap(),
+            "--teacher",
+            "threshold",
+            "--method",
+            "learch-tree",
+            "--cells",
+            "60",
+            "--paths",
+            "16",
+            "--rounds",
+            "8",
+            "--json",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["schema"], "imitate.bench-terrain/1");
+    let results = report["results"].as_array().unwrap();
+    let by = |method: &str| {
+        results
+            .iter()
+            .find(|r| r["method"] == method)
+            .unwrap_or_else(|| panic!("{method} in {results:?}"))
+    };
+    let (uniform, tree) = (by("uniform"), by("learch-tree"));
+    assert_eq!(tree["terrain"], "osgeo_spot_chicago_utm/threshold");
+    assert_eq!(tree["held_out"], 4);
+    // Even a short run learns more than planning on a uniform cost.
+    let ratio = |r: &serde_json::Value| r["mean_cost_ratio"].as_f64().unwrap();
+    assert!(ratio(tree) < ratio(uniform), "{tree} vs {uniform}");
+    let bad = imitate(
+        dir.path(),
+        &[
+            "bench",
+            "terrain",
+            spot.to_str().unwrap(),
+            "--method",
+            "nope",
+        ],
+    );
+    assert_eq!(bad.status.code(), Some(2));
 }

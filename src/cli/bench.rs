@@ -36,8 +36,11 @@ pub enum BenchCommand {
         #[arg(long, default_value_t = 3)]
         repeat: usize,
         /// Write the layers (raw f32) and the spec here for the NumPy/SciPy peer script.
-        #[arg(long, value_name = "DIR")]
+        #[arg(long, value_name = "DIR", conflicts_with = "bank")]
         dump: Option<PathBuf>,
+        /// Time a feature bank on the map's four layers instead of the fixed spec.
+        #[arg(long, value_enum)]
+        bank: Option<crate::features::Bank>,
         #[arg(long)]
         json: bool,
     },
@@ -58,6 +61,9 @@ pub enum BenchCommand {
     /// Held-out path agreement of LEARCH (ridge, trees), MMP and MaxEnt on the
     /// quickstart terrain and on a GeoTIFF terrain, as one table.
     IocMethods(super::bench_ioc::IocMethodsArgs),
+    /// The hidden-teacher protocol on rasters: held-out agreement and true-cost ratio of
+    /// every IOC method with the default feature bank, beside a uniform-cost baseline.
+    Terrain(super::bench_terrain::TerrainArgs),
     /// Behaviour cloning against DAgger on the lane-keeping circuit: falls per lap per
     /// iteration, same teacher labels per iteration.
     Track(super::bench_track::TrackBenchArgs),
@@ -126,6 +132,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
         BenchCommand::Learch(args) => super::bench_learch::run(args),
         BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
         BenchCommand::IocMethods(args) => super::bench_ioc::run(args),
+        BenchCommand::Terrain(args) => super::bench_terrain::run(args),
         BenchCommand::Track(args) => super::bench_track::run(args),
         BenchCommand::DaggerScale(args) => super::bench_dagger::run(args),
         BenchCommand::Gridnav(args) => super::bench_gridnav::run(args),
@@ -139,8 +146,9 @@ pub fn run(command: BenchCommand) -> Result<()> {
             size,
             repeat,
             dump,
+            bank,
             json,
-        } => features(size, repeat.max(1), dump, json),
+        } => features(size, repeat.max(1), dump, bank, json),
         BenchCommand::Dijkstra {
             costs,
             width,
@@ -284,8 +292,10 @@ fn geo(width: u32, height: u32) -> GeoRef {
         width,
         height,
         resolution: 1.0,
+        resolution_y: None,
         origin: [0.0, 0.0],
         frame: "bench".into(),
+        degrees: false,
     }
 }
 
@@ -391,6 +401,7 @@ fn bench_feature_spec() -> FeatureSpec {
         ],
         bias: true,
         nodata_fill: 0.0,
+        bank: None,
     }
 }
 
@@ -432,7 +443,13 @@ struct FeaturesReport {
     peak_over_output: f64,
 }
 
-fn features(size: u32, repeat: usize, dump: Option<PathBuf>, json: bool) -> Result<()> {
+fn features(
+    size: u32,
+    repeat: usize,
+    dump: Option<PathBuf>,
+    bank: Option<crate::features::Bank>,
+    json: bool,
+) -> Result<()> {
     let config = WorldConfig {
         maps: 1,
         width: size,
@@ -444,7 +461,16 @@ fn features(size: u32, repeat: usize, dump: Option<PathBuf>, json: bool) -> Resu
         .map_err(Error::Usage)?
         .maps
         .remove(0);
-    let spec = bench_feature_spec();
+    let spec = match bank {
+        Some(bank) => FeatureSpec {
+            layers: None,
+            ops: Vec::new(),
+            bias: true,
+            nodata_fill: 0.0,
+            bank: Some(bank),
+        },
+        None => bench_feature_spec(),
+    };
     if let Some(dir) = &dump {
         for layer in &map.layers {
             let bytes: Vec<u8> = layer.values.iter().flat_map(|v| v.to_le_bytes()).collect();

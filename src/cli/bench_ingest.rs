@@ -42,8 +42,10 @@ fn generate(path: &Path, megabytes: u64) -> Result<()> {
         width: GRID,
         height: GRID,
         resolution: 0.05,
+        resolution_y: None,
         origin: [-12.8, -12.8],
         frame: "map".into(),
+        degrees: false,
     };
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     // zstd takes about 17 % off random occupancies: write enough grids for the size.

@@ -48,24 +48,24 @@ pub struct IocMethodsArgs {
 
 /// One terrain's maps, features, demonstrations split into training and held out, and
 /// true costs.
-struct Terrain {
-    name: &'static str,
-    names: Vec<String>,
-    stacks: Vec<FeatureStack>,
-    training: Vec<Example>,
-    holdout: Vec<Example>,
-    truth: Vec<Grid<f32>>,
+pub(super) struct Terrain {
+    pub name: String,
+    pub names: Vec<String>,
+    pub stacks: Vec<FeatureStack>,
+    pub training: Vec<Example>,
+    pub holdout: Vec<Example>,
+    pub truth: Vec<Grid<f32>>,
 }
 
 #[derive(Serialize)]
-struct MethodResult {
-    terrain: &'static str,
-    method: &'static str,
-    held_out: usize,
-    within_radius: f64,
-    mean_cost_ratio: f64,
-    max_cost_ratio: f64,
-    seconds: f64,
+pub(super) struct MethodResult {
+    pub terrain: String,
+    pub method: &'static str,
+    pub held_out: usize,
+    pub within_radius: f64,
+    pub mean_cost_ratio: f64,
+    pub max_cost_ratio: f64,
+    pub seconds: f64,
 }
 
 #[derive(Serialize)]
@@ -90,6 +90,7 @@ fn quickstart() -> Result<Terrain> {
         ops: Vec::new(),
         bias: true,
         nodata_fill: 0.0,
+        bank: None,
     };
     let stacks = world
         .maps
@@ -112,7 +113,7 @@ fn quickstart() -> Result<Terrain> {
         .collect();
     let (training, holdout) = hold_out_every(examples, 4);
     Ok(Terrain {
-        name: "quickstart",
+        name: "quickstart".into(),
         names,
         stacks,
         training,
@@ -169,6 +170,7 @@ fn raster(args: &IocMethodsArgs) -> Result<Terrain> {
         ],
         bias: true,
         nodata_fill: 0.0,
+        bank: None,
     };
     let stack = compute(&map, &spec).map_err(Error::Failed)?;
     let shade = &map.layers[0].values;
@@ -185,11 +187,38 @@ fn raster(args: &IocMethodsArgs) -> Result<Terrain> {
             .map(|(&s, &d)| 1.0 + 7.0 * s + if d < margin { 3.0 } else { 0.0 })
             .collect(),
     );
-    // Teacher paths between random cells at least half the map apart.
-    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let examples = teacher_paths(&truth, args.demonstrations, 7, "shade-demo")?;
+    let (training, holdout) = hold_out_every(examples, 4);
+    Ok(Terrain {
+        name: "geotiff".into(),
+        names: vec![map.name.clone()],
+        stacks: vec![stack],
+        training,
+        holdout,
+        truth: vec![truth],
+    })
+}
+
+/// Optimal paths on `truth` between `count` seeded random pairs of cells at least half
+/// the map apart (a pair without a path is drawn again), named `<prefix>-NNN`.
+pub(super) fn teacher_paths(
+    truth: &Grid<f32>,
+    count: usize,
+    seed: u64,
+    prefix: &str,
+) -> Result<Vec<Example>> {
+    let geo = &truth.geo;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let min_separation = 0.5 * f64::from(geo.width.min(geo.height));
     let mut examples = Vec::new();
-    while examples.len() < args.demonstrations {
+    let mut draws = 0;
+    while examples.len() < count {
+        draws += 1;
+        if draws > 100 * count {
+            return Err(Error::Failed(format!(
+                "no {count} pairs of cells half the map apart with a teacher path"
+            )));
+        }
         let mut random_cell = || {
             Cell::new(
                 rng.random_range(0..geo.height),
@@ -200,27 +229,40 @@ fn raster(args: &IocMethodsArgs) -> Result<Terrain> {
         if (a.distance_squared(b) as f64).sqrt() < min_separation {
             continue;
         }
-        let route = shortest_path(&truth, a, b)
-            .ok_or_else(|| Error::Failed("the raster teacher found no path".into()))?;
-        examples.push(Example {
-            id: format!("shade-demo-{:03}", examples.len()),
-            map: 0,
-            path: route.cells,
-        });
+        if let Some(route) = shortest_path(truth, a, b) {
+            examples.push(Example {
+                id: format!("{prefix}-{:03}", examples.len()),
+                map: 0,
+                path: route.cells,
+            });
+        }
     }
-    let (training, holdout) = hold_out_every(examples, 4);
-    Ok(Terrain {
-        name: "geotiff",
-        names: vec![map.name.clone()],
-        stacks: vec![stack],
-        training,
-        holdout,
-        truth: vec![truth],
-    })
+    Ok(examples)
+}
+
+/// One line per terrain and method, the terrain's column `terrain_width` wide.
+pub(super) fn results_table(results: &[MethodResult], terrain_width: usize) -> String {
+    let mut text = format!(
+        "{:<terrain_width$} {:<16} held out  within  mean ratio  max ratio  seconds\n",
+        "terrain", "method"
+    );
+    for m in results {
+        text += &format!(
+            "{:<terrain_width$} {:<16} {:>8}  {:>6.3}  {:>10.3}  {:>9.3}  {:>7.1}\n",
+            m.terrain,
+            m.method,
+            m.held_out,
+            m.within_radius,
+            m.mean_cost_ratio,
+            m.max_cost_ratio,
+            m.seconds
+        );
+    }
+    text
 }
 
 /// The methods compared, with the settings each runs with.
-fn methods(rounds: usize) -> Vec<(&'static str, LearchConfig)> {
+pub(super) fn methods(rounds: usize) -> Vec<(&'static str, LearchConfig)> {
     let base = LearchConfig {
         rounds,
         ..LearchConfig::default()
@@ -233,7 +275,18 @@ fn methods(rounds: usize) -> Vec<(&'static str, LearchConfig)> {
                 weak_learner: WeakLearnerKind::Tree,
                 tree: TreeConfig {
                     max_depth: 3,
-                    ..TreeConfig::default()
+                    ..base.tree
+                },
+                ..base.clone()
+            },
+        ),
+        (
+            "learch-alternate",
+            LearchConfig {
+                weak_learner: WeakLearnerKind::Alternate,
+                tree: TreeConfig {
+                    max_depth: 3,
+                    ..base.tree
                 },
                 ..base.clone()
             },
@@ -255,7 +308,11 @@ fn methods(rounds: usize) -> Vec<(&'static str, LearchConfig)> {
     ]
 }
 
-fn measure(terrain: &Terrain, method: &'static str, config: &LearchConfig) -> Result<MethodResult> {
+pub(super) fn measure(
+    terrain: &Terrain,
+    method: &'static str,
+    config: &LearchConfig,
+) -> Result<MethodResult> {
     let started = Instant::now();
     let trained = train(
         &terrain.stacks,
@@ -280,7 +337,7 @@ fn measure(terrain: &Terrain, method: &'static str, config: &LearchConfig) -> Re
     .map_err(Error::Failed)?;
     let agreement = summarize(&evaluations);
     Ok(MethodResult {
-        terrain: terrain.name,
+        terrain: terrain.name.clone(),
         method,
         held_out: agreement.examples,
         within_radius: agreement.within_radius,
@@ -309,25 +366,12 @@ pub fn run(args: IocMethodsArgs) -> Result<()> {
         results,
     };
     emit(&report, args.json, |r| {
-        let mut text = format!(
-            "held-out agreement after {} rounds (within {} cells; cost ratio under the true cost)\n\
-             terrain     method        held out  within  mean ratio  max ratio  seconds\n",
+        format!(
+            "held-out agreement after {} rounds (within {} cells; cost ratio under the true cost)\n{}",
             r.rounds,
-            crate::ioc::AGREEMENT_RADIUS
-        );
-        for m in &r.results {
-            text += &format!(
-                "{:<11} {:<13} {:>8}  {:>6.3}  {:>10.3}  {:>9.3}  {:>7.1}\n",
-                m.terrain,
-                m.method,
-                m.held_out,
-                m.within_radius,
-                m.mean_cost_ratio,
-                m.max_cost_ratio,
-                m.seconds
-            );
-        }
-        text
+            crate::ioc::AGREEMENT_RADIUS,
+            results_table(&r.results, 11)
+        )
     });
     Ok(())
 }

@@ -54,6 +54,7 @@ fn spec() -> FeatureSpec {
         ],
         bias: true,
         nodata_fill: 0.0,
+        bank: None,
     }
 }
 

@@ -22,6 +22,7 @@ mod bench_ingest;
 mod bench_ioc;
 mod bench_learch;
 mod bench_objectworld;
+mod bench_terrain;
 mod bench_track;
 mod dagger;
 mod diff;

@@ -138,7 +138,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
     let output = PlanOutput {
         schema: "imitate.plan/1",
         map: name,
-        cost: route.cost * geo.resolution,
+        cost: route.cost * crate::plan::unit_step_metres(geo),
         cells: route.cells.iter().map(|c| [c.row, c.col]).collect(),
         world: route
             .cells

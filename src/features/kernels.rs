@@ -61,9 +61,18 @@ impl<T: Copy + Default> RowCache<T> {
     }
 }
 
-/// Separable correlation with a symmetric kernel along rows, then along columns.
-fn separable(input: &[f32], width: usize, height: usize, taps: &[f32], out: &mut [f32]) {
-    let r = taps.len() - 1;
+/// Separable correlation with symmetric kernels: `taps_x` along rows, then `taps_y`
+/// along columns (they differ where cells are not square).
+fn separable(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    taps_x: &[f32],
+    taps_y: &[f32],
+    out: &mut [f32],
+) {
+    let (r, ry) = (taps_x.len() - 1, taps_y.len() - 1);
+    let taps = taps_x;
     let mut padded = vec![0.0f32; width + 2 * r];
     let mut across_row = |row: usize, dst: &mut [f32]| {
         pad_row(&input[row * width..(row + 1) * width], r, &mut padded);
@@ -80,14 +89,14 @@ fn separable(input: &[f32], width: usize, height: usize, taps: &[f32], out: &mut
     };
     // Rows near an edge reflect onto rows within the same window, so 2r + 1 slots
     // always hold every row a window needs at once.
-    let mut cache = RowCache::new(width, 2 * r + 1);
+    let mut cache = RowCache::new(width, 2 * ry + 1);
     let mut line = vec![0.0f32; width];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
         dst.copy_from_slice(cache.get(row, &mut across_row));
         for v in dst.iter_mut() {
-            *v *= taps[0];
+            *v *= taps_y[0];
         }
-        for (k, &w) in taps.iter().enumerate().skip(1) {
+        for (k, &w) in taps_y.iter().enumerate().skip(1) {
             line.copy_from_slice(
                 cache.get(reflect(row as isize + k as isize, height), &mut across_row),
             );
@@ -99,9 +108,16 @@ fn separable(input: &[f32], width: usize, height: usize, taps: &[f32], out: &mut
     }
 }
 
-/// Gaussian blur with standard deviation `sigma` cells (kernel radius 4σ, as scipy).
-pub fn gaussian_blur(input: &[f32], width: usize, height: usize, sigma: f64, out: &mut [f32]) {
-    separable(input, width, height, &gaussian_taps(sigma), out);
+/// Gaussian blur with standard deviations `[σx, σy]` in cells (kernel radius 4σ, as
+/// scipy); the two differ when a metric σ is taken on cells that are not square.
+pub fn gaussian_blur(input: &[f32], width: usize, height: usize, sigma: [f64; 2], out: &mut [f32]) {
+    let taps_x = gaussian_taps(sigma[0]);
+    let taps_y = if sigma[1] == sigma[0] {
+        taps_x.clone()
+    } else {
+        gaussian_taps(sigma[1])
+    };
+    separable(input, width, height, &taps_x, &taps_y, out);
 }
 
 /// Local standard deviation (roughness) over a `window` × `window` square (odd).
@@ -193,15 +209,16 @@ fn difference(
     }
 }
 
-/// Gradient magnitude |∇z| (units of z per metre) and, with `degrees`, the slope
-/// atan |∇z| in degrees.
-pub fn gradient(
+/// Calls `each(dx, dy)` with the derivatives ∂z/∂x and ∂z/∂y (per metre; `spacing` is
+/// the cell size (x, y) in metres) of every cell, writing what it returns: the one
+/// traversal behind the gradient, slope and aspect.
+fn from_derivatives(
     input: &[f32],
     width: usize,
     height: usize,
-    resolution: f64,
-    degrees: bool,
+    spacing: [f64; 2],
     out: &mut [f32],
+    each: impl Fn(f64, f64) -> f64,
 ) {
     let line = |r: usize| &input[r * width..(r + 1) * width];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
@@ -218,7 +235,7 @@ pub fn gradient(
                 right,
                 col == 0,
                 col == width - 1,
-                resolution,
+                spacing[0],
             );
             let dy = difference(
                 below[col],
@@ -226,21 +243,51 @@ pub fn gradient(
                 above[col],
                 row == 0,
                 row == height - 1,
-                resolution,
+                spacing[1],
             );
-            let magnitude = (dx * dx + dy * dy).sqrt();
-            dst[col] = if degrees {
-                magnitude.atan().to_degrees()
-            } else {
-                magnitude
-            } as f32;
+            dst[col] = each(dx, dy) as f32;
         }
     }
 }
 
-/// The 5-point Laplacian per square metre (scipy.ndimage.laplace / resolution²).
-pub fn laplacian(input: &[f32], width: usize, height: usize, resolution: f64, out: &mut [f32]) {
-    let scale = 1.0 / (resolution * resolution);
+/// Gradient magnitude |∇z| (units of z per metre) and, with `degrees`, the slope
+/// atan |∇z| in degrees; `spacing` is the cell size (x, y) in metres.
+pub fn gradient(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    spacing: [f64; 2],
+    degrees: bool,
+    out: &mut [f32],
+) {
+    from_derivatives(input, width, height, spacing, out, |dx, dy| {
+        let magnitude = (dx * dx + dy * dy).sqrt();
+        if degrees {
+            magnitude.atan().to_degrees()
+        } else {
+            magnitude
+        }
+    });
+}
+
+/// Aspect: the direction of steepest descent in degrees clockwise from north (0–360),
+/// 0 on flat cells; `spacing` is the cell size (x, y) in metres. Rows grow north.
+pub fn aspect(input: &[f32], width: usize, height: usize, spacing: [f64; 2], out: &mut [f32]) {
+    from_derivatives(input, width, height, spacing, out, |dx, dy| {
+        // Downhill is −∇z; its bearing from north is atan2(east, north).
+        if dx == 0.0 && dy == 0.0 {
+            0.0
+        } else {
+            (-dx).atan2(-dy).to_degrees().rem_euclid(360.0)
+        }
+    });
+}
+
+/// The 5-point Laplacian per square metre (scipy.ndimage.laplace / resolution² on
+/// square cells); `spacing` is the cell size (x, y) in metres.
+pub fn laplacian(input: &[f32], width: usize, height: usize, spacing: [f64; 2], out: &mut [f32]) {
+    let scale = 1.0 / (spacing[0] * spacing[0]);
+    let scale_y = 1.0 / (spacing[1] * spacing[1]);
     let line = |r: isize| {
         let rr = reflect(r, height);
         &input[rr * width..(rr + 1) * width]
@@ -251,28 +298,38 @@ pub fn laplacian(input: &[f32], width: usize, height: usize, resolution: f64, ou
         pad_row(here, 1, &mut padded);
         let (below, above) = (line(row as isize - 1), line(row as isize + 1));
         for c in 0..width {
-            let sum = f64::from(below[c])
-                + f64::from(above[c])
-                + f64::from(padded[c])
-                + f64::from(padded[c + 2])
-                - 4.0 * f64::from(here[c]);
-            dst[c] = (sum * scale) as f32;
+            let h = f64::from(here[c]);
+            dst[c] = if scale_y == scale {
+                let sum = f64::from(below[c])
+                    + f64::from(above[c])
+                    + f64::from(padded[c])
+                    + f64::from(padded[c + 2])
+                    - 4.0 * h;
+                sum * scale
+            } else {
+                (f64::from(padded[c]) + f64::from(padded[c + 2]) - 2.0 * h) * scale
+                    + (f64::from(below[c]) + f64::from(above[c]) - 2.0 * h) * scale_y
+            } as f32;
         }
     }
 }
 
 /// Exact Euclidean distance (metres) from every cell to the nearest target cell, by
 /// Felzenszwalb and Huttenlocher's linear-time algorithm: distances along columns,
-/// then the lower envelope of parabolas along rows. Capped at `cap`, which is also the
-/// value everywhere when there is no target at all.
+/// then the lower envelope of parabolas along rows. `spacing` is the cell size (x, y)
+/// in metres. Capped at `cap`, which is also the value everywhere when there is no
+/// target at all.
 pub fn distance_transform(
     target: &[bool],
     width: usize,
     height: usize,
-    resolution: f64,
+    spacing: [f64; 2],
     cap: f64,
     out: &mut [f32],
 ) {
+    // Column distances count rows; in units of a column's width a row is this long.
+    let row_length = spacing[1] / spacing[0];
+    let resolution = spacing[0];
     // Pass 1: squared distance along each column, as whole-row sweeps down then up.
     let far = f64::INFINITY;
     let mut along = vec![far; width * height];
@@ -299,7 +356,14 @@ pub fn distance_transform(
     let mut bounds = vec![0.0f64; width + 1];
     for row in 0..height {
         let g = &along[row * width..(row + 1) * width];
-        let f = |q: usize| g[q] * g[q];
+        let f = |q: usize| {
+            let rows = if row_length == 1.0 {
+                g[q]
+            } else {
+                g[q] * row_length
+            };
+            rows * rows
+        };
         let dst = &mut out[row * width..(row + 1) * width];
         let mut k: isize = -1;
         for (q, gq) in g.iter().enumerate() {
@@ -374,11 +438,11 @@ mod tests {
     fn blur_keeps_constants_and_mass() {
         let (w, h) = (9, 7);
         let mut out = vec![0.0; w * h];
-        gaussian_blur(&vec![3.0; w * h], w, h, 1.5, &mut out);
+        gaussian_blur(&vec![3.0; w * h], w, h, [1.5; 2], &mut out);
         assert!(out.iter().all(|v| (v - 3.0).abs() < 1e-5));
         let mut impulse = vec![0.0; w * h];
         impulse[3 * w + 4] = 1.0;
-        gaussian_blur(&impulse, w, h, 1.0, &mut out);
+        gaussian_blur(&impulse, w, h, [1.0; 2], &mut out);
         assert!(
             (out.iter().sum::<f32>() - 1.0).abs() < 1e-4,
             "mass is kept away from the edges"
@@ -406,14 +470,14 @@ mod tests {
         // z = 2x metres per metre at resolution 0.5: one cell east raises z by 1.
         let input: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
         let mut out = vec![0.0; w * h];
-        gradient(&input, w, h, 0.5, false, &mut out);
+        gradient(&input, w, h, [0.5; 2], false, &mut out);
         assert!(out.iter().all(|&g| (g - 2.0).abs() < 1e-6));
-        gradient(&input, w, h, 0.5, true, &mut out);
+        gradient(&input, w, h, [0.5; 2], true, &mut out);
         assert!(
             out.iter()
                 .all(|&s| (s - 2f32.atan().to_degrees()).abs() < 1e-4)
         );
-        laplacian(&input, w, h, 0.5, &mut out);
+        laplacian(&input, w, h, [0.5; 2], &mut out);
         assert!(out[w + 2].abs() < 1e-6, "a plane has no curvature inside");
     }
 
@@ -422,7 +486,7 @@ mod tests {
         let (w, h) = (13, 9);
         let target: Vec<bool> = (0..w * h).map(|i| i % 17 == 3 || i == 50).collect();
         let mut out = vec![0.0; w * h];
-        distance_transform(&target, w, h, 0.5, 100.0, &mut out);
+        distance_transform(&target, w, h, [0.5; 2], 100.0, &mut out);
         for (i, &found) in out.iter().enumerate() {
             let (r, c) = ((i / w) as f64, (i % w) as f64);
             let best = (0..w * h)
@@ -435,8 +499,66 @@ mod tests {
                 0.5 * best
             );
         }
-        distance_transform(&vec![false; w * h], w, h, 1.0, 7.0, &mut out);
+        distance_transform(&vec![false; w * h], w, h, [1.0; 2], 7.0, &mut out);
         assert!(out.iter().all(|&d| d == 7.0));
+    }
+
+    #[test]
+    fn aspect_points_downhill_from_north() {
+        let (w, h) = (4, 4);
+        let mut out = vec![0.0; w * h];
+        // Rising to the east: downhill faces west (270°).
+        let east: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
+        aspect(&east, w, h, [1.0; 2], &mut out);
+        assert!(out.iter().all(|&a| (a - 270.0).abs() < 1e-4), "{out:?}");
+        // Rising to the north (rows grow north): downhill faces south (180°).
+        let north: Vec<f32> = (0..w * h).map(|i| (i / w) as f32).collect();
+        aspect(&north, w, h, [1.0; 2], &mut out);
+        assert!(out.iter().all(|&a| (a - 180.0).abs() < 1e-4));
+        aspect(&vec![2.0; w * h], w, h, [1.0; 2], &mut out);
+        assert!(out.iter().all(|&a| a == 0.0));
+    }
+
+    #[test]
+    fn kernels_measure_rectangular_cells_per_axis() {
+        let (w, h) = (11, 9);
+        let target: Vec<bool> = (0..w * h).map(|i| i % 23 == 5).collect();
+        let mut out = vec![0.0; w * h];
+        let (sx, sy) = (0.5, 1.25);
+        distance_transform(&target, w, h, [sx, sy], 100.0, &mut out);
+        for (i, &found) in out.iter().enumerate() {
+            let (r, c) = ((i / w) as f64, (i % w) as f64);
+            let best = (0..w * h)
+                .filter(|&j| target[j])
+                .map(|j| {
+                    (((r - (j / w) as f64) * sy).powi(2) + ((c - (j % w) as f64) * sx).powi(2))
+                        .sqrt()
+                })
+                .fold(f64::INFINITY, f64::min);
+            assert!(
+                (f64::from(found) - best).abs() < 1e-5,
+                "cell {i}: {found} vs {best}"
+            );
+        }
+        // z = x + y in metres: the gradient is √2 whatever the cells.
+        let z: Vec<f32> = (0..w * h)
+            .map(|i| ((i % w) as f64 * sx + (i / w) as f64 * sy) as f32)
+            .collect();
+        gradient(&z, w, h, [sx, sy], false, &mut out);
+        assert!(out.iter().all(|&g| (g - 2f32.sqrt()).abs() < 1e-5));
+        // z = x² + y²: the Laplacian is 4 per square metre inside.
+        let z: Vec<f32> = (0..w * h)
+            .map(|i| (((i % w) as f64 * sx).powi(2) + ((i / w) as f64 * sy).powi(2)) as f32)
+            .collect();
+        laplacian(&z, w, h, [sx, sy], &mut out);
+        assert!((out[4 * w + 5] - 4.0).abs() < 1e-3, "{}", out[4 * w + 5]);
+        // A blur with σ of 2 cells across and 1 down spreads an impulse twice as far
+        // along the row, and keeps its mass.
+        let mut impulse = vec![0.0; w * h];
+        impulse[4 * w + 5] = 1.0;
+        gaussian_blur(&impulse, w, h, [2.0, 1.0], &mut out);
+        assert!((out.iter().sum::<f32>() - 1.0).abs() < 1e-3);
+        assert!(out[4 * w + 7] > out[6 * w + 5]);
     }
 
     #[test]

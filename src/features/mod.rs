@@ -2,10 +2,13 @@
 //! in parallel. Each output plane is written once, in place, so memory stays close to
 //! the size of the output stack (plus a few temporary planes per worker thread).
 
+mod bank;
 mod kernels;
 
+pub use bank::Bank;
+
 pub use kernels::{
-    distance_transform, gaussian_blur, gradient, laplacian, local_std, robust_normalize,
+    aspect, distance_transform, gaussian_blur, gradient, laplacian, local_std, robust_normalize,
 };
 
 use rayon::prelude::*;
@@ -30,6 +33,10 @@ pub struct FeatureSpec {
     /// `<layer>/nodata` indicator feature.
     #[serde(default)]
     pub nodata_fill: f32,
+    /// A named list of operators chosen by the layers a map has (`features/bank`),
+    /// computed before `layers` and `ops`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bank: Option<Bank>,
 }
 
 /// One operator. Lengths are in metres (using the map's resolution) unless named in cells.
@@ -38,8 +45,15 @@ pub struct FeatureSpec {
 pub enum Op {
     /// (x − median) / interquartile range.
     Normalize { layer: String },
-    /// Gaussian blur at each standard deviation (metres).
-    Blur { layer: String, sigmas: Vec<f64> },
+    /// Gaussian blur at each standard deviation: `sigmas` in metres, `cells` in cells
+    /// (names that do not depend on the map's resolution).
+    Blur {
+        layer: String,
+        #[serde(default)]
+        sigmas: Vec<f64>,
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        cells: Vec<f64>,
+    },
     /// Gradient magnitude, layer units per metre.
     Gradient { layer: String },
     /// Slope in degrees, atan |∇z|, for an elevation layer in metres.
@@ -65,6 +79,27 @@ pub enum Op {
     Threshold { layer: String, above: Vec<f32> },
     /// The product of two features computed before it (by name).
     Product { a: String, b: String },
+    /// (a − b) / (a + b), 0 where a + b is 0: vegetation- and water-like indices of
+    /// multi-band imagery.
+    NormalizedDifference { a: String, b: String },
+    /// The mean of the layers.
+    Brightness { layers: Vec<String> },
+    /// The layer minus its Gaussian blur at each σ in cells: above (ridges, bright
+    /// spots) or below (hollows, dark spots) its neighbourhood.
+    Relief { layer: String, cells: Vec<f64> },
+    /// Direction of steepest descent in degrees clockwise from north (0–360; 0 where
+    /// flat), for an elevation layer in metres.
+    Aspect { layer: String },
+    /// An indicator per quantile of the layer's values on this map: 1 where above it.
+    Quantile { layer: String, quantiles: Vec<f64> },
+    /// Euclidean distance (metres) to the nearest cell above the layer's quantile `q`
+    /// on this map, capped at `max` (default: the map's diagonal).
+    QuantileDistance {
+        layer: String,
+        q: f64,
+        #[serde(default)]
+        max: Option<f64>,
+    },
 }
 
 pub const BIAS: &str = "bias";
@@ -75,7 +110,8 @@ enum Plane {
     Copy(usize),
     Nodata(usize),
     Normalize(usize),
-    Blur(usize, f64),
+    /// σ in cells along x and y.
+    Blur(usize, [f64; 2]),
     Gradient(usize, bool),
     Roughness(usize, usize),
     Laplacian(usize),
@@ -83,6 +119,11 @@ enum Plane {
     Above(usize, f32),
     Distance(usize, Target, f64),
     Product(usize, usize),
+    NormalizedDifference(usize, usize),
+    Brightness(Vec<usize>),
+    /// σ in cells along x and y.
+    Relief(usize, [f64; 2]),
+    Aspect(usize),
     Bias,
 }
 
@@ -90,6 +131,22 @@ enum Plane {
 enum Target {
     Equals(f32),
     Above(f32),
+}
+
+/// The value below which a share `q` of the layer's data cells lie (index ⌊q(n − 1)⌋
+/// of the sorted non-NaN values; 0 when there are none).
+fn quantile_of(values: &[f32], q: f64) -> f32 {
+    let mut data: Vec<f32> = values.iter().copied().filter(|v| !v.is_nan()).collect();
+    if data.is_empty() {
+        return 0.0;
+    }
+    let k = ((q.clamp(0.0, 1.0) * (data.len() - 1) as f64).floor()) as usize;
+    *data.select_nth_unstable_by(k, f32::total_cmp).1
+}
+
+/// A quantile as a name: 0.75 → "q75", 0.125 → "q12.5".
+fn quantile_name(q: f64) -> String {
+    format!("q{}", format_number((q * 1000.0).round() / 10.0))
 }
 
 /// Shortest decimal form of a parameter for a feature name ("2", "0.3", "2.5").
@@ -141,7 +198,8 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
         planes.push(plane);
         Ok(())
     }
-    let plain = match (&spec.layers, spec.ops.is_empty()) {
+    let bank_ops = spec.bank.map(|b| b.ops(map)).unwrap_or_default();
+    let plain = match (&spec.layers, spec.ops.is_empty() && spec.bank.is_none()) {
         (Some(layers), _) => layers.clone(),
         (None, true) => map.layer_names(),
         (None, false) => Vec::new(),
@@ -150,8 +208,10 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
         let i = layer(name, &mut used)?;
         push(name.clone(), Plane::Copy(i), &mut names, &mut planes)?;
     }
-    let resolution = map.geo.resolution;
-    for op in &spec.ops {
+    let [metres_x, metres_y] = map.geo.cell_metres();
+    let diagonal_metres =
+        (f64::from(map.geo.width) * metres_x).hypot(f64::from(map.geo.height) * metres_y);
+    for op in bank_ops.iter().chain(&spec.ops) {
         match op {
             Op::Normalize { layer: l } => {
                 let i = layer(l, &mut used)?;
@@ -162,8 +222,25 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
                     &mut planes,
                 )?;
             }
-            Op::Blur { layer: l, sigmas } => {
+            Op::Blur {
+                layer: l,
+                sigmas,
+                cells,
+            } => {
                 let i = layer(l, &mut used)?;
+                for &k in cells {
+                    if !(k.is_finite() && k > 0.0) {
+                        return Err(format!(
+                            "blur of '{l}': sigma {k} must be a positive number of cells"
+                        ));
+                    }
+                    push(
+                        format!("{l}/blur_{}c", format_number(k)),
+                        Plane::Blur(i, [k, k]),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
                 for &sigma in sigmas {
                     if !(sigma.is_finite() && sigma > 0.0) {
                         return Err(format!(
@@ -172,7 +249,7 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
                     }
                     push(
                         format!("{l}/blur_{}m", format_number(sigma)),
-                        Plane::Blur(i, sigma / resolution),
+                        Plane::Blur(i, [sigma / metres_x, sigma / metres_y]),
                         &mut names,
                         &mut planes,
                     )?;
@@ -259,8 +336,7 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
                         ));
                     }
                 };
-                let [x0, y0, x1, y1] = map.geo.bounds();
-                let cap = max.unwrap_or_else(|| (x1 - x0).hypot(y1 - y0));
+                let cap = max.unwrap_or(diagonal_metres);
                 push(
                     format!("{l}/distance_to_{label}_m"),
                     Plane::Distance(i, target, cap),
@@ -288,6 +364,88 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
                 push(
                     format!("{a}*{b}"),
                     Plane::Product(ia, ib),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::NormalizedDifference { a, b } => {
+                let (ia, ib) = (layer(a, &mut used)?, layer(b, &mut used)?);
+                push(
+                    format!("nd({a},{b})"),
+                    Plane::NormalizedDifference(ia, ib),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Brightness { layers } => {
+                if layers.is_empty() {
+                    return Err("brightness: name at least one layer".into());
+                }
+                let indices = layers
+                    .iter()
+                    .map(|l| layer(l, &mut used))
+                    .collect::<Result<Vec<_>, _>>()?;
+                push(
+                    "brightness".into(),
+                    Plane::Brightness(indices),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Relief { layer: l, cells } => {
+                let i = layer(l, &mut used)?;
+                for &k in cells {
+                    if !(k.is_finite() && k > 0.0) {
+                        return Err(format!(
+                            "relief of '{l}': sigma {k} must be a positive number of cells"
+                        ));
+                    }
+                    push(
+                        format!("{l}/relief_{}c", format_number(k)),
+                        Plane::Relief(i, [k, k]),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
+            Op::Aspect { layer: l } => {
+                let i = layer(l, &mut used)?;
+                push(
+                    format!("{l}/aspect_deg"),
+                    Plane::Aspect(i),
+                    &mut names,
+                    &mut planes,
+                )?;
+            }
+            Op::Quantile {
+                layer: l,
+                quantiles,
+            } => {
+                let i = layer(l, &mut used)?;
+                for &q in quantiles {
+                    if !(0.0..=1.0).contains(&q) {
+                        return Err(format!("quantile of '{l}': {q} is not within 0 to 1"));
+                    }
+                    let t = quantile_of(&map.layers[i].values, q);
+                    push(
+                        format!("{l}/above_{}", quantile_name(q)),
+                        Plane::Above(i, t),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
+            Op::QuantileDistance { layer: l, q, max } => {
+                let i = layer(l, &mut used)?;
+                if !(0.0..=1.0).contains(q) {
+                    return Err(format!(
+                        "distance of '{l}': quantile {q} is not within 0 to 1"
+                    ));
+                }
+                let t = quantile_of(&map.layers[i].values, *q);
+                push(
+                    format!("{l}/distance_to_above_{}_m", quantile_name(*q)),
+                    Plane::Distance(i, Target::Above(t), max.unwrap_or(diagonal_metres)),
                     &mut names,
                     &mut planes,
                 )?;
@@ -340,7 +498,7 @@ pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
     let (w, h, res) = (
         map.geo.width as usize,
         map.geo.height as usize,
-        map.geo.resolution,
+        map.geo.cell_metres(),
     );
     let n = w * h;
     // Layers with no data, filled; the others are read in place.
@@ -397,6 +555,29 @@ pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
                     .collect();
                 distance_transform(&mask, w, h, res, cap, out);
             }
+            Plane::NormalizedDifference(a, b) => {
+                for ((o, &x), &y) in out.iter_mut().zip(input(a)).zip(input(b)) {
+                    let sum = x + y;
+                    *o = if sum == 0.0 { 0.0 } else { (x - y) / sum };
+                }
+            }
+            Plane::Brightness(ref layers) => {
+                out.fill(0.0);
+                for &i in layers {
+                    for (o, &v) in out.iter_mut().zip(input(i)) {
+                        *o += v;
+                    }
+                }
+                let scale = 1.0 / layers.len() as f32;
+                out.iter_mut().for_each(|o| *o *= scale);
+            }
+            Plane::Relief(i, sigma_cells) => {
+                gaussian_blur(input(i), w, h, sigma_cells, out);
+                for (o, &v) in out.iter_mut().zip(input(i)) {
+                    *o = v - *o;
+                }
+            }
+            Plane::Aspect(i) => aspect(input(i), w, h, res, out),
             Plane::Bias => out.fill(1.0),
             Plane::Product(..) => {}
         });
@@ -427,8 +608,10 @@ mod tests {
                 width: 2,
                 height: 1,
                 resolution: 1.0,
+                resolution_y: None,
                 origin: [0.0, 0.0],
                 frame: "map".into(),
+                degrees: false,
             },
             layers: vec![
                 Layer {
@@ -449,6 +632,7 @@ mod tests {
             ops,
             bias: true,
             nodata_fill: 0.0,
+            bank: None,
         }
     }
 

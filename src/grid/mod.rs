@@ -3,9 +3,12 @@
 //! Conventions (the same as ROS `nav_msgs/OccupancyGrid`): cell (row 0, col 0) is the
 //! south-west corner of the map, columns grow with +x (east) and rows with +y (north);
 //! `origin` is the world position of that cell's outer corner, `resolution` the cell
-//! size in metres. Data are stored row by row.
+//! size in the frame's units (metres, or degrees in a geographic frame). Data are stored
+//! row by row. Whatever the frame, features and planners measure in metres per axis
+//! ([`GeoRef::cell_metres`]), so cells need not be square.
 
 mod demo;
+mod geodesy;
 mod map;
 mod path;
 
@@ -22,12 +25,20 @@ use serde::{Deserialize, Serialize};
 pub struct GeoRef {
     pub width: u32,
     pub height: u32,
-    /// Cell size in metres.
+    /// Cell size along x (east) in frame units: metres, or degrees of longitude.
     pub resolution: f64,
+    /// Cell size along y (north) in frame units, where it differs from `resolution`
+    /// (GeoTIFFs as GDAL writes them are rarely exactly square).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub resolution_y: Option<f64>,
     /// World (x, y) of the outer corner of cell (0, 0).
     pub origin: [f64; 2],
     /// The coordinate frame the origin is given in (e.g. "map").
     pub frame: String,
+    /// Frame units are degrees of longitude (x) and latitude (y): a geographic CRS.
+    /// Lengths on the ground then come from the latitude (`cell_metres`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub degrees: bool,
 }
 
 impl GeoRef {
@@ -37,9 +48,68 @@ impl GeoRef {
             width,
             height,
             resolution: 1.0,
+            resolution_y: None,
             origin: [0.0, 0.0],
             frame: "map".into(),
+            degrees: false,
         }
+    }
+
+    /// Square cells of `resolution` metres with their corner at `origin` in `frame`.
+    pub fn square(width: u32, height: u32, resolution: f64, origin: [f64; 2], frame: &str) -> Self {
+        GeoRef {
+            resolution,
+            origin,
+            frame: frame.into(),
+            ..GeoRef::unit(width, height)
+        }
+    }
+
+    /// Cell size (x, y) in frame units.
+    pub fn cell_size(&self) -> [f64; 2] {
+        [
+            self.resolution,
+            self.resolution_y.unwrap_or(self.resolution),
+        ]
+    }
+
+    /// Cell size (x, y) in metres on the ground. In a geographic frame it is measured
+    /// at the raster's middle latitude on the WGS 84 ellipsoid (rasters spanning many
+    /// degrees of latitude are stretched away from it: `scale_variation` says how much).
+    pub fn cell_metres(&self) -> [f64; 2] {
+        let [sx, sy] = self.cell_size();
+        if !self.degrees {
+            return [sx, sy];
+        }
+        let [east, north] = geodesy::metres_per_degree(self.middle_latitude());
+        [sx * east, sy * north]
+    }
+
+    /// The largest relative difference between the east-west cell size at the raster's
+    /// middle latitude and at its north or south edge: 0 in a projected frame.
+    pub fn scale_variation(&self) -> f64 {
+        if !self.degrees {
+            return 0.0;
+        }
+        let [_, y0, _, y1] = self.bounds();
+        let middle = geodesy::metres_per_degree(self.middle_latitude())[0];
+        [y0, y1]
+            .iter()
+            .map(|&lat| {
+                (geodesy::metres_per_degree(lat.clamp(-90.0, 90.0))[0] / middle - 1.0).abs()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    fn middle_latitude(&self) -> f64 {
+        let [_, y0, _, y1] = self.bounds();
+        (0.5 * (y0 + y1)).clamp(-90.0, 90.0)
+    }
+
+    /// Whether the ground cells are square (within a relative 1e-9).
+    pub fn is_square(&self) -> bool {
+        let [mx, my] = self.cell_metres();
+        (mx - my).abs() <= 1e-9 * mx.max(my)
     }
 
     pub fn cell_count(&self) -> usize {
@@ -61,8 +131,9 @@ impl GeoRef {
 
     /// The cell containing world point (x, y), or `None` off the map.
     pub fn cell_of(&self, x: f64, y: f64) -> Option<Cell> {
-        let col = ((x - self.origin[0]) / self.resolution).floor();
-        let row = ((y - self.origin[1]) / self.resolution).floor();
+        let [sx, sy] = self.cell_size();
+        let col = ((x - self.origin[0]) / sx).floor();
+        let row = ((y - self.origin[1]) / sy).floor();
         let inside =
             col >= 0.0 && row >= 0.0 && col < f64::from(self.width) && row < f64::from(self.height);
         inside.then(|| Cell::new(row as u32, col as u32))
@@ -70,19 +141,21 @@ impl GeoRef {
 
     /// World (x, y) of a cell's centre.
     pub fn center_of(&self, cell: Cell) -> (f64, f64) {
+        let [sx, sy] = self.cell_size();
         (
-            self.origin[0] + (f64::from(cell.col) + 0.5) * self.resolution,
-            self.origin[1] + (f64::from(cell.row) + 0.5) * self.resolution,
+            self.origin[0] + (f64::from(cell.col) + 0.5) * sx,
+            self.origin[1] + (f64::from(cell.row) + 0.5) * sy,
         )
     }
 
     /// The world rectangle the map covers: (min x, min y, max x, max y).
     pub fn bounds(&self) -> [f64; 4] {
+        let [sx, sy] = self.cell_size();
         [
             self.origin[0],
             self.origin[1],
-            self.origin[0] + f64::from(self.width) * self.resolution,
-            self.origin[1] + f64::from(self.height) * self.resolution,
+            self.origin[0] + f64::from(self.width) * sx,
+            self.origin[1] + f64::from(self.height) * sy,
         ]
     }
 
@@ -91,8 +164,10 @@ impl GeoRef {
         if self.width == 0 || self.height == 0 {
             return Err(format!("empty raster ({}x{})", self.width, self.height));
         }
-        if !(self.resolution.is_finite() && self.resolution > 0.0) {
-            return Err(format!("resolution must be > 0, got {}", self.resolution));
+        for size in self.cell_size() {
+            if !(size.is_finite() && size > 0.0) {
+                return Err(format!("resolution must be > 0, got {size}"));
+            }
         }
         if !self.origin.iter().all(|v| v.is_finite()) {
             return Err(format!("origin must be finite, got {:?}", self.origin));
@@ -213,13 +288,7 @@ mod tests {
     use super::*;
 
     fn geo() -> GeoRef {
-        GeoRef {
-            width: 4,
-            height: 3,
-            resolution: 0.5,
-            origin: [10.0, -2.0],
-            frame: "map".into(),
-        }
+        GeoRef::square(4, 3, 0.5, [10.0, -2.0], "map")
     }
 
     #[test]
@@ -252,5 +321,36 @@ mod tests {
         g = geo();
         g.width = 0;
         assert!(g.validate().is_err());
+        g = geo();
+        g.resolution_y = Some(-1.0);
+        assert!(g.validate().is_err());
+    }
+
+    #[test]
+    fn rectangular_cells_place_points_per_axis() {
+        let mut g = geo();
+        g.resolution_y = Some(2.0);
+        assert_eq!(g.center_of(Cell::new(1, 1)), (10.75, 1.0));
+        assert_eq!(g.cell_of(10.75, 1.0), Some(Cell::new(1, 1)));
+        assert_eq!(g.bounds(), [10.0, -2.0, 12.0, 4.0]);
+        assert_eq!(g.cell_metres(), [0.5, 2.0]);
+        assert!(!g.is_square());
+    }
+
+    #[test]
+    fn geographic_cells_are_measured_at_the_middle_latitude() {
+        // 1/1200° cells around 45° N: about 65.7 m east-west and 92.6 m north-south.
+        let mut g = GeoRef::square(120, 120, 1.0 / 1200.0, [7.0, 44.95], "EPSG:4326");
+        g.degrees = true;
+        let [mx, my] = g.cell_metres();
+        assert!((mx - 65.7).abs() < 0.2, "{mx}");
+        assert!((my - 92.6).abs() < 0.2, "{my}");
+        assert!(g.scale_variation() < 0.002);
+        // A whole hemisphere is far from one scale.
+        let world = GeoRef {
+            degrees: true,
+            ..GeoRef::square(100, 80, 1.0, [0.0, 0.0], "EPSG:4326")
+        };
+        assert!(world.scale_variation() > 0.5);
     }
 }

@@ -83,8 +83,10 @@ mod tests {
             width: w,
             height: h,
             resolution: 1.0,
+            resolution_y: None,
             origin: [0.0, 0.0],
             frame: "map".into(),
+            degrees: false,
         }
     }
 

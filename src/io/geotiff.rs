@@ -1,43 +1,124 @@
-//! GeoTIFF map layers through the `tiff` crate: every band becomes a layer (`band1`, ...),
-//! cells equal to the GDAL nodata value become NaN (our nodata mask), and the
-//! georeference comes from the pixel-scale + tiepoint tags or the transformation matrix.
-//! Rasters stored north-up (row 0 at the top) are flipped to our south-first rows.
+//! GeoTIFF map layers through the `tiff` crate, as GDAL and rasterio write them: strips
+//! or tiles, BigTIFF, cloud-optimised files (the full-resolution first image), pixel- or
+//! band-interleaved, uncompressed or LZW, Deflate (with either predictor), PackBits,
+//! ZSTD, JPEG or LERC (`lerc`). Every band becomes a layer (`band1`, ...), cells equal to the GDAL
+//! nodata value become NaN (our nodata mask), and the georeference comes from the
+//! pixel-scale + tiepoint tags or the transformation matrix. Cells may be rectangles;
+//! a geographic CRS keeps its degrees as frame units and is measured in metres from the
+//! latitude (`GeoRef::cell_metres`); projected units in feet become metres. Rasters
+//! stored north-up (row 0 at the top) are flipped to our south-first rows.
 
 use std::io::Cursor;
 use std::path::Path;
 
-use tiff::decoder::{Decoder, DecodingResult};
-use tiff::tags::Tag;
+use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::tags::{PlanarConfiguration, Tag};
 
 use crate::error::{Error, Result, read_input};
 use crate::grid::{GeoRef, Layer, Map};
 
-/// GeoKey ids (GeoTIFF 1.1): raster type and the EPSG codes of the CRS.
+mod lerc;
+
+/// GeoKey ids (GeoTIFF 1.1) and the values we read.
+const GT_MODEL_TYPE: u16 = 1024;
 const GT_RASTER_TYPE: u16 = 1025;
-const PROJECTED_CRS: u16 = 3072;
 const GEOGRAPHIC_CRS: u16 = 2048;
+const GEOG_ANGULAR_UNITS: u16 = 2054;
+const PROJECTED_CRS: u16 = 3072;
+const PROJ_LINEAR_UNITS: u16 = 3076;
+const MODEL_PROJECTED: u16 = 1;
+const MODEL_GEOGRAPHIC: u16 = 2;
+const MODEL_GEOCENTRIC: u16 = 3;
 const PIXEL_IS_POINT: u16 = 2;
+const USER_DEFINED: u16 = 32767;
+const ANGULAR_DEGREE: u16 = 9102;
+const ANGULAR_RADIAN: u16 = 9101;
+
+/// Metres per linear unit, for the EPSG unit codes rasters use.
+fn metres_per_linear_unit(code: u16) -> Option<f64> {
+    match code {
+        9001 => Some(1.0),             // metre
+        9002 => Some(0.3048),          // international foot
+        9003 => Some(1200.0 / 3937.0), // US survey foot
+        9036 => Some(1000.0),          // kilometre
+        _ => None,
+    }
+}
+
+/// Names of the TIFF compression codes GDAL writes, for error messages.
+fn compression_name(code: u16) -> &'static str {
+    match code {
+        1 => "none",
+        5 => "LZW",
+        6 | 7 => "JPEG",
+        8 | 32946 => "Deflate",
+        32773 => "PackBits",
+        34925 => "LZMA",
+        50000 => "ZSTD",
+        50001 => "WebP",
+        50002 => "JPEG XL",
+        _ => "unknown",
+    }
+}
+
+/// TIFF compression code of LERC (Esri's limited-error raster compression).
+const LERC: u16 = 34887;
+
+/// Largest decoded image we accept: the raster must fit in memory as f32 layers anyway.
+const MAX_DECODED_BYTES: usize = 16 << 30;
 
 /// Reads the GeoTIFF at `path` as the map `name`.
 pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let bytes = read_input(path)?;
     let problem = |message: String| Error::input(path, message);
     let tiff_error = |e: tiff::TiffError| problem(format!("not a readable TIFF: {e}"));
-    let mut decoder = Decoder::new(Cursor::new(bytes)).map_err(tiff_error)?;
+    let mut limits = Limits::default();
+    limits.decoding_buffer_size = MAX_DECODED_BYTES;
+    limits.intermediate_buffer_size = MAX_DECODED_BYTES;
+    // Tile offset and byte-count arrays of large tiled rasters pass the 1 MiB default.
+    limits.ifd_value_size = 256 << 20;
+    let mut decoder = Decoder::new(Cursor::new(&bytes[..]))
+        .map_err(tiff_error)?
+        .with_limits(limits);
     let (width, height) = decoder.dimensions().map_err(tiff_error)?;
-    let image = decoder.read_image().map_err(tiff_error)?;
-    let values: Vec<f32> = match image {
-        DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::U64(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::I64(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::F16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::F32(v) => v,
-        DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
+    let compression = decoder
+        .find_tag_unsigned::<u16>(Tag::Compression)
+        .map_err(tiff_error)?
+        .unwrap_or(1);
+    let planar = decoder
+        .find_tag_unsigned::<u16>(Tag::PlanarConfiguration)
+        .map_err(tiff_error)?
+        .and_then(PlanarConfiguration::from_u16)
+        .unwrap_or(PlanarConfiguration::Chunky);
+    let values: Vec<f32> = if compression == LERC {
+        lerc::read(&mut decoder, &bytes, width, height, planar)
+            .map_err(|e| problem(format!("LERC (tag Compression = {compression}): {e}")))?
+    } else {
+        // Into a buffer of the file's sample type, every plane of a band-interleaved
+        // file included (`read_image` would read only the first).
+        let mut image = DecodingResult::U8(Vec::new());
+        decoder
+            .read_image_to_buffer(&mut image)
+            .map_err(|e| match e {
+                tiff::TiffError::UnsupportedError(_) => problem(format!(
+                    "the image cannot be decoded (tag Compression = {compression}, {}): {e}",
+                    compression_name(compression)
+                )),
+                e => tiff_error(e),
+            })?;
+        match image {
+            DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
+            DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
+            DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
+            DecodingResult::U64(v) => v.into_iter().map(|x| x as f32).collect(),
+            DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
+            DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
+            DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
+            DecodingResult::I64(v) => v.into_iter().map(|x| x as f32).collect(),
+            DecodingResult::F16(v) => v.into_iter().map(f32::from).collect(),
+            DecodingResult::F32(v) => v,
+            DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
+        }
     };
     let cells = width as usize * height as usize;
     if cells == 0 || !values.len().is_multiple_of(cells) {
@@ -47,6 +128,15 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         )));
     }
     let bands = values.len() / cells;
+    let samples_per_pixel = decoder
+        .find_tag_unsigned::<u16>(Tag::SamplesPerPixel)
+        .map_err(tiff_error)?
+        .unwrap_or(1) as usize;
+    if bands != samples_per_pixel {
+        return Err(problem(format!(
+            "decoded {bands} of the {samples_per_pixel} bands (tag SamplesPerPixel)"
+        )));
+    }
 
     let keys = decoder
         .find_tag_unsigned_vec::<u16>(Tag::GeoKeyDirectoryTag)
@@ -62,19 +152,21 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let point = key(GT_RASTER_TYPE) == Some(PIXEL_IS_POINT);
     let frame = key(PROJECTED_CRS)
         .or(key(GEOGRAPHIC_CRS))
-        .filter(|&code| code != 0 && code != 32767)
+        .filter(|&code| code != 0 && code != USER_DEFINED)
         .map_or_else(|| "map".to_string(), |code| format!("EPSG:{code}"));
+    let units = crs_units(&key).map_err(problem)?;
 
     // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform).
     let [a, b, c, d, e, f] = geotransform(&mut decoder).map_err(problem)?;
     if b != 0.0 || d != 0.0 {
-        return Err(problem(
-            "the raster is rotated; only axis-aligned rasters are supported".into(),
-        ));
-    }
-    if a <= 0.0 || (a - e.abs()).abs() > 1e-9 * a {
         return Err(problem(format!(
-            "cells of {a} × {} are not square with x growing east",
+            "the raster is rotated (geotransform row/column terms {b}, {d}); only \
+             axis-aligned rasters are supported: warp it first (gdalwarp)"
+        )));
+    }
+    if !(a > 0.0 && e != 0.0 && a.is_finite() && e.is_finite()) {
+        return Err(problem(format!(
+            "cells of {a} × {} are not a valid size with x growing east",
             e.abs()
         )));
     }
@@ -85,21 +177,43 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         (c, f)
     };
     let north_up = e < 0.0;
+    let (x_size, y_size) = (a * units.scale, e.abs() * units.scale);
     let geo = GeoRef {
         width,
         height,
-        resolution: a,
+        resolution: x_size,
+        resolution_y: (y_size != x_size).then_some(y_size),
         origin: [
-            c,
-            if north_up {
-                f + e * f64::from(height)
-            } else {
-                f
-            },
+            c * units.scale,
+            units.scale
+                * if north_up {
+                    f + e * f64::from(height)
+                } else {
+                    f
+                },
         ],
         frame,
+        degrees: units.degrees,
     };
     geo.validate().map_err(problem)?;
+    if geo.degrees {
+        let [_, south, _, north] = geo.bounds();
+        if south < -90.0 - 1e-6 || north > 90.0 + 1e-6 {
+            return Err(problem(format!(
+                "the raster is in degrees but spans latitudes {south} to {north}"
+            )));
+        }
+        let variation = geo.scale_variation();
+        if variation > 0.05 {
+            tracing::warn!(
+                "{}: a geographic raster spanning latitudes {south:.2}° to {north:.2}°: \
+                 cells are measured at the middle latitude, and east-west lengths differ \
+                 by up to {:.0} % at its edges; reproject it (gdalwarp) for exact lengths",
+                path.display(),
+                100.0 * variation
+            );
+        }
+    }
 
     let nodata = decoder
         .find_tag(Tag::GdalNodata)
@@ -111,7 +225,12 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         Some(n) => f64::from(v) == n,
         None => false,
     };
-    let layers = (0..bands)
+    // Where sample `band` of the file's row `row`, column `col` lies in `values`.
+    let sample = |band: usize, row: usize, col: usize| match planar {
+        PlanarConfiguration::Planar => band * cells + row * width as usize + col,
+        _ => (row * width as usize + col) * bands + band,
+    };
+    let layers: Vec<Layer> = (0..bands)
         .map(|band| {
             let mut layer = vec![0f32; cells];
             for row in 0..height as usize {
@@ -121,7 +240,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                     row
                 };
                 for col in 0..width as usize {
-                    let v = values[(source_row * width as usize + col) * bands + band];
+                    let v = values[sample(band, source_row, col)];
                     layer[row * width as usize + col] = if is_nodata(v) { f32::NAN } else { v };
                 }
             }
@@ -131,11 +250,75 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             }
         })
         .collect();
+    if layers.iter().all(|l| l.values.iter().all(|v| v.is_nan())) {
+        return Err(problem(format!(
+            "every cell of every band is nodata (GDAL_NODATA = {})",
+            nodata.map_or("NaN".into(), |n| n.to_string())
+        )));
+    }
     Ok(Map {
         name: name.to_string(),
         geo,
         layers,
     })
+}
+
+/// What the CRS's units are: a factor to metres for projected units, or degrees.
+struct Units {
+    scale: f64,
+    degrees: bool,
+}
+
+/// The units of the raster's CRS from its GeoKeys; an error when they cannot be
+/// measured in metres. A raster without GeoKeys is taken to be in metres.
+fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, String> {
+    let model = key(GT_MODEL_TYPE);
+    let geographic = match model {
+        Some(MODEL_GEOGRAPHIC) => true,
+        Some(MODEL_PROJECTED) => false,
+        Some(MODEL_GEOCENTRIC) => {
+            return Err(
+                "the CRS is geocentric (GeoKey GTModelType = 3): cells cannot be \
+                        measured on the ground; reproject it (gdalwarp)"
+                    .into(),
+            );
+        }
+        // No model type: trust the CRS keys that are there.
+        _ => key(PROJECTED_CRS).is_none() && key(GEOGRAPHIC_CRS).is_some(),
+    };
+    if geographic {
+        return match key(GEOG_ANGULAR_UNITS) {
+            None | Some(ANGULAR_DEGREE) => Ok(Units {
+                scale: 1.0,
+                degrees: true,
+            }),
+            Some(ANGULAR_RADIAN) => Ok(Units {
+                scale: 180.0 / std::f64::consts::PI,
+                degrees: true,
+            }),
+            Some(code) => Err(format!(
+                "the geographic CRS's angular unit {code} (GeoKey GeogAngularUnits) cannot \
+                 be measured in metres; reproject it (gdalwarp -t_srs EPSG:4326)"
+            )),
+        };
+    }
+    match key(PROJ_LINEAR_UNITS) {
+        None => Ok(Units {
+            scale: 1.0,
+            degrees: false,
+        }),
+        Some(code) => metres_per_linear_unit(code)
+            .map(|scale| Units {
+                scale,
+                degrees: false,
+            })
+            .ok_or_else(|| {
+                format!(
+                    "the projected CRS's linear unit {code} (GeoKey ProjLinearUnits) cannot \
+                     be measured in metres; reproject it (gdalwarp)"
+                )
+            }),
+    }
 }
 
 fn geotransform<R: std::io::Read + std::io::Seek>(
@@ -179,17 +362,28 @@ pub fn write_geotiff(path: &Path, geo: &GeoRef, values: &[f32]) -> Result<()> {
     for row in (0..height).rev() {
         north_up.extend_from_slice(&values[row * width..(row + 1) * width]);
     }
-    let top = geo.origin[1] + geo.resolution * f64::from(geo.height);
+    let [x_size, y_size] = geo.cell_size();
+    let top = geo.origin[1] + y_size * f64::from(geo.height);
     let epsg = geo
         .frame
         .strip_prefix("EPSG:")
         .and_then(|code| code.parse::<u16>().ok());
     // GeoKeyDirectory: header (version 1.1.0, key count), then (id, location, count, value).
     let mut keys: Vec<u16> = vec![1, 1, 0, 0];
-    keys.extend_from_slice(&[1024, 0, 1, if epsg.is_some() { 1 } else { 0 }]); // model type
+    let model = match (epsg, geo.degrees) {
+        (_, true) => MODEL_GEOGRAPHIC,
+        (Some(_), false) => MODEL_PROJECTED,
+        (None, false) => 0,
+    };
+    keys.extend_from_slice(&[GT_MODEL_TYPE, 0, 1, model]);
     keys.extend_from_slice(&[GT_RASTER_TYPE, 0, 1, 1]); // PixelIsArea
     if let Some(code) = epsg {
-        keys.extend_from_slice(&[PROJECTED_CRS, 0, 1, code]);
+        let crs = if geo.degrees {
+            GEOGRAPHIC_CRS
+        } else {
+            PROJECTED_CRS
+        };
+        keys.extend_from_slice(&[crs, 0, 1, code]);
     }
     keys[3] = (keys.len() / 4 - 1) as u16;
     let failed = |e: tiff::TiffError| Error::Failed(format!("writing {}: {e}", path.display()));
@@ -199,11 +393,8 @@ pub fn write_geotiff(path: &Path, geo: &GeoRef, values: &[f32]) -> Result<()> {
             .new_image::<tiff::encoder::colortype::Gray32Float>(geo.width, geo.height)
             .map_err(failed)?;
         let tags = image.encoder();
-        tags.write_tag(
-            Tag::ModelPixelScaleTag,
-            &[geo.resolution, geo.resolution, 0.0][..],
-        )
-        .map_err(failed)?;
+        tags.write_tag(Tag::ModelPixelScaleTag, &[x_size, y_size, 0.0][..])
+            .map_err(failed)?;
         tags.write_tag(
             Tag::ModelTiepointTag,
             &[0.0, 0.0, 0.0, geo.origin[0], top, 0.0][..],
@@ -274,14 +465,59 @@ mod tests {
     }
 
     #[test]
+    fn reads_a_world_image_in_degrees_and_measures_it_in_metres() {
+        let Some(path) = raster("rasterio_world.byte.tif") else {
+            return;
+        };
+        let map = read_geotiff(&path, "world").unwrap();
+        let geo = &map.geo;
+        assert_eq!((geo.width, geo.height), (2880, 1200));
+        assert_eq!(geo.frame, "EPSG:4326");
+        assert!(geo.degrees);
+        assert_eq!(geo.cell_size(), [0.125, 0.125]);
+        // Cells of 1/8° are about 13.8 km north-south; the image is centred near the
+        // equator, where a degree of longitude is about as long (13.9 km).
+        let [east, north] = geo.cell_metres();
+        assert!((13_700.0..14_000.0).contains(&north), "{north}");
+        assert!((east / north - 1.0).abs() < 0.02, "{east} {north}");
+        assert!(geo.scale_variation() > 0.05, "it spans many latitudes");
+    }
+
+    #[test]
+    fn crs_units_are_metres_feet_or_degrees_and_nothing_else() {
+        let keys = |pairs: &'static [(u16, u16)]| {
+            move |id: u16| pairs.iter().find(|(k, _)| *k == id).map(|(_, v)| *v)
+        };
+        let projected_feet = crs_units(&keys(&[(1024, 1), (3072, 2263), (3076, 9003)])).unwrap();
+        assert!((projected_feet.scale - 0.3048006).abs() < 1e-6 && !projected_feet.degrees);
+        assert!(
+            crs_units(&keys(&[(1024, 2), (2048, 4326)]))
+                .unwrap()
+                .degrees
+        );
+        assert!(crs_units(&keys(&[])).unwrap().scale == 1.0);
+        let geocentric = crs_units(&keys(&[(1024, 3)])).err().unwrap();
+        assert!(geocentric.contains("geocentric"), "{geocentric}");
+        let odd = crs_units(&keys(&[(1024, 1), (3076, 9005)])).err().unwrap();
+        assert!(
+            odd.contains("ProjLinearUnits") && odd.contains("9005"),
+            "{odd}"
+        );
+        let grads = crs_units(&keys(&[(1024, 2), (2054, 9105)])).err().unwrap();
+        assert!(grads.contains("GeogAngularUnits"), "{grads}");
+    }
+
+    #[test]
     fn written_geotiffs_read_back_with_their_georeference() {
         let dir = tempfile::tempdir().unwrap();
         let geo = GeoRef {
             width: 3,
             height: 2,
             resolution: 2.5,
+            resolution_y: None,
             origin: [500.0, 1000.0],
             frame: "EPSG:32633".into(),
+            degrees: false,
         };
         let values = [1.0, 2.0, f32::NAN, 4.0, 5.0, 6.5];
         let path = dir.path().join("c.tif");
@@ -292,6 +528,19 @@ mod tests {
         assert_eq!(&back[..2], &values[..2]);
         assert!(back[2].is_nan());
         assert_eq!(&back[3..], &values[3..]);
+    }
+
+    #[test]
+    fn rectangular_and_geographic_grids_write_and_read_back() {
+        let dir = tempfile::tempdir().unwrap();
+        let geo = GeoRef {
+            resolution_y: Some(0.01),
+            degrees: true,
+            ..GeoRef::square(3, 2, 0.02, [7.0, 45.0], "EPSG:4326")
+        };
+        let path = dir.path().join("g.tif");
+        write_geotiff(&path, &geo, &[1.0; 6]).unwrap();
+        assert_eq!(read_geotiff(&path, "g").unwrap().geo, geo);
     }
 
     #[test]

@@ -51,8 +51,10 @@ pub fn read_map(path: &Path) -> Result<Grid<f32>> {
         width,
         height,
         resolution: 1.0,
+        resolution_y: None,
         origin: [0.0, 0.0],
         frame: "movingai".into(),
+        degrees: false,
     };
     let mut grid = Grid::filled(geo, f32::INFINITY);
     for (y, (n, line)) in rows.iter().enumerate() {

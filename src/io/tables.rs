@@ -659,8 +659,10 @@ mod tests {
             width: 3,
             height: 2,
             resolution: 0.25,
+            resolution_y: None,
             origin: [1.0, 2.0],
             frame: "odom".into(),
+            degrees: false,
         }
     }
 

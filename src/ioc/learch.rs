@@ -37,10 +37,25 @@ use crate::error::first_error_in_order;
 use crate::features::distance_transform;
 use crate::grid::{Cell, CellPath, FeatureStack, Grid};
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
-use crate::plan::{loss_augmented, path_cost, shortest_path};
+use crate::plan::{StepLengths, loss_augmented, path_cost, shortest_path};
+
+/// The most MaxEnt's log-cost may change on any cell in one round.
+const MAXENT_LOG_COST_STEP: f64 = 10.0;
+
+/// Split candidates of LEARCH's regression trees per feature. A threshold teacher's
+/// step falls between two candidates, and the cells between are mis-costed: 32 (the
+/// trees' default) cost held-out plans 2–15 % on real terrain (`bench terrain`), 256
+/// brings the split within half a percentile.
+pub const TREE_BINS: usize = 256;
 
 /// Augmented costs never drop below this, so every cell stays passable.
 const LOSS_FLOOR: f32 = 1e-6;
+
+/// MMP keeps every cell's linear cost 1 + w·f at least this high by shortening steps
+/// that would go below it (a projection along the step onto the positive costs): the
+/// subgradient otherwise pushes the cost of whole regions to the floor, where every
+/// path costs the same and nothing is learned.
+pub const MMP_COST_MARGIN: f64 = 0.05;
 
 /// A demonstration on one of the maps.
 #[derive(Debug, Clone)]
@@ -98,6 +113,20 @@ pub enum WeakLearnerKind {
     Ridge,
     /// Depth-limited regression trees: a nonlinear cost.
     Tree,
+    /// Ridge and trees in turn (ridge in rounds 1, 3, ...): a log-linear trend, and
+    /// trees for the nonlinear rest.
+    Alternate,
+}
+
+impl WeakLearnerKind {
+    /// The learner fitted in round `t` (from 0).
+    fn in_round(self, t: usize) -> WeakLearnerKind {
+        match self {
+            WeakLearnerKind::Alternate if t.is_multiple_of(2) => WeakLearnerKind::Ridge,
+            WeakLearnerKind::Alternate => WeakLearnerKind::Tree,
+            kind => kind,
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -152,7 +181,10 @@ impl Default for LearchConfig {
             loss_sigma: 2.0,
             schedule_offset: 1.0,
             weak_learner: WeakLearnerKind::Ridge,
-            tree: TreeConfig::default(),
+            tree: TreeConfig {
+                bins: TREE_BINS,
+                ..TreeConfig::default()
+            },
             patience: None,
             horizon_factor: 1.5,
             window_margin: 6,
@@ -187,6 +219,11 @@ pub struct RoundMetrics {
     /// Agreement with the validation demonstrations, which early stopping watches.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub validation: Option<Agreement>,
+    /// MMP: the subgradient step would have taken some cell's linear cost below
+    /// `MMP_COST_MARGIN`, and was projected back onto the positive costs (absent when
+    /// it was not).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub projected_to_margin: bool,
 }
 
 /// Training so far: what a checkpoint holds and a resumed run starts from. Training is
@@ -238,7 +275,7 @@ fn loss_shares(stack: &FeatureStack, ex: &Example, config: &LearchConfig) -> Vec
                 &on_path,
                 w,
                 h,
-                1.0,
+                [1.0; 2],
                 f64::from(geo.width + geo.height),
                 &mut distance,
             );
@@ -336,7 +373,8 @@ pub fn train(
             .collect::<Vec<_>>();
         let gradients = first_error_in_order(gradients)?;
         let step = config.step(t);
-        let learner = match (config.method, config.weak_learner) {
+        let mut projected_to_margin = false;
+        let learner = match (config.method, config.weak_learner.in_round(t)) {
             (GridMethod::Mmp | GridMethod::Maxent, _) => {
                 // The mean over demonstrated steps, plus the ridge penalty's pull.
                 let steps = gradients.iter().map(|g| g.steps).sum::<usize>().max(1) as f64;
@@ -351,8 +389,36 @@ pub fn train(
                 // with the cost it multiplies, and would otherwise overshoot into
                 // ever larger costs.
                 let norm = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+                if !norm.is_finite() {
+                    return Err(format!(
+                        "{} round {}: the gradient is not finite (costs overflowed); \
+                         lower --step-size or scale the features",
+                        config.method.name(),
+                        t + 1
+                    ));
+                }
                 if norm > 1.0 {
                     direction.iter_mut().for_each(|d| *d /= norm);
+                }
+                if config.method == GridMethod::Maxent {
+                    // A trust region in log-cost: no cell's cost changes by more than a
+                    // factor e^MAXENT_LOG_COST_STEP in one round. A unit step on the
+                    // scaled weights can still move the log-cost by hundreds on cells
+                    // where a heavy-tailed feature is far from its mean, and the soft
+                    // values then overflow.
+                    let largest = largest_change(stacks, &model.scale, step, &direction);
+                    if largest > MAXENT_LOG_COST_STEP {
+                        let shrink = MAXENT_LOG_COST_STEP / largest;
+                        direction.iter_mut().for_each(|d| *d *= shrink);
+                    }
+                }
+                if config.method == GridMethod::Mmp {
+                    let (projected, moved) =
+                        project_onto_positive_costs(&model, stacks, step, &direction);
+                    if moved {
+                        direction = projected;
+                        projected_to_margin = true;
+                    }
                 }
                 WeakLearner::ridge(step, direction)
             }
@@ -363,7 +429,7 @@ pub fn train(
                 }
                 WeakLearner::ridge(step, data.solve(config.ridge_lambda))
             }
-            (GridMethod::Learch, WeakLearnerKind::Tree) => {
+            (GridMethod::Learch, _) => {
                 let dims = model.feature_names.len();
                 let points = gradients.iter().flat_map(|g| &g.points);
                 let (mut x, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
@@ -391,6 +457,7 @@ pub fn train(
             disagreeing_cells: gradients.iter().map(|g| g.disagreeing_cells).sum(),
             holdout: holdout_agreement,
             validation: validation_agreement,
+            projected_to_margin,
         };
         tracing::debug!(round = t + 1, weights = ?model.raw_weights, "learch model");
         let agreement = metrics.validation.as_ref().map(|v| v.within_radius);
@@ -414,6 +481,102 @@ pub fn train(
         rounds: progress.rounds,
         kept_round,
     })
+}
+
+/// The largest |Δs| over every cell of every map of the linear step `step · direction`
+/// on scaled features.
+fn largest_change(stacks: &[FeatureStack], scale: &[f64], step: f64, direction: &[f64]) -> f64 {
+    let change: Vec<f64> = direction
+        .iter()
+        .zip(scale)
+        .map(|(d, s)| step * d / s)
+        .collect();
+    stacks
+        .par_iter()
+        .map(|stack| {
+            let mut ds = vec![0.0f64; stack.geo.cell_count()];
+            for (plane, &dw) in stack.planes().zip(&change) {
+                if dw != 0.0 {
+                    for (ds, &f) in ds.iter_mut().zip(plane) {
+                        *ds += dw * f64::from(f);
+                    }
+                }
+            }
+            ds.iter().fold(0.0f64, |m, d| m.max(d.abs()))
+        })
+        .reduce(|| 0.0, f64::max)
+}
+
+/// Projects MMP's step onto the costs that stay positive: the new scaled weights u
+/// (u·x = s on scaled features x) are moved, one violated cell at a time, onto the
+/// half-space 1 + u·x ≥ `MMP_COST_MARGIN` of the cell whose cost is lowest (the
+/// alternating projections of Kaczmarz), until no cell of any map is below the margin
+/// or `MAX_PROJECTIONS` were made. Returns the projected direction (so that
+/// `step · direction` is the projected step) and whether it moved.
+fn project_onto_positive_costs(
+    model: &LogCostModel,
+    stacks: &[FeatureStack],
+    step: f64,
+    direction: &[f64],
+) -> (Vec<f64>, bool) {
+    const MAX_PROJECTIONS: usize = 64;
+    let before = model.scaled_weights();
+    let mut u: Vec<f64> = before
+        .iter()
+        .zip(direction)
+        .map(|(w, d)| w + step * d)
+        .collect();
+    let mut moved = false;
+    let mut x = vec![0.0f64; u.len()];
+    let mut raw = vec![0.0f32; u.len()];
+    for _ in 0..MAX_PROJECTIONS {
+        // The cheapest cell over every map (first in map, then cell order on ties).
+        let weights: Vec<f64> = u.iter().zip(&model.scale).map(|(u, s)| u / s).collect();
+        let lowest = stacks
+            .par_iter()
+            .enumerate()
+            .map(|(m, stack)| {
+                let mut cost = vec![1.0f64; stack.geo.cell_count()];
+                for (plane, &w) in stack.planes().zip(&weights) {
+                    for (c, &f) in cost.iter_mut().zip(plane) {
+                        *c += w * f64::from(f);
+                    }
+                }
+                let (i, c) = cost
+                    .iter()
+                    .enumerate()
+                    .fold(
+                        (0, f64::INFINITY),
+                        |best, (i, &c)| if c < best.1 { (i, c) } else { best },
+                    );
+                (c, m, i)
+            })
+            .reduce(
+                || (f64::INFINITY, usize::MAX, 0),
+                |a, b| {
+                    if b.0 < a.0 || (b.0 == a.0 && b.1 < a.1) {
+                        b
+                    } else {
+                        a
+                    }
+                },
+            );
+        let (cost, m, i) = lowest;
+        if m == usize::MAX || cost >= MMP_COST_MARGIN * (1.0 - 1e-9) {
+            break;
+        }
+        stacks[m].cell_into(i, &mut raw);
+        model.scaled(&raw, &mut x);
+        let norm2 = x.iter().map(|v| v * v).sum::<f64>();
+        if norm2 == 0.0 {
+            break;
+        }
+        let lift = (MMP_COST_MARGIN - cost) / norm2;
+        u.iter_mut().zip(&x).for_each(|(u, x)| *u += lift * x);
+        moved = true;
+    }
+    let projected = u.iter().zip(&before).map(|(u, w)| (u - w) / step).collect();
+    (projected, moved)
 }
 
 /// Splits examples into (training, held out), holding out every `k`-th from the first:
@@ -551,14 +714,10 @@ fn planned_gradient(
     if config.method == GridMethod::Mmp {
         // Φ(plan) − Φ(demo), each step's length split between its two cells.
         let mut incidence: BTreeMap<usize, f64> = BTreeMap::new();
+        let lengths = StepLengths::of(geo);
         for (path, sign) in [(&route.cells, 1.0), (&ex.path, -1.0)] {
             for pair in path.windows(2) {
-                let diagonal = pair[0].row != pair[1].row && pair[0].col != pair[1].col;
-                let half = if diagonal {
-                    std::f64::consts::FRAC_1_SQRT_2
-                } else {
-                    0.5
-                };
+                let half = 0.5 * lengths.between(pair[0], pair[1]);
                 for cell in pair {
                     *incidence.entry(geo.index(*cell)).or_default() += sign * half;
                 }
@@ -576,6 +735,10 @@ fn planned_gradient(
             match config.weak_learner {
                 WeakLearnerKind::Ridge => data.add(&x, target, weight),
                 WeakLearnerKind::Tree => points.push((x.clone(), target, weight)),
+                WeakLearnerKind::Alternate => {
+                    data.add(&x, target, weight);
+                    points.push((x.clone(), target, weight));
+                }
             }
         }
     }
@@ -612,7 +775,7 @@ fn maxent_gradient(
         return Err(unreachable(ex));
     }
     let expected = soft.visitation(start);
-    let demonstrated = path_incidence(&window, &ex.path);
+    let demonstrated = path_incidence(&window, &ex.path, &StepLengths::of(geo));
     let cost_at = |i: usize| f64::from(costs.get(window.cell(i)));
     let direction = weighted_features(
         model,
@@ -640,26 +803,32 @@ fn maxent_gradient(
 /// penalty treats features in metres and in [0, 1] alike; constant features (such as
 /// the bias) keep scale 1.
 fn feature_scales(stacks: &[FeatureStack]) -> Vec<f64> {
+    // Two passes (mean, then squared deviations): a constant feature then has a spread
+    // of exactly 0, where E[x²] − E[x]² leaves rounding noise that would pass for a
+    // tiny scale and blow the feature up (a distance capped everywhere, an indicator
+    // that never fires).
     let dim = stacks[0].dim();
-    let mut sum = vec![0.0f64; dim];
-    let mut sum_sq = vec![0.0f64; dim];
-    let mut count = 0usize;
-    for stack in stacks {
-        for (j, plane) in stack.planes().enumerate() {
-            for &v in plane {
-                let v = f64::from(v);
-                sum[j] += v;
-                sum_sq[j] += v * v;
-            }
-        }
-        count += stack.geo.cell_count();
-    }
+    let count: usize = stacks.iter().map(|s| s.geo.cell_count()).sum();
     let n = count.max(1) as f64;
     (0..dim)
         .map(|j| {
-            let mean = sum[j] / n;
-            let sd = (sum_sq[j] / n - mean * mean).max(0.0).sqrt();
-            if sd > 1e-9 * mean.abs().max(1.0) {
+            let mean = stacks
+                .iter()
+                .map(|s| s.plane(j).iter().map(|&v| f64::from(v)).sum::<f64>())
+                .sum::<f64>()
+                / n;
+            let variance = stacks
+                .iter()
+                .map(|s| {
+                    s.plane(j)
+                        .iter()
+                        .map(|&v| (f64::from(v) - mean).powi(2))
+                        .sum::<f64>()
+                })
+                .sum::<f64>()
+                / n;
+            let sd = variance.sqrt();
+            if sd > 1e-6 * mean.abs().max(1.0) {
                 sd
             } else {
                 1.0
@@ -691,6 +860,7 @@ mod tests {
             ops: Vec::new(),
             bias: true,
             nodata_fill: 0.0,
+            bank: None,
         };
         let stacks: Vec<FeatureStack> = world
             .maps
@@ -859,6 +1029,21 @@ mod tests {
     }
 
     #[test]
+    fn constant_features_get_unit_scale() {
+        let mut stack = FeatureStack {
+            geo: crate::grid::GeoRef::unit(3, 3),
+            names: vec!["capped".into(), "varied".into()],
+            data: vec![1234.567f32; 18],
+        };
+        for (i, v) in stack.data[9..].iter_mut().enumerate() {
+            *v = i as f32;
+        }
+        let scales = feature_scales(&[stack]);
+        assert_eq!(scales[0], 1.0);
+        assert!((scales[1] - (60.0f64 / 9.0).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
     fn mmp_learns_a_linear_cost_that_plans_like_the_demonstrations() {
         let trained = learn_with(GridMethod::Mmp, 20);
         assert_eq!(trained.model.link, CostLink::Linear);
@@ -870,6 +1055,17 @@ mod tests {
         let agreement = last.holdout.clone().unwrap();
         assert!(agreement.within_radius >= 0.85, "{agreement:?}");
         assert!(trained.model.learners.iter().all(|l| l.tree.is_none()));
+        // Projected onto the positive costs: no cell ever sits at the floor.
+        let (stacks, ..) = held_out_world();
+        for stack in &stacks {
+            let lowest = trained
+                .model
+                .costmap(stack)
+                .data
+                .into_iter()
+                .fold(f32::INFINITY, f32::min);
+            assert!(f64::from(lowest) >= 0.999 * MMP_COST_MARGIN, "{lowest}");
+        }
     }
 
     #[test]

@@ -124,8 +124,10 @@ mod tests {
             width: 8,
             height: 8,
             resolution: 1.0,
+            resolution_y: None,
             origin: [0.0, 0.0],
             frame: "m".into(),
+            degrees: false,
         };
         let costs = Grid::filled(geo, 1.0f32);
         let demo: Vec<Cell> = (0..8).map(|i| Cell::new(i, i)).collect();

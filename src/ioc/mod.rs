@@ -8,7 +8,7 @@ pub mod soft_paths;
 pub mod tabular;
 
 pub use learch::{
-    Example, GridMethod, LearchConfig, LossKind, Progress, RoundMetrics, StepSchedule,
+    Example, GridMethod, LearchConfig, LossKind, Progress, RoundMetrics, StepSchedule, TREE_BINS,
     TrainedLearch, WeakLearnerKind, evaluate as learch_evaluate, hold_out_every, train,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};

@@ -16,17 +16,19 @@
 //! its neighbourhood rather than to the map.
 
 use crate::grid::{Cell, Grid};
+use crate::plan::StepLengths;
 
-/// Moves: (row, column) offset and length, orthogonal first.
-const MOVES: [(i32, i32, f64); 8] = [
-    (-1, 0, 1.0),
-    (0, -1, 1.0),
-    (0, 1, 1.0),
-    (1, 0, 1.0),
-    (-1, -1, std::f64::consts::SQRT_2),
-    (-1, 1, std::f64::consts::SQRT_2),
-    (1, -1, std::f64::consts::SQRT_2),
-    (1, 1, std::f64::consts::SQRT_2),
+/// Moves: (row, column) offset, orthogonal first; their lengths come from the map's
+/// cells (`StepLengths`), as the planner's.
+const MOVES: [(i32, i32); 8] = [
+    (-1, 0),
+    (0, -1),
+    (0, 1),
+    (1, 0),
+    (-1, -1),
+    (-1, 1),
+    (1, -1),
+    (1, 1),
 ];
 
 /// A rectangle of a map's cells.
@@ -86,8 +88,13 @@ impl Window {
     }
 
     /// The window's neighbour of `index` by move `m`, with the move's length.
-    fn step(&self, index: usize, m: usize) -> Option<(usize, f64)> {
-        let (dr, dc, length) = MOVES[m];
+    fn step(&self, index: usize, m: usize, lengths: &StepLengths) -> Option<(usize, f64)> {
+        let (dr, dc) = MOVES[m];
+        let length = match (dr != 0, dc != 0) {
+            (true, true) => lengths.diagonal,
+            (true, false) => lengths.y,
+            _ => lengths.x,
+        };
         let cols = self.cols as i64;
         let (r, c) = (
             (index as i64) / cols + dr as i64,
@@ -151,11 +158,12 @@ impl SoftGoal {
                 }
             })
             .collect();
+        let lengths = StepLengths::of(&costs.geo);
         let mut next = vec![0u32; n * 8];
         let (mut edge, mut length) = (vec![0.0; n * 8], vec![0.0; n * 8]);
         for x in 0..n {
             for m in 0..8 {
-                let (y, l) = window.step(x, m).unwrap_or((x, 0.0));
+                let (y, l) = window.step(x, m, &lengths).unwrap_or((x, 0.0));
                 next[x * 8 + m] = y as u32;
                 length[x * 8 + m] = l;
                 edge[x * 8 + m] = if l == 0.0 {
@@ -262,16 +270,12 @@ impl SoftGoal {
     }
 }
 
-/// Edge incidence of a path on a window (see `Visitation::incidence`).
-pub fn path_incidence(window: &Window, path: &[Cell]) -> Vec<f64> {
+/// Edge incidence of a path on a window (see `Visitation::incidence`), with the steps
+/// of the map's cells.
+pub fn path_incidence(window: &Window, path: &[Cell], lengths: &StepLengths) -> Vec<f64> {
     let mut incidence = vec![0.0; window.len()];
     for pair in path.windows(2) {
-        let diagonal = pair[0].row != pair[1].row && pair[0].col != pair[1].col;
-        let half = if diagonal {
-            std::f64::consts::SQRT_2 * 0.5
-        } else {
-            0.5
-        };
+        let half = lengths.between(pair[0], pair[1]) * 0.5;
         incidence[window.index(pair[0])] += half;
         incidence[window.index(pair[1])] += half;
     }
@@ -304,7 +308,7 @@ mod tests {
         if left == 0 {
             return;
         }
-        for (dr, dc, _) in MOVES {
+        for (dr, dc) in MOVES {
             let (r, c) = (here.row as i64 + dr as i64, here.col as i64 + dc as i64);
             let next = Cell::new(r as u32, c as u32);
             if r < 0 || c < 0 || !costs.geo.contains(next) || !costs.get(next).is_finite() {
@@ -341,7 +345,10 @@ mod tests {
             for &c in p {
                 visits[window.index(c)] += w / z;
             }
-            for (i, v) in path_incidence(&window, p).iter().enumerate() {
+            for (i, v) in path_incidence(&window, p, &StepLengths::SQUARE)
+                .iter()
+                .enumerate()
+            {
                 incidence[i] += v * w / z;
             }
         }

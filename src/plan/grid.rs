@@ -8,7 +8,7 @@ use std::collections::BinaryHeap;
 use serde::{Deserialize, Serialize};
 
 use super::queue::{Buckets, Heap, MinQueue};
-use super::relax::{self, CLOSED, NO_PARENT, Node};
+use super::relax::{self, CLOSED, NO_PARENT, Node, StepLengths};
 use crate::grid::{Cell, CellPath, GeoRef, Grid};
 
 const SQRT_2: f64 = std::f64::consts::SQRT_2;
@@ -45,18 +45,44 @@ pub struct Route {
     pub cost: f64,
 }
 
-/// Cost of one step between neighbouring cells with costs `a` and `b`.
-pub fn edge_cost(a: f32, b: f32, diagonal: bool) -> f64 {
-    let length = if diagonal { SQRT_2 } else { 1.0 };
+/// Cost of one step of `length` between neighbouring cells with costs `a` and `b`.
+pub fn edge_cost(a: f32, b: f32, length: f64) -> f64 {
     length * 0.5 * (f64::from(a) + f64::from(b))
+}
+
+impl StepLengths {
+    /// The steps of a raster's cells, in units of its shorter cell side.
+    pub fn of(geo: &GeoRef) -> Self {
+        Self::of_cells(geo.cell_metres())
+    }
+
+    /// The length of the step between neighbours `a` and `b`.
+    pub fn between(&self, a: Cell, b: Cell) -> f64 {
+        match (a.row != b.row, a.col != b.col) {
+            (true, true) => self.diagonal,
+            (true, false) => self.y,
+            _ => self.x,
+        }
+    }
+}
+
+/// Metres in one unit of step length on `geo`: costs of routes times this are cost ×
+/// metres.
+pub fn unit_step_metres(geo: &GeoRef) -> f64 {
+    let [mx, my] = geo.cell_metres();
+    mx.min(my)
 }
 
 /// Cost of a connected path under `costs` (sum of its edge costs).
 pub fn path_cost(costs: &Grid<f32>, path: &[Cell]) -> f64 {
+    let lengths = StepLengths::of(&costs.geo);
     path.windows(2)
         .map(|w| {
-            let diagonal = w[0].row != w[1].row && w[0].col != w[1].col;
-            edge_cost(costs.get(w[0]), costs.get(w[1]), diagonal)
+            edge_cost(
+                costs.get(w[0]),
+                costs.get(w[1]),
+                lengths.between(w[0], w[1]),
+            )
         })
         .sum()
 }
@@ -128,6 +154,7 @@ pub struct GridPlanner {
     height: usize,
     nodes: Vec<Node>,
     moves: Moves,
+    lengths: StepLengths,
     min_cost: f64,
     max_cost: f64,
     /// Cells reached by the current query, to reset before the next one.
@@ -161,6 +188,7 @@ struct AstarOpen<const N: usize> {
     goal_row: u32,
     goal_col: u32,
     min_cost: f64,
+    lengths: StepLengths,
 }
 
 impl<const N: usize> AstarOpen<N> {
@@ -169,10 +197,18 @@ impl<const N: usize> AstarOpen<N> {
         let node = node as u32;
         let dr = f64::from((node / self.row).abs_diff(self.goal_row));
         let dc = f64::from((node % self.row).abs_diff(self.goal_col));
-        let steps = if N == 8 {
-            dr.max(dc) + (SQRT_2 - 1.0) * dr.min(dc)
+        let steps = if self.lengths == StepLengths::SQUARE {
+            if N == 8 {
+                dr.max(dc) + (SQRT_2 - 1.0) * dr.min(dc)
+            } else {
+                dr + dc
+            }
         } else {
-            dr + dc
+            // As many diagonal steps as both offsets allow, then straight ones: a
+            // diagonal is never longer than its two sides.
+            let (x, y) = (self.lengths.x, self.lengths.y);
+            let diagonals = if N == 8 { dr.min(dc) } else { 0.0 };
+            diagonals * self.lengths.diagonal + (dr - diagonals) * y + (dc - diagonals) * x
         };
         steps * self.min_cost
     }
@@ -201,6 +237,7 @@ fn expand<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
     nodes: &mut [Node],
     row: usize,
     u: usize,
+    lengths: &StepLengths,
     frontier: &mut impl Frontier,
     touched: &mut Vec<u32>,
 ) {
@@ -209,7 +246,7 @@ fn expand<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
     let relax::Candidates {
         costs,
         mut improved,
-    } = unsafe { relax::candidates(nodes, row, u) };
+    } = unsafe { relax::candidates(nodes, row, u, lengths) };
     let neighbours = relax::neighbours(u, row);
     if N == 4 {
         improved &= 0b1111;
@@ -303,6 +340,7 @@ impl GridPlanner {
             height: h,
             nodes,
             moves,
+            lengths: StepLengths::of(&costs.geo),
             min_cost,
             max_cost,
             touched: Vec::new(),
@@ -335,8 +373,8 @@ impl GridPlanner {
 
     fn longest_step(&self) -> f64 {
         match self.moves.connectivity {
-            Connectivity::Four => 1.0,
-            Connectivity::Eight => SQRT_2,
+            Connectivity::Four => self.lengths.x.max(self.lengths.y),
+            Connectivity::Eight => self.lengths.longest(),
         }
     }
 
@@ -405,7 +443,12 @@ impl GridPlanner {
             }
         }
         let row = self.width + 2;
-        let GridPlanner { nodes, touched, .. } = self;
+        let GridPlanner {
+            nodes,
+            touched,
+            lengths,
+            ..
+        } = self;
         while let Some(u) = queue.pop() {
             let u = u as usize;
             if nodes[u].link & CLOSED != 0 {
@@ -418,7 +461,7 @@ impl GridPlanner {
             if let Some(next) = queue.peek(PREFETCH_AHEAD) {
                 prefetch_rows(nodes, next as usize, row);
             }
-            expand::<N, NO_CORNER_CUTTING, TRACK>(nodes, row, u, &mut queue, touched);
+            expand::<N, NO_CORNER_CUTTING, TRACK>(nodes, row, u, lengths, &mut queue, touched);
         }
     }
 
@@ -442,10 +485,16 @@ impl GridPlanner {
             goal_row: (g / row) as u32,
             goal_col: (g % row) as u32,
             min_cost: self.min_cost,
+            lengths: self.lengths,
         };
         self.start(s);
         open.reached(s, f64::INFINITY, 0.0);
-        let GridPlanner { nodes, touched, .. } = self;
+        let GridPlanner {
+            nodes,
+            touched,
+            lengths,
+            ..
+        } = self;
         while let Some(Reverse(key)) = open.heap.pop() {
             let u = key as u32 as usize;
             if nodes[u].link & CLOSED != 0 {
@@ -455,7 +504,7 @@ impl GridPlanner {
             if u == g {
                 break;
             }
-            expand::<N, NO_CORNER_CUTTING, TRACK>(nodes, row, u, &mut open, touched);
+            expand::<N, NO_CORNER_CUTTING, TRACK>(nodes, row, u, lengths, &mut open, touched);
         }
     }
 
@@ -601,8 +650,8 @@ mod tests {
                 for j in 0..n {
                     let b = costs.geo.cell_at(j);
                     if step_allowed(costs, a, b, moves) {
-                        let diagonal = a.row != b.row && a.col != b.col;
-                        let d = dist[i] + edge_cost(costs.data[i], costs.data[j], diagonal);
+                        let length = StepLengths::of(&costs.geo).between(a, b);
+                        let d = dist[i] + edge_cost(costs.data[i], costs.data[j], length);
                         if d < dist[j] {
                             dist[j] = d;
                         }
@@ -631,8 +680,14 @@ mod tests {
                 prop::collection::vec(prop_oneof![4 => 0.1f32..10.0, 1 => Just(f32::INFINITY)], n),
                 0..n,
                 0..n,
+                // Square cells, or rectangles either way round.
+                prop_oneof![2 => Just(None), 1 => (0.3f64..3.0).prop_map(Some)],
             )
-                .prop_map(move |(data, s, t)| (grid(w, h, data), s, t))
+                .prop_map(move |(data, s, t, resolution_y)| {
+                    let mut g = grid(w, h, data);
+                    g.geo.resolution_y = resolution_y;
+                    (g, s, t)
+                })
         })
     }
 

@@ -12,6 +12,7 @@ mod relax;
 
 pub use grid::{
     Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
-    loss_augmented, path_cost, shortest_path, visitation,
+    loss_augmented, path_cost, shortest_path, unit_step_metres, visitation,
 };
 pub use mdp::{Backup, TabularMdp, Values, value_iteration, value_iteration_from};
+pub use relax::StepLengths;

@@ -44,8 +44,49 @@ pub fn neighbours(u: usize, row: usize) -> [usize; 8] {
     [up, u - 1, u + 1, down, up - 1, up + 1, down - 1, down + 1]
 }
 
-/// Step length to neighbour `k`.
-const LENGTHS: [f64; 8] = [1.0, 1.0, 1.0, 1.0, SQRT_2, SQRT_2, SQRT_2, SQRT_2];
+/// How long a step is along x, along y and diagonally, in units of the shorter cell
+/// side: 1, 1 and √2 on square cells. Cells are rectangles where a raster's cells are
+/// not square, or in degrees away from the equator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepLengths {
+    pub x: f64,
+    pub y: f64,
+    pub diagonal: f64,
+}
+
+impl StepLengths {
+    pub const SQUARE: StepLengths = StepLengths {
+        x: 1.0,
+        y: 1.0,
+        diagonal: SQRT_2,
+    };
+
+    /// The steps of cells `metres` = (x, y) on the ground.
+    pub fn of_cells(metres: [f64; 2]) -> Self {
+        let [mx, my] = metres;
+        if (mx - my).abs() <= 1e-9 * mx.max(my) {
+            return Self::SQUARE;
+        }
+        let unit = mx.min(my);
+        let (x, y) = (mx / unit, my / unit);
+        StepLengths {
+            x,
+            y,
+            diagonal: x.hypot(y),
+        }
+    }
+
+    /// Lengths to the neighbours in `neighbours` order.
+    pub fn by_neighbour(&self) -> [f64; 8] {
+        let (x, y, d) = (self.x, self.y, self.diagonal);
+        [y, x, x, y, d, d, d, d]
+    }
+
+    /// The longest single step.
+    pub fn longest(&self) -> f64 {
+        self.diagonal
+    }
+}
 
 /// A node's tentative costs for its eight neighbours (in `neighbours` order), and bit `k`
 /// set where neighbour `k`'s cost would go down. Blocked neighbours need no test: their
@@ -62,17 +103,22 @@ pub struct Candidates {
 /// column of nodes around it inside `nodes` (the planner's blocked border), so that all
 /// its neighbours lie within `nodes`.
 #[inline(always)]
-pub unsafe fn candidates(nodes: &[Node], row: usize, u: usize) -> Candidates {
+pub unsafe fn candidates(
+    nodes: &[Node],
+    row: usize,
+    u: usize,
+    lengths: &StepLengths,
+) -> Candidates {
     debug_assert!(u > row && u + row + 1 < nodes.len());
     #[cfg(target_arch = "x86_64")]
     // SAFETY: as the caller promises.
     unsafe {
-        sse2::candidates(nodes, row, u)
+        sse2::candidates(nodes, row, u, lengths)
     }
     #[cfg(not(target_arch = "x86_64"))]
     // SAFETY: as the caller promises.
     unsafe {
-        candidates_scalar(nodes, row, u)
+        candidates_scalar(nodes, row, u, lengths)
     }
 }
 
@@ -83,7 +129,13 @@ pub unsafe fn candidates(nodes: &[Node], row: usize, u: usize) -> Candidates {
 /// As for `candidates`.
 #[inline(always)]
 #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-pub unsafe fn candidates_scalar(nodes: &[Node], row: usize, u: usize) -> Candidates {
+pub unsafe fn candidates_scalar(
+    nodes: &[Node],
+    row: usize,
+    u: usize,
+    lengths: &StepLengths,
+) -> Candidates {
+    let lengths = lengths.by_neighbour();
     let du = nodes[u].dist;
     let hu = f64::from(nodes[u].half);
     let mut costs = [0.0f64; 8];
@@ -91,7 +143,7 @@ pub unsafe fn candidates_scalar(nodes: &[Node], row: usize, u: usize) -> Candida
     for (k, v) in neighbours(u, row).into_iter().enumerate() {
         // SAFETY: the caller promises the neighbours lie within `nodes`.
         let node = unsafe { nodes.get_unchecked(v) };
-        costs[k] = du + LENGTHS[k] * (hu + f64::from(node.half));
+        costs[k] = du + lengths[k] * (hu + f64::from(node.half));
         improved |= u32::from(costs[k] < node.dist) << k;
     }
     Candidates { costs, improved }
@@ -101,7 +153,7 @@ pub unsafe fn candidates_scalar(nodes: &[Node], row: usize, u: usize) -> Candida
 mod sse2 {
     use std::arch::x86_64::*;
 
-    use super::{Candidates, Node, SQRT_2};
+    use super::{Candidates, Node, StepLengths};
 
     /// Vector lane of neighbour `k`: lanes run along the row above (up-left, up,
     /// up-right), then left, along the row below, then right, as the loads come.
@@ -154,14 +206,23 @@ mod sse2 {
     /// # Safety
     /// As for `super::candidates`.
     #[inline(always)]
-    pub unsafe fn candidates(nodes: &[Node], row: usize, u: usize) -> Candidates {
+    pub unsafe fn candidates(
+        nodes: &[Node],
+        row: usize,
+        u: usize,
+        lengths: &StepLengths,
+    ) -> Candidates {
         let p = nodes.as_ptr();
         // SAFETY: as the caller promises, every node read lies within `nodes`.
         unsafe {
             let du = _mm_set1_pd((*p.add(u)).dist);
             let hu = _mm_set1_pd(f64::from((*p.add(u)).half));
-            // Both pairs of a row are a corner, then an orthogonal neighbour.
-            let lengths = _mm_setr_pd(SQRT_2, 1.0);
+            // Both pairs of a row are a corner, then an orthogonal neighbour: above and
+            // below along y in the first pair, left and right along x in the second.
+            let pair_lengths = [
+                _mm_setr_pd(lengths.diagonal, lengths.y),
+                _mm_setr_pd(lengths.diagonal, lengths.x),
+            ];
             let (up, down) = (u - row, u + row);
             let rows = [
                 three_and_one(p, up - 1, u - 1),
@@ -173,7 +234,7 @@ mod sse2 {
                 for (j, (dist, half)) in pairs.into_iter().enumerate() {
                     let lane = 4 * r + 2 * j;
                     // du + length × (hu + half): the scalar path's operations, in order.
-                    let cost = _mm_add_pd(du, _mm_mul_pd(lengths, _mm_add_pd(hu, half)));
+                    let cost = _mm_add_pd(du, _mm_mul_pd(pair_lengths[j], _mm_add_pd(hu, half)));
                     _mm_storeu_pd(by_lane.as_mut_ptr().add(lane), cost);
                     lanes |= _mm_movemask_pd(_mm_cmplt_pd(cost, dist)) << lane;
                 }
@@ -204,16 +265,38 @@ mod tests {
 
     proptest! {
         #[test]
-        fn the_vector_path_gives_the_scalar_paths_bits(nodes in prop::collection::vec(node(), 25)) {
+        fn the_vector_path_gives_the_scalar_paths_bits(
+            nodes in prop::collection::vec(node(), 25),
+            x in 1.0f64..3.0,
+            y in 1.0f64..3.0,
+        ) {
             // A 5 × 5 block: every inner node has its eight neighbours.
-            for u in [6, 7, 8, 11, 12, 13, 16, 17, 18] {
-                // SAFETY: inner nodes of a 5-wide block.
-                let (fast, reference) =
-                    unsafe { (candidates(&nodes, 5, u), candidates_scalar(&nodes, 5, u)) };
-                prop_assert_eq!(fast.improved, reference.improved);
-                prop_assert_eq!(fast.costs.map(f64::to_bits), reference.costs.map(f64::to_bits));
+            for lengths in [StepLengths::SQUARE, StepLengths::of_cells([x, y])] {
+                for u in [6, 7, 8, 11, 12, 13, 16, 17, 18] {
+                    // SAFETY: inner nodes of a 5-wide block.
+                    let (fast, reference) = unsafe {
+                        (
+                            candidates(&nodes, 5, u, &lengths),
+                            candidates_scalar(&nodes, 5, u, &lengths),
+                        )
+                    };
+                    prop_assert_eq!(fast.improved, reference.improved);
+                    prop_assert_eq!(
+                        fast.costs.map(f64::to_bits),
+                        reference.costs.map(f64::to_bits)
+                    );
+                }
             }
         }
+    }
+
+    #[test]
+    fn rectangular_cells_step_in_units_of_the_shorter_side() {
+        assert_eq!(StepLengths::of_cells([30.0, 30.0]), StepLengths::SQUARE);
+        let steps = StepLengths::of_cells([2.0, 1.0]);
+        assert_eq!((steps.x, steps.y), (2.0, 1.0));
+        assert!((steps.diagonal - 5f64.sqrt()).abs() < 1e-15);
+        assert_eq!(steps.by_neighbour()[..4], [1.0, 2.0, 2.0, 1.0]);
     }
 
     #[test]

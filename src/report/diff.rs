@@ -400,8 +400,10 @@ mod tests {
             width: 3,
             height: 1,
             resolution: 1.0,
+            resolution_y: None,
             origin: [0.0, 0.0],
             frame: "m".into(),
+            degrees: false,
         };
         Grid::from_vec(geo, values)
     }

@@ -197,8 +197,10 @@ mod tests {
             width: 2,
             height: 2,
             resolution: 1.0,
+            resolution_y: None,
             origin: [0.0, 0.0],
             frame: "m".into(),
+            degrees: false,
         };
         Grid::from_vec(geo, values)
     }

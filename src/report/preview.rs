@@ -94,8 +94,10 @@ mod tests {
             width: 4,
             height: 3,
             resolution: 1.0,
+            resolution_y: None,
             origin: [0.0, 0.0],
             frame: "m".into(),
+            degrees: false,
         };
         // Cost grows to the north.
         let costs = Grid::from_vec(

@@ -10,7 +10,7 @@ use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
 use crate::grid::{Cell, Grid};
-use crate::plan::{CostField, Moves, cost_to_go, edge_cost};
+use crate::plan::{CostField, Moves, StepLengths, cost_to_go, edge_cost};
 
 /// The 8 moves (row, column offsets), the action's index.
 pub const MOVES: [(i32, i32); 8] = [
@@ -113,6 +113,7 @@ pub fn evaluate(
 /// One episode on one map.
 pub struct GridNav<'a> {
     costs: &'a Grid<f32>,
+    lengths: StepLengths,
     field: CostField,
     pub goal: Cell,
     pub position: Cell,
@@ -131,6 +132,7 @@ impl<'a> GridNav<'a> {
         let teacher_steps = field.path_to(start)?.len().saturating_sub(1);
         optimal_cost.is_finite().then_some(GridNav {
             costs,
+            lengths: StepLengths::of(&costs.geo),
             field,
             goal,
             position: start,
@@ -184,11 +186,10 @@ impl<'a> GridNav<'a> {
         let mut best = (f64::INFINITY, 0);
         for m in 0..8 {
             if let Some(cell) = self.neighbour(m) {
-                let diagonal = m >= 4;
                 let total = edge_cost(
                     self.costs.get(self.position),
                     self.costs.get(cell),
-                    diagonal,
+                    self.lengths.between(self.position, cell),
                 ) + self.field.cost_at(cell);
                 if total < best.0 {
                     best = (total, m);
@@ -205,7 +206,7 @@ impl<'a> GridNav<'a> {
             self.cost += edge_cost(
                 self.costs.get(self.position),
                 self.costs.get(cell),
-                m % 8 >= 4,
+                self.lengths.between(self.position, cell),
             );
             self.position = cell;
         }

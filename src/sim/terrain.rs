@@ -118,8 +118,10 @@ fn terrain(name: &str, config: &WorldConfig, rng: &mut ChaCha8Rng) -> Map {
         width: config.width,
         height: config.height,
         resolution: config.resolution,
+        resolution_y: None,
         origin: [0.0, 0.0],
         frame: "map".into(),
+        degrees: false,
     };
     let height_field = fractal_noise(w, h, rng);
     let mut vegetation = fractal_noise(w, h, rng);

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
-use crate::features::{FeatureSpec, Op, compute};
+use crate::features::{Bank, FeatureSpec, Op, compute};
 use crate::io::tables::{read_map, write_features};
 
 pub const KIND: &str = "features";
@@ -46,6 +46,12 @@ pub struct FeaturesParams {
     #[arg(long, default_value_t = 0.0)]
     #[serde(default)]
     pub nodata_fill: f32,
+    /// A feature bank: operators chosen by the layers each map has (`imitate` picks
+    /// elevation or imagery operators with `auto`; schemas/tables/features.md lists
+    /// them), before --layer and --op.
+    #[arg(long, value_enum, value_name = "BANK")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub bank: Option<Bank>,
 }
 
 fn parse_op(text: &str) -> Result<Op, String> {
@@ -80,6 +86,7 @@ impl Stage for FeaturesParams {
             ops: self.ops.clone(),
             bias: self.bias,
             nodata_fill: self.nodata_fill,
+            bank: self.bank,
         };
         let map_files: Vec<PathBuf> = dataset
             .files_with_role("map")

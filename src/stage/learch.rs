@@ -27,7 +27,7 @@ use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
-const VERSION: u32 = 4;
+const VERSION: u32 = 5;
 
 mod defaults {
     pub fn rounds() -> usize {
@@ -51,8 +51,12 @@ mod defaults {
     pub fn preview_scale() -> u32 {
         4
     }
-    pub fn weak_learner() -> crate::ioc::WeakLearnerKind {
-        crate::ioc::WeakLearnerKind::Ridge
+    /// Trees for LEARCH; MMP and MaxEnt learn a linear model.
+    pub fn weak_learner(method: crate::ioc::GridMethod) -> crate::ioc::WeakLearnerKind {
+        match method {
+            crate::ioc::GridMethod::Learch => crate::ioc::WeakLearnerKind::Tree,
+            _ => crate::ioc::WeakLearnerKind::Ridge,
+        }
     }
     pub fn tree_depth() -> usize {
         3
@@ -110,11 +114,13 @@ pub struct LearchParams {
     #[arg(long, default_value_t = defaults::schedule_offset())]
     #[serde(default = "defaults::schedule_offset")]
     pub schedule_offset: f64,
-    /// The weak learner: ridge regression (a log-linear cost) or regression trees (a
-    /// nonlinear one).
-    #[arg(long, value_enum, default_value_t = defaults::weak_learner())]
-    #[serde(default = "defaults::weak_learner")]
-    pub weak_learner: WeakLearnerKind,
+    /// LEARCH's weak learner: regression trees (a nonlinear cost; the default), ridge
+    /// regression (a log-linear cost) or both in turn (alternate). Trees imitate best
+    /// across real terrains (`imitate bench terrain`, BENCHMARKS.md); ridge only where
+    /// the true cost is log-linear in the features.
+    #[arg(long, value_enum)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub weak_learner: Option<WeakLearnerKind>,
     /// Depth of the regression trees.
     #[arg(long, default_value_t = defaults::tree_depth())]
     #[serde(default = "defaults::tree_depth")]
@@ -204,7 +210,11 @@ impl LearchParams {
         if !(self.schedule_offset.is_finite() && self.schedule_offset >= 0.0) {
             return bad("schedule_offset must be >= 0");
         }
-        if self.method != GridMethod::Learch && self.weak_learner != WeakLearnerKind::Ridge {
+        if self.method != GridMethod::Learch
+            && self
+                .weak_learner
+                .is_some_and(|w| w != WeakLearnerKind::Ridge)
+        {
             return bad("weak_learner is LEARCH's; mmp and maxent learn a linear model");
         }
         if !(self.horizon_factor.is_finite() && self.horizon_factor >= 1.0) {
@@ -358,9 +368,12 @@ impl Stage for LearchParams {
             loss_kind: self.loss_kind,
             loss_sigma: self.loss_sigma,
             schedule_offset: self.schedule_offset,
-            weak_learner: self.weak_learner,
+            weak_learner: self
+                .weak_learner
+                .unwrap_or_else(|| defaults::weak_learner(self.method)),
             tree: TreeConfig {
                 max_depth: self.tree_depth,
+                bins: crate::ioc::TREE_BINS,
                 ..TreeConfig::default()
             },
             patience: self.patience,

@@ -557,8 +557,10 @@ fn occupancy_map(message: &Value, name: &str) -> Result<Map, String> {
         width: size(message, "info.width")?,
         height: size(message, "info.height")?,
         resolution: number(message, "info.resolution")?,
+        resolution_y: None,
         origin: [number(origin, "position.x")?, number(origin, "position.y")?],
         frame: text(message, "header.frame_id")?.to_string(),
+        degrees: false,
     })?;
     let data = field(message, "data")?;
     let values: Vec<f32> = match data {
@@ -615,11 +617,13 @@ fn grid_map_map(message: &Value, name: &str) -> Result<Map, String> {
         width,
         height,
         resolution,
+        resolution_y: None,
         origin: [
             number(pose, "position.x")? - f64::from(width) * resolution / 2.0,
             number(pose, "position.y")? - f64::from(height) * resolution / 2.0,
         ],
         frame: text(message, "header.frame_id")?.to_string(),
+        degrees: false,
     })?;
     let names = field(message, "layers")?
         .as_list()
@@ -711,8 +715,10 @@ fn foxglove_grid_map(message: &Value, name: &str) -> Result<Map, String> {
         width,
         height,
         resolution: resolution_x,
+        resolution_y: None,
         origin: [number(pose, "position.x")?, number(pose, "position.y")?],
         frame: text(message, "frame_id")?.to_string(),
+        degrees: false,
     })?;
     if (width as usize) * cell_stride > row_stride {
         return Err(format!(
@@ -824,8 +830,10 @@ mod tests {
             width: 5,
             height: 3,
             resolution: 0.5,
+            resolution_y: None,
             origin: [10.0, -2.0],
             frame: "map".into(),
+            degrees: false,
         };
         let layer = |k: f32| Layer {
             name: format!("l{k}"),

@@ -1,0 +1,379 @@
+//! `imitate bench terrain`: the hidden-teacher protocol on any raster. A teacher whose
+//! cost the learner never sees, and which is not log-linear in the raster's bands
+//! (thresholds, squares, ratios, margins around regions), draws optimal paths between
+//! far-apart cells; each method learns from three quarters of them with the default
+//! feature bank and plans the rest. Reported per raster, teacher and method: held-out
+//! planned cells within 2 cells of the teacher's path, the true-cost ratio of plan to
+//! teacher (the primary figure: near-equal routes may leave the teacher's cells at
+//! almost no cost) and training time, beside a uniform-cost baseline.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use serde::Serialize;
+
+use super::bench::emit;
+use super::bench_ioc::{MethodResult, Terrain, measure, methods, results_table, teacher_paths};
+use crate::error::{Error, Result};
+use crate::features::{Bank, FeatureSpec, compute, gaussian_blur};
+use crate::grid::{GeoRef, Grid, Layer, Map};
+use crate::io::geotiff::read_geotiff;
+use crate::ioc::{evaluate_example, hold_out_every, summarize};
+
+/// The hidden teachers: costs the features never state directly.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Teacher {
+    /// Steps: dear above the 60th percentile of the bands' brightness, dearer below the
+    /// 15th.
+    Threshold,
+    /// A bowl: the squared distance of the brightness from its median, in IQRs.
+    Square,
+    /// A ratio: the normalised difference of the last and first band (of the band
+    /// and its neighbourhood mean for one band), dear above its median.
+    Ratio,
+    /// A margin: dear above the 70th percentile and within 3 cells of the brightest
+    /// decile (a distance, which per-cell features only approximate).
+    Margin,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct TerrainArgs {
+    /// GeoTIFF rasters (every band a layer).
+    #[arg(required = true, value_name = "RASTER")]
+    pub rasters: Vec<PathBuf>,
+    /// Teachers to run (repeat the flag); default: every one.
+    #[arg(long = "teacher", value_enum)]
+    pub teachers: Vec<Teacher>,
+    /// Methods to run (repeat the flag): learch-ridge, learch-tree, mmp, maxent;
+    /// default: every one. The uniform-cost baseline always runs.
+    #[arg(long = "method")]
+    pub methods: Vec<String>,
+    /// The feature bank.
+    #[arg(long, value_enum, default_value = "auto")]
+    pub bank: Bank,
+    /// Cells along the raster's longer side after block averaging (0 keeps the raster).
+    #[arg(long, default_value_t = 160)]
+    pub cells: u32,
+    /// Teacher paths per raster and teacher; a quarter is held out.
+    #[arg(long, default_value_t = 60)]
+    pub paths: usize,
+    #[arg(long, default_value_t = 40)]
+    pub rounds: usize,
+    #[arg(long, default_value_t = 7)]
+    pub seed: u64,
+    /// Overrides of every method's settings, for tuning: step size, depth of the trees,
+    /// loss augmentation.
+    #[arg(long)]
+    pub step_size: Option<f64>,
+    #[arg(long)]
+    pub depth: Option<usize>,
+    #[arg(long)]
+    pub loss: Option<f64>,
+    #[arg(long)]
+    pub bins: Option<usize>,
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Serialize)]
+struct TerrainReport {
+    schema: &'static str,
+    rounds: usize,
+    cells: u32,
+    paths: usize,
+    results: Vec<MethodResult>,
+}
+
+/// The raster's bands averaged over blocks of `factor` × `factor` cells (NaN cells left
+/// out; a block with no data is NaN), the cells growing by the same factor.
+fn pooled(map: Map, cells: u32) -> Map {
+    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    let factor = if cells == 0 {
+        1
+    } else {
+        (w.max(h) as u32).div_ceil(cells).max(1) as usize
+    };
+    if factor == 1 {
+        return map;
+    }
+    let (pw, ph) = (w / factor, h / factor);
+    let layers = map
+        .layers
+        .iter()
+        .map(|layer| {
+            let values = (0..pw * ph)
+                .map(|i| {
+                    let (r, c) = (i / pw, i % pw);
+                    let (mut sum, mut n) = (0.0f64, 0usize);
+                    for rr in r * factor..(r + 1) * factor {
+                        for cc in c * factor..(c + 1) * factor {
+                            let v = layer.values[rr * w + cc];
+                            if !v.is_nan() {
+                                sum += f64::from(v);
+                                n += 1;
+                            }
+                        }
+                    }
+                    if n == 0 {
+                        f32::NAN
+                    } else {
+                        (sum / n as f64) as f32
+                    }
+                })
+                .collect();
+            Layer {
+                name: layer.name.clone(),
+                values,
+            }
+        })
+        .collect();
+    let [sx, sy] = map.geo.cell_size();
+    let geo = GeoRef {
+        width: pw as u32,
+        height: ph as u32,
+        resolution: sx * factor as f64,
+        resolution_y: map.geo.resolution_y.map(|_| sy * factor as f64),
+        ..map.geo
+    };
+    Map {
+        name: map.name,
+        geo,
+        layers,
+    }
+}
+
+/// Value at share `q` of the finite values (sorted, index ⌊q(n − 1)⌋).
+fn quantile(values: &[f32], q: f64) -> f32 {
+    let mut finite: Vec<f32> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() {
+        return 0.0;
+    }
+    let k = (q * (finite.len() - 1) as f64) as usize;
+    *finite.select_nth_unstable_by(k, f32::total_cmp).1
+}
+
+/// The mean of the bands per cell (NaN where any band has no data).
+fn brightness(map: &Map) -> Vec<f32> {
+    let n = map.geo.cell_count();
+    (0..n)
+        .map(|i| map.layers.iter().map(|l| l.values[i]).sum::<f32>() / map.layers.len() as f32)
+        .collect()
+}
+
+/// The teacher's cost per cell: ≥ 1 on data cells, 12 on cells without data.
+fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
+    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    let z = brightness(map);
+    let (q15, q50, q60, q70, q75, q90) = (
+        quantile(&z, 0.15),
+        quantile(&z, 0.5),
+        quantile(&z, 0.6),
+        quantile(&z, 0.7),
+        quantile(&z, 0.75),
+        quantile(&z, 0.9),
+    );
+    let iqr = (q75 - quantile(&z, 0.25)).max(f32::EPSILON);
+    let data = |v: f32, cost: f32| if v.is_nan() { 12.0 } else { cost };
+    match teacher {
+        Teacher::Threshold => z
+            .iter()
+            .map(|&v| data(v, 1.0 + 6.0 * f32::from(v > q60) + 3.0 * f32::from(v < q15)))
+            .collect(),
+        Teacher::Square => z
+            .iter()
+            .map(|&v| data(v, 1.0 + (4.0 * ((v - q50) / iqr).powi(2)).min(15.0)))
+            .collect(),
+        Teacher::Ratio => {
+            let ratio: Vec<f32> = if map.layers.len() > 1 {
+                let (a, b) = (
+                    &map.layers[map.layers.len() - 1].values,
+                    &map.layers[0].values,
+                );
+                a.iter()
+                    .zip(b)
+                    .map(|(&a, &b)| if a + b == 0.0 { 0.0 } else { (a - b) / (a + b) })
+                    .collect()
+            } else {
+                let filled: Vec<f32> = z
+                    .iter()
+                    .map(|&v| if v.is_nan() { q50 } else { v })
+                    .collect();
+                let mut mean = vec![0.0; filled.len()];
+                gaussian_blur(&filled, w, h, [3.0; 2], &mut mean);
+                filled
+                    .iter()
+                    .zip(&mean)
+                    .map(|(&v, &m)| if v + m == 0.0 { 0.0 } else { (v - m) / (v + m) })
+                    .collect()
+            };
+            let (r50, r90) = (quantile(&ratio, 0.5), quantile(&ratio, 0.9));
+            let span = (r90 - r50).max(f32::EPSILON);
+            ratio
+                .iter()
+                .zip(&z)
+                .map(|(&r, &v)| data(v, 1.0 + 8.0 * ((r - r50) / span).clamp(0.0, 1.0)))
+                .collect()
+        }
+        Teacher::Margin => {
+            let bright: Vec<bool> = z.iter().map(|&v| v > q90).collect();
+            let mut distance = vec![0.0f32; z.len()];
+            crate::features::distance_transform(&bright, w, h, [1.0; 2], 1e9, &mut distance);
+            z.iter()
+                .zip(&distance)
+                .map(|(&v, &d)| {
+                    data(
+                        v,
+                        1.0 + 3.0 * f32::from(v > q70) + 4.0 * f32::from(d <= 3.0),
+                    )
+                })
+                .collect()
+        }
+    }
+}
+
+/// One raster and teacher: features from the bank, seeded teacher paths between cells at
+/// least half the map apart, a quarter held out.
+fn terrain(map: &Map, teacher: Teacher, args: &TerrainArgs) -> Result<Terrain> {
+    let geo = map.geo.clone();
+    let spec = FeatureSpec {
+        layers: None,
+        ops: Vec::new(),
+        bias: true,
+        nodata_fill: 0.0,
+        bank: Some(args.bank),
+    };
+    let stack = compute(map, &spec).map_err(Error::Failed)?;
+    let truth = Grid::from_vec(geo.clone(), teacher_cost(map, teacher));
+    let examples = teacher_paths(&truth, args.paths, args.seed, "teacher")
+        .map_err(|e| Error::Failed(format!("{}: {e}", map.name)))?;
+    let (training, holdout) = hold_out_every(examples, 4);
+    Ok(Terrain {
+        name: format!("{}/{}", map.name, teacher_name(teacher)),
+        names: vec![map.name.clone()],
+        stacks: vec![stack],
+        training,
+        holdout,
+        truth: vec![truth],
+    })
+}
+
+fn teacher_name(teacher: Teacher) -> &'static str {
+    match teacher {
+        Teacher::Threshold => "threshold",
+        Teacher::Square => "square",
+        Teacher::Ratio => "ratio",
+        Teacher::Margin => "margin",
+    }
+}
+
+/// Plans on a uniform cost: what no learning gives.
+fn uniform(terrain: &Terrain) -> MethodResult {
+    let geo = &terrain.stacks[0].geo;
+    let flat = Grid::filled(geo.clone(), 1.0f32);
+    let evaluations: Vec<_> = terrain
+        .holdout
+        .iter()
+        .filter_map(|ex| {
+            evaluate_example(&ex.id, "", &flat, &ex.path, Some(&terrain.truth[ex.map]))
+        })
+        .collect();
+    let agreement = summarize(&evaluations);
+    MethodResult {
+        terrain: terrain.name.clone(),
+        method: "uniform",
+        held_out: agreement.examples,
+        within_radius: agreement.within_radius,
+        mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
+        max_cost_ratio: agreement.max_reference_cost_ratio.unwrap_or(f64::NAN),
+        seconds: 0.0,
+    }
+}
+
+pub fn run(args: TerrainArgs) -> Result<()> {
+    if args.rounds == 0 || args.paths < 8 {
+        return Err(Error::Usage(
+            "bench terrain needs --rounds >= 1 and --paths >= 8".into(),
+        ));
+    }
+    let mut all_methods = methods(args.rounds);
+    for (_, config) in &mut all_methods {
+        if let Some(step) = args.step_size {
+            config.step_size = step;
+        }
+        if let Some(depth) = args.depth {
+            config.tree.max_depth = depth;
+        }
+        if let Some(loss) = args.loss {
+            config.loss = loss;
+        }
+        if let Some(bins) = args.bins {
+            config.tree.bins = bins;
+        }
+    }
+    for m in &args.methods {
+        if !all_methods.iter().any(|(name, _)| name == m) {
+            return Err(Error::Usage(format!(
+                "--method {m}: not one of {}",
+                all_methods
+                    .iter()
+                    .map(|(n, _)| *n)
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            )));
+        }
+    }
+    let teachers = if args.teachers.is_empty() {
+        vec![
+            Teacher::Threshold,
+            Teacher::Square,
+            Teacher::Ratio,
+            Teacher::Margin,
+        ]
+    } else {
+        args.teachers.clone()
+    };
+    let mut results = Vec::new();
+    for path in &args.rasters {
+        let name = path
+            .file_stem()
+            .map_or("raster".into(), |s| s.to_string_lossy().into_owned());
+        let map = pooled(read_geotiff(path, &name)?, args.cells);
+        for &teacher in &teachers {
+            let terrain = terrain(&map, teacher, &args)?;
+            results.push(uniform(&terrain));
+            for (method, config) in &all_methods {
+                if args.methods.is_empty() || args.methods.iter().any(|m| m == method) {
+                    let started = Instant::now();
+                    let result = measure(&terrain, method, config)?;
+                    tracing::info!(
+                        "{} {method}: {:.3} within, ratio {:.3} ({:.1} s)",
+                        terrain.name,
+                        result.within_radius,
+                        result.mean_cost_ratio,
+                        started.elapsed().as_secs_f64()
+                    );
+                    results.push(result);
+                }
+            }
+        }
+    }
+    let report = TerrainReport {
+        schema: "imitate.bench-terrain/1",
+        rounds: args.rounds,
+        cells: args.cells,
+        paths: args.paths,
+        results,
+    };
+    emit(&report, args.json, |r| {
+        format!(
+            "held-out plans after {} rounds, {} teacher paths per terrain (within {} cells of \
+             the teacher; cost ratio under the teacher's hidden cost)\n{}",
+            r.rounds,
+            r.paths,
+            crate::ioc::AGREEMENT_RADIUS,
+            results_table(&r.results, 40)
+        )
+    });
+    Ok(())
+}

@@ -1,0 +1,239 @@
+//! Feature banks: named, documented lists of operators chosen by the layers a map has,
+//! so that a user who only names the layers gets features a learner can work with.
+//! Every length is in cells or metres per axis (never degrees), and every name is the
+//! same on every map, so a cost learned on one map applies to another.
+
+use serde::{Deserialize, Serialize};
+
+use super::Op;
+use crate::grid::Map;
+
+/// Which bank (`imitate features --bank`, or `bank:` in a spec).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "snake_case")]
+pub enum Bank {
+    /// Overhead imagery: per band multi-scale blurs, local spread (texture), relief,
+    /// quantile indicators and the distance to the brightest decile; normalised
+    /// differences of every pair of bands and the brightness, when there are several.
+    Imagery,
+    /// Elevation: slope and aspect in degrees, roughness at several scales, relief
+    /// (cell minus its neighbourhood: hollows and ridges) at several scales, curvature
+    /// (Laplacian), a blur and quantile indicators.
+    Elevation,
+    /// Elevation on layers named like one (elevation, dem, dtm, dsm, height, altitude,
+    /// z), imagery on the others; a map with one unnamed band gets both, since a
+    /// single band may be either.
+    Auto,
+}
+
+/// Layer names that say "elevation".
+fn is_elevation_name(name: &str) -> bool {
+    let n = name.to_ascii_lowercase();
+    ["elevation", "dem", "dtm", "dsm", "height", "altitude", "z"].contains(&n.as_str())
+        || n.contains("elevation")
+}
+
+/// Bands beyond these are left out of the pairwise indices (a hyperspectral cube
+/// would otherwise make thousands).
+const MAX_PAIRED_BANDS: usize = 8;
+
+fn imagery(layers: &[&str]) -> Vec<Op> {
+    let mut ops = Vec::new();
+    for &l in layers {
+        let layer = l.to_string();
+        ops.push(Op::Normalize {
+            layer: layer.clone(),
+        });
+        ops.push(Op::Blur {
+            layer: layer.clone(),
+            sigmas: Vec::new(),
+            cells: vec![1.0, 3.0, 8.0],
+        });
+        ops.push(Op::Roughness {
+            layer: layer.clone(),
+            windows: vec![3, 9],
+        });
+        ops.push(Op::Relief {
+            layer: layer.clone(),
+            cells: vec![4.0],
+        });
+        ops.push(Op::Quantile {
+            layer: layer.clone(),
+            quantiles: vec![0.1, 0.25, 0.5, 0.75, 0.9],
+        });
+        ops.push(Op::QuantileDistance {
+            layer,
+            q: 0.9,
+            max: None,
+        });
+    }
+    let paired = &layers[..layers.len().min(MAX_PAIRED_BANDS)];
+    for (i, a) in paired.iter().enumerate() {
+        for b in &paired[i + 1..] {
+            ops.push(Op::NormalizedDifference {
+                a: a.to_string(),
+                b: b.to_string(),
+            });
+        }
+    }
+    if layers.len() > 1 {
+        ops.push(Op::Brightness {
+            layers: layers.iter().map(|l| l.to_string()).collect(),
+        });
+    }
+    ops
+}
+
+fn elevation(layers: &[&str]) -> Vec<Op> {
+    let mut ops = Vec::new();
+    for &l in layers {
+        let layer = l.to_string();
+        ops.push(Op::Normalize {
+            layer: layer.clone(),
+        });
+        ops.push(Op::Slope {
+            layer: layer.clone(),
+        });
+        ops.push(Op::Aspect {
+            layer: layer.clone(),
+        });
+        ops.push(Op::Roughness {
+            layer: layer.clone(),
+            windows: vec![3, 7, 15],
+        });
+        ops.push(Op::Relief {
+            layer: layer.clone(),
+            cells: vec![2.0, 6.0, 16.0],
+        });
+        ops.push(Op::Laplacian {
+            layer: layer.clone(),
+        });
+        ops.push(Op::Quantile {
+            layer,
+            quantiles: vec![0.25, 0.5, 0.75],
+        });
+    }
+    ops
+}
+
+impl Bank {
+    /// The operators this bank computes on `map` (layers with no data at all are left
+    /// out).
+    pub fn ops(self, map: &Map) -> Vec<Op> {
+        let layers: Vec<&str> = map
+            .layers
+            .iter()
+            .filter(|l| l.values.iter().any(|v| !v.is_nan()))
+            .map(|l| l.name.as_str())
+            .collect();
+        match self {
+            Bank::Imagery => imagery(&layers),
+            Bank::Elevation => elevation(&layers),
+            Bank::Auto => {
+                let (heights, others): (Vec<&str>, Vec<&str>) =
+                    layers.iter().partition(|l| is_elevation_name(l));
+                if heights.is_empty() && others.len() == 1 {
+                    // One band: a DEM or a panchromatic image; both banks' operators,
+                    // the imagery's blurs and quantiles once.
+                    let mut ops = imagery(&others);
+                    ops.extend(elevation(&others).into_iter().filter(|op| {
+                        matches!(
+                            op,
+                            Op::Slope { .. } | Op::Aspect { .. } | Op::Laplacian { .. }
+                        ) || matches!(op, Op::Roughness { windows, .. } if windows.len() == 3)
+                            || matches!(op, Op::Relief { cells, .. } if cells.len() == 3)
+                    }));
+                    // The elevation bank's roughness and relief replace the imagery's.
+                    ops.retain(|op| {
+                        !matches!(op, Op::Roughness { windows, .. } if windows.len() == 2)
+                            && !matches!(op, Op::Relief { cells, .. } if cells.len() == 1)
+                    });
+                    ops
+                } else {
+                    let mut ops = elevation(&heights);
+                    ops.extend(imagery(&others));
+                    ops
+                }
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::features::{FeatureSpec, compute};
+    use crate::grid::{GeoRef, Layer};
+
+    fn map(layers: &[&str]) -> Map {
+        let geo = GeoRef::square(24, 20, 10.0, [0.0, 0.0], "map");
+        Map {
+            name: "m".into(),
+            layers: layers
+                .iter()
+                .enumerate()
+                .map(|(k, name)| Layer {
+                    name: name.to_string(),
+                    values: (0..geo.cell_count())
+                        .map(|i| ((i * (k + 3)) % 17) as f32 + 1.0)
+                        .collect(),
+                })
+                .collect(),
+            geo,
+        }
+    }
+
+    fn names(map: &Map, bank: Bank) -> Vec<String> {
+        let spec = FeatureSpec {
+            layers: None,
+            ops: Vec::new(),
+            bias: true,
+            nodata_fill: 0.0,
+            bank: Some(bank),
+        };
+        let stack = compute(map, &spec).unwrap();
+        assert!(stack.data.iter().all(|v| v.is_finite()));
+        stack.names
+    }
+
+    #[test]
+    fn imagery_bank_indexes_pairs_of_bands() {
+        let n = names(&map(&["band1", "band2", "band3"]), Bank::Imagery);
+        for expected in [
+            "band1/robust",
+            "band2/blur_3c",
+            "band3/roughness_9c",
+            "band1/relief_4c",
+            "band2/above_q90",
+            "band3/distance_to_above_q90_m",
+            "nd(band1,band3)",
+            "nd(band2,band3)",
+            "brightness",
+            "bias",
+        ] {
+            assert!(n.iter().any(|x| x == expected), "{expected} in {n:?}");
+        }
+        assert!(!n.iter().any(|x| x.contains("slope")));
+    }
+
+    #[test]
+    fn auto_takes_elevation_by_name_and_both_for_one_band() {
+        let n = names(&map(&["elevation", "red", "nir"]), Bank::Auto);
+        assert!(n.contains(&"elevation/slope_deg".to_string()));
+        assert!(n.contains(&"nd(red,nir)".to_string()));
+        assert!(!n.iter().any(|x| x.starts_with("nd(elevation")));
+        let one = names(&map(&["band1"]), Bank::Auto);
+        for expected in [
+            "band1/slope_deg",
+            "band1/aspect_deg",
+            "band1/roughness_15c",
+            "band1/relief_16c",
+            "band1/blur_8c",
+            "band1/above_q10",
+        ] {
+            assert!(one.iter().any(|x| x == expected), "{expected} in {one:?}");
+        }
+        let unique: std::collections::BTreeSet<_> = one.iter().collect();
+        assert_eq!(unique.len(), one.len(), "no feature twice");
+    }
+}
