@@ -115,6 +115,27 @@ fn a_corrupt_chunk_fails_its_crc() {
         stdout(&out).is_empty(),
         "no message of a corrupt chunk is printed"
     );
+    // Plain inspect reads the summary, which does not vouch for the chunks: the data
+    // section's CRC does.
+    let out = imitate(dir.path(), &["inspect", "flipped.mcap"]);
+    assert_input_error(&out, &["flipped.mcap", "data section fails its CRC"]);
+    let out = imitate(dir.path(), &["inspect", "--scan", "flipped.mcap"]);
+    assert_input_error(&out, &["flipped.mcap", "CRC mismatch"]);
+}
+
+#[test]
+fn an_empty_file_is_not_mcap_for_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("empty.mcap"), b"").unwrap();
+    for args in [
+        vec!["cat", "empty.mcap"],
+        vec!["inspect", "empty.mcap"],
+        vec!["inspect", "--scan", "empty.mcap"],
+        vec!["ingest", "--log", "empty.mcap", "--out", "ds"],
+    ] {
+        let out = imitate(dir.path(), &args);
+        assert_input_error(&out, &["empty.mcap", "not an MCAP file"]);
+    }
 }
 
 #[test]
@@ -226,4 +247,66 @@ fn a_footer_that_contradicts_itself_is_read_by_scanning() {
     let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
     assert_eq!(report["source"], "scan");
     assert_eq!(report["message_count"], 3);
+}
+
+/// The byte offset of the first chunk's `uncompressed_size` field: magic, the header
+/// record (opcode, length, body), then the chunk's opcode, length and two times.
+fn first_chunk_size_field(bytes: &[u8]) -> usize {
+    let header_len = u64::from_le_bytes(bytes[9..17].try_into().unwrap()) as usize;
+    let chunk = 8 + 9 + header_len;
+    assert_eq!(bytes[chunk], 0x06, "a chunk follows the header");
+    chunk + 9 + 16
+}
+
+#[test]
+fn a_chunk_claiming_more_memory_than_exists_is_refused_not_a_crash() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = chatter(dir.path(), "huge.mcap", 3);
+    let bytes = std::fs::read(&file).unwrap();
+    let at = first_chunk_size_field(&bytes);
+    for claim in [u64::MAX, 1 << 50, (4 << 30) + 1] {
+        let mut damaged = bytes.clone();
+        damaged[at..at + 8].copy_from_slice(&claim.to_le_bytes());
+        std::fs::write(&file, &damaged).unwrap();
+        let claims = format!("claims {claim} uncompressed bytes");
+        for (args, expected) in [
+            (vec!["cat", "huge.mcap"], claims.as_str()),
+            (vec!["inspect", "--scan", "huge.mcap"], &claims),
+            // Plain inspect reads the summary; the data section's CRC finds the damage.
+            (vec!["inspect", "huge.mcap"], "fails its CRC"),
+        ] {
+            let out = imitate(dir.path(), &args);
+            assert_input_error(&out, &["huge.mcap", expected]);
+        }
+        assert!(!dir.path().join("ds").exists(), "nothing written");
+    }
+    // Ingest of a real log (the quickstart's) with the same damage.
+    let mut log = std::fs::read(repo().join("testdata/world/logs/terrain-000.mcap")).unwrap();
+    let at_log = first_chunk_size_field(&log);
+    log[at_log..at_log + 8].copy_from_slice(&(1u64 << 50).to_le_bytes());
+    std::fs::write(dir.path().join("log.mcap"), &log).unwrap();
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--log",
+            "log.mcap",
+            "--pose-topic",
+            "/odom",
+            "--out",
+            "ds",
+        ],
+    );
+    assert_input_error(
+        &out,
+        &["log.mcap", "claims 1125899906842624 uncompressed bytes"],
+    );
+    assert!(!dir.path().join("ds").exists(), "nothing written");
+    // A stored chunk whose header disagrees with the bytes it holds.
+    let mut damaged = bytes.clone();
+    let stored = u64::from_le_bytes(damaged[at..at + 8].try_into().unwrap());
+    damaged[at..at + 8].copy_from_slice(&(stored + 1000).to_le_bytes());
+    std::fs::write(&file, &damaged).unwrap();
+    let out = imitate(dir.path(), &["cat", "huge.mcap"]);
+    assert_input_error(&out, &["huge.mcap", "whose header says"]);
 }

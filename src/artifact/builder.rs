@@ -3,6 +3,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::guard::{check_relative, check_replaceable};
 use super::manifest::{FileEntry, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest};
 use crate::error::{Error, Result};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
@@ -16,18 +17,7 @@ pub struct ArtifactBuilder {
 
 impl ArtifactBuilder {
     pub fn new(destination: &Path) -> Result<Self> {
-        if destination.file_name().is_none() {
-            return Err(Error::Usage(format!(
-                "{} cannot be an artifact folder",
-                destination.display()
-            )));
-        }
-        if destination.is_file() {
-            return Err(Error::Usage(format!(
-                "{} is a file, not an artifact folder",
-                destination.display()
-            )));
-        }
+        check_replaceable(destination)?;
         let staging = staging_beside(destination)?;
         Ok(ArtifactBuilder {
             destination: destination.to_path_buf(),
@@ -38,7 +28,9 @@ impl ArtifactBuilder {
     }
 
     /// Where to write the file `relative` (with '/' separators), recorded with its role.
+    /// Refuses names that would leave the artifact (see [`check_relative`]).
     pub fn file(&mut self, relative: &str, role: &str) -> Result<PathBuf> {
+        check_relative(relative)?;
         let path = self.staging.path().join(relative);
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir)
@@ -152,8 +144,10 @@ fn staging_beside(destination: &Path) -> Result<tempfile::TempDir> {
 }
 
 /// Replaces `destination` with the staged folder: the old version is moved aside,
-/// the new one renamed in, then the old one removed.
+/// the new one renamed in, then the old one removed. What is there is checked again
+/// first: something may have appeared since the work began.
 fn install(staging: tempfile::TempDir, destination: &Path) -> Result<()> {
+    check_replaceable(destination)?;
     let staged = staging.keep();
     crate::io::fs::set_public_permissions(&staged, 0o755)?;
     let parent = staged

@@ -5,10 +5,12 @@
 
 mod builder;
 mod costs;
+mod guard;
 mod manifest;
 
 pub use builder::{ArtifactBuilder, copy_artifact};
 pub use costs::load_costs;
+pub use guard::{check_relative, check_replaceable, written_by_imitate};
 pub use manifest::{
     FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest, digest_input,
     digest_input_with, read_manifest, stage_key,

@@ -12,7 +12,7 @@ use super::bench::{emit, memory, reset_peak_memory};
 use crate::error::{Error, Result};
 use crate::grid::GeoRef;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
-use crate::io::mcap::inspect::inspect;
+use crate::io::mcap::inspect::{Source, inspect};
 use crate::io::mcap::ros2;
 use crate::io::mcap::writer::write_log;
 
@@ -107,7 +107,7 @@ pub fn run(args: IngestBenchArgs) -> Result<()> {
         eprintln!("bench ingest: wrote {}", args.file.display());
         return Ok(());
     }
-    let report = inspect(&args.file, true, false)?;
+    let report = inspect(&args.file, Source::Summary, false)?;
     if !report.channels.iter().any(|c| c.topic == "/map") {
         return Err(Error::input(
             &args.file,

@@ -365,6 +365,7 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
 }
 
 fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: usize) -> Result<()> {
+    crate::artifact::check_replaceable(out)?;
     let ds = Dataset::open(dataset)?;
     if ds.steps() == 0 {
         return Err(Error::input(dataset, "holds no steps to train on"));

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use serde::Serialize;
 
 use crate::error::{Error, Result};
-use crate::io::mcap::inspect::{McapReport, describe_damage, inspect};
+use crate::io::mcap::inspect::{McapReport, Source, describe_damage, inspect};
 use crate::io::mcap::reader::scan_until_damage;
 use crate::io::mcap::{Decoders, Event, Value, scan};
 
@@ -55,7 +55,15 @@ pub fn inspect_command(args: InspectArgs) -> Result<()> {
         };
         return written.map_err(|e| Error::io("writing to stdout", e));
     }
-    let report = inspect(&args.file, !args.scan, args.allow_truncated)?;
+    let report = inspect(
+        &args.file,
+        if args.scan {
+            Source::Scan
+        } else {
+            Source::VerifiedSummary
+        },
+        args.allow_truncated,
+    )?;
     let written = if args.json {
         serde_json::to_writer_pretty(&mut out, &report)
             .map_err(std::io::Error::from)

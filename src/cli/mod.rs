@@ -82,6 +82,10 @@ pub enum Command {
         /// Run up to this many independent stages at once.
         #[arg(short, long, default_value_t = 1)]
         jobs: usize,
+        /// Let outputs resolve outside the workspace through symbolic links (an `out`
+        /// folder linked to another disk, say); refused otherwise.
+        #[arg(long)]
+        allow_outside_workspace: bool,
     },
     /// Which stages of a pipeline are stale, and why.
     Status {
@@ -147,6 +151,7 @@ pub fn run(cli: Cli) -> Result<()> {
             stage,
             downstream,
             jobs,
+            allow_outside_workspace,
         } => {
             let options = RunOptions {
                 force,
@@ -154,6 +159,7 @@ pub fn run(cli: Cli) -> Result<()> {
                 downstream,
                 jobs,
                 dry_run,
+                allow_outside_workspace,
             };
             let outcomes = crate::pipeline::run(&pipeline, &options, |o| {
                 match (&o.summary, o.reasons.is_empty()) {
@@ -227,6 +233,8 @@ pub fn run(cli: Cli) -> Result<()> {
 }
 
 fn run_stage(stage: &dyn Stage) -> Result<()> {
+    // A wrong --out fails here, before any work.
+    crate::artifact::check_replaceable(&stage.out())?;
     let report = stage.run(&[])?;
     eprintln!("{}: {}", stage.kind(), report.summary);
     print_report(stage.kind(), &report);

@@ -99,6 +99,17 @@ pub struct Dataset {
     pub rounds: Vec<RoundInfo>,
 }
 
+/// Whether `dir` or a folder below it holds a file (it stops at the first).
+fn holds_files(dir: &Path) -> bool {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return false;
+    };
+    entries.flatten().any(|entry| match entry.file_type() {
+        Ok(t) if t.is_dir() => holds_files(&entry.path()),
+        _ => true,
+    })
+}
+
 fn partition(round: u32) -> String {
     format!("data/round={round:03}/part-000.parquet")
 }
@@ -108,6 +119,14 @@ impl Dataset {
     pub fn create(dir: &Path, info: DatasetInfo) -> Result<Dataset> {
         if dir.join(INFO).exists() {
             return Err(Error::input(dir, "already holds a DAgger dataset"));
+        }
+        // A dataset is made in a new or empty folder, never among a user's files.
+        if holds_files(dir) {
+            return Err(Error::Usage(format!(
+                "{}: is a folder with files in it and no DAgger dataset; a new dataset \
+                 goes in a new or empty folder",
+                dir.display()
+            )));
         }
         std::fs::create_dir_all(dir.join("meta"))
             .map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;

@@ -14,7 +14,7 @@ mod path;
 
 pub use demo::{Demonstration, Pose};
 
-pub use map::{Layer, Map};
+pub use map::{Layer, Map, check_map_name};
 pub use path::{CellPath, PathError, is_connected8, rasterize};
 
 use serde::{Deserialize, Serialize};

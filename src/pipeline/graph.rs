@@ -15,29 +15,41 @@ pub struct Graph {
     pub order: Vec<usize>,
 }
 
-/// Builds the graph, refusing what cannot work: an output outside the workspace, two
-/// stages writing one place, a stage reading its own output, and cycles.
-pub fn build(names: &[String], deps: &[Vec<PathBuf>], outs: &[PathBuf]) -> Result<Graph, String> {
+/// Why a pipeline's stages cannot form a graph, and the stage the message is about
+/// (so that the error can point at its line).
+#[derive(Debug)]
+pub struct GraphError {
+    pub stage: usize,
+    pub message: String,
+}
+
+/// Builds the graph, refusing what cannot work: an output outside the workspace (or
+/// the workspace itself, or its `.imitate` folder), two stages writing one place, a
+/// stage reading its own output, and cycles.
+pub fn build(
+    names: &[String],
+    deps: &[Vec<PathBuf>],
+    outs: &[PathBuf],
+) -> Result<Graph, GraphError> {
     let n = names.len();
+    let fail = |stage: usize, message: String| Err(GraphError { stage, message });
     for (i, out) in outs.iter().enumerate() {
-        let escapes = out
-            .components()
-            .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
-        if escapes || out.as_os_str().is_empty() {
-            return Err(format!(
-                "stage '{}' writes {}, outside the workspace: outputs are relative paths without '..'",
-                names[i],
-                out.display()
-            ));
+        if let Some(problem) = output_problem(out) {
+            return fail(i, format!("stage '{}': {problem}", names[i]));
         }
+    }
+    for (i, out) in outs.iter().enumerate() {
         for j in i + 1..n {
             if out.starts_with(&outs[j]) || outs[j].starts_with(out) {
-                return Err(format!(
-                    "stages '{}' and '{}' both write {}",
-                    names[i],
-                    names[j],
-                    out.clone().min(outs[j].clone()).display()
-                ));
+                return fail(
+                    j,
+                    format!(
+                        "stages '{}' and '{}' both write {}",
+                        names[i],
+                        names[j],
+                        out.clone().min(outs[j].clone()).display()
+                    ),
+                );
             }
         }
     }
@@ -50,11 +62,14 @@ pub fn build(names: &[String], deps: &[Vec<PathBuf>], outs: &[PathBuf]) -> Resul
                     continue;
                 }
                 if i == j {
-                    return Err(format!(
-                        "stage '{}' reads {}, which it writes itself",
-                        names[i],
-                        dep.display()
-                    ));
+                    return fail(
+                        i,
+                        format!(
+                            "stage '{}' reads {}, which it writes itself",
+                            names[i],
+                            dep.display()
+                        ),
+                    );
                 }
                 if !upstream[i].contains(&j) {
                     upstream[i].push(j);
@@ -77,20 +92,53 @@ pub fn build(names: &[String], deps: &[Vec<PathBuf>], outs: &[PathBuf]) -> Resul
         }
     }
     if order.len() < n {
-        let stuck: Vec<&str> = (0..n)
-            .filter(|&i| waiting[i] > 0)
-            .map(|i| names[i].as_str())
-            .collect();
-        return Err(format!(
-            "stages {} read each other's outputs in a cycle",
-            stuck.join(", ")
-        ));
+        let stuck: Vec<usize> = (0..n).filter(|&i| waiting[i] > 0).collect();
+        let listed: Vec<&str> = stuck.iter().map(|&i| names[i].as_str()).collect();
+        return fail(
+            stuck[0],
+            format!(
+                "stages {} read each other's outputs in a cycle",
+                listed.join(", ")
+            ),
+        );
     }
     Ok(Graph {
         upstream,
         downstream,
         order,
     })
+}
+
+/// What is wrong with a stage's output path, if anything: outputs are relative paths
+/// inside the workspace, below it (not the workspace itself) and outside the
+/// `.imitate` folder that holds the cache and the locks.
+fn output_problem(out: &std::path::Path) -> Option<String> {
+    if out.as_os_str().is_empty() {
+        return Some("`out` is empty: name the folder the stage writes".into());
+    }
+    let escapes = out
+        .components()
+        .any(|c| !matches!(c, Component::Normal(_) | Component::CurDir));
+    if escapes {
+        return Some(format!(
+            "`out` {} is outside the workspace: outputs are relative paths without '..'",
+            out.display()
+        ));
+    }
+    let mut parts = out
+        .components()
+        .filter(|c| matches!(c, Component::Normal(_)));
+    match parts.next() {
+        None => Some(format!(
+            "`out` {} is the workspace itself: outputs are folders inside it",
+            out.display()
+        )),
+        Some(first) if first.as_os_str() == ".imitate" => Some(format!(
+            "`out` {} is inside .imitate, where imitate keeps its cache and locks",
+            out.display()
+        )),
+        Some(_) => None,
+    }
 }
 
 #[cfg(test)]
@@ -104,7 +152,7 @@ mod tests {
             .map(|s| s.1.iter().map(PathBuf::from).collect())
             .collect();
         let outs: Vec<PathBuf> = spec.iter().map(|s| PathBuf::from(s.2)).collect();
-        build(&names, &deps, &outs)
+        build(&names, &deps, &outs).map_err(|e| e.message)
     }
 
     #[test]
@@ -129,5 +177,22 @@ mod tests {
         );
         let err = graph(&[("a", &["out/a/f"], "out/a")]).unwrap_err();
         assert!(err.contains("which it writes itself"), "{err}");
+    }
+
+    #[test]
+    fn refuses_outputs_that_are_not_folders_of_the_workspace() {
+        for (out, expected) in [
+            ("", "`out` is empty"),
+            (".", "the workspace itself"),
+            ("./", "the workspace itself"),
+            ("../x", "outside the workspace"),
+            ("/tmp/x", "outside the workspace"),
+            (".imitate/cache", "inside .imitate"),
+            ("./.imitate", "inside .imitate"),
+        ] {
+            let err = graph(&[("a", &[], out)]).unwrap_err();
+            assert!(err.contains(expected), "{out:?}: {err}");
+        }
+        graph(&[("a", &[], ".git-not/x")]).unwrap();
     }
 }

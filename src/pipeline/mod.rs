@@ -64,6 +64,8 @@ pub struct RunOptions {
     pub jobs: usize,
     /// Decide and report, run nothing, write nothing.
     pub dry_run: bool,
+    /// Let outputs resolve outside the workspace through symbolic links.
+    pub allow_outside_workspace: bool,
 }
 
 /// Holds the workspace's run lock (`.imitate/run.lock`) while alive, so that two runs
@@ -182,6 +184,36 @@ fn at_line(text: &str, at: Option<(u64, u64)>, message: String) -> String {
         .unwrap_or("");
     let caret = " ".repeat(column.saturating_sub(1) as usize);
     format!("line {line} column {column}: {message}\n {line:>4} | {source}\n      | {caret}^")
+}
+
+/// Refuses, before any stage runs, an output that would replace what imitate did not
+/// write, or that resolves outside the workspace through a symbolic link (unless
+/// allowed). The workspace is the folder the run works in.
+fn check_output(out: &Path, allow_outside_workspace: bool) -> std::result::Result<(), String> {
+    crate::artifact::check_replaceable(out).map_err(|e| format!("`out` {e}"))?;
+    if allow_outside_workspace {
+        return Ok(());
+    }
+    let workspace = std::fs::canonicalize(".")
+        .map_err(|e| format!("cannot resolve the workspace folder: {e}"))?;
+    // The deepest part of the output path that exists says where it really leads.
+    let existing = out
+        .ancestors()
+        .find(|a| !a.as_os_str().is_empty() && a.exists());
+    if let Some(existing) = existing {
+        let resolved = std::fs::canonicalize(existing)
+            .map_err(|e| format!("cannot resolve {}: {e}", existing.display()))?;
+        if !resolved.starts_with(&workspace) {
+            return Err(format!(
+                "`out` {} leads to {}, outside the workspace {}, through a symbolic link; \
+                 run with --allow-outside-workspace to write there",
+                out.display(),
+                resolved.display(),
+                workspace.display()
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// What every stage's processing shares.
@@ -320,7 +352,10 @@ pub fn run(
         }
     }
     let outs: Vec<PathBuf> = stages.iter().map(|s| s.out()).collect();
-    let graph = graph::build(&names, &deps, &outs).map_err(|e| Error::input(path, e))?;
+    let graph = graph::build(&names, &deps, &outs).map_err(|e| {
+        let at = expanded[e.stage].position_for(&e.message);
+        Error::input(path, at_line(&text, at, e.message))
+    })?;
     // The stages to consider: all, or the chosen one and (with --downstream) all that
     // read from it, transitively.
     let mut chosen = vec![options.only.is_none(); names.len()];
@@ -340,6 +375,13 @@ pub fn run(
         }
     }
     let order: Vec<usize> = graph.order.iter().copied().filter(|&i| chosen[i]).collect();
+    for &i in &order {
+        check_output(&outs[i], options.allow_outside_workspace).map_err(|message| {
+            let message = format!("stage '{}': {message}", names[i]);
+            let at = expanded[i].position_for(&message);
+            Error::input(path, at_line(&text, at, message))
+        })?;
+    }
     let _run_lock = if options.dry_run {
         None
     } else {

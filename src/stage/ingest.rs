@@ -12,7 +12,7 @@ use serde::{Deserialize, Serialize};
 use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, first_error_in_order};
-use crate::grid::{Demonstration, Map, PathError, rasterize};
+use crate::grid::{Demonstration, Map, PathError, check_map_name, rasterize};
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geotiff::read_geotiff;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
@@ -126,6 +126,32 @@ fn load_map(path: &Path) -> Result<Map> {
     }
 }
 
+/// Refuses a map file given twice, or two GeoTIFF/MovingAI files that would get one
+/// name (they are named after their files), before any map is loaded: a long list of
+/// one map would otherwise fill memory before the second copy is refused.
+fn refuse_repeated_maps(paths: &[PathBuf]) -> Result<()> {
+    let mut seen = BTreeSet::new();
+    let mut stems = BTreeSet::new();
+    for path in paths {
+        if !seen.insert(path) {
+            return Err(Error::input(path, "is given twice as a map"));
+        }
+        let named_after_file = !path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
+        if named_after_file && !stems.insert(file_stem(path)) {
+            return Err(Error::input(
+                path,
+                format!(
+                    "a second map named '{}' (maps from GeoTIFF and .map files are named after their file)",
+                    file_stem(path)
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
 impl IngestParams {
     fn mapping(&self) -> Result<TopicMapping> {
         let transform = match self.transform.as_deref() {
@@ -232,6 +258,7 @@ impl Stage for IngestParams {
                     .into(),
             ));
         }
+        refuse_repeated_maps(&self.maps)?;
         let mut maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
         let mut sources: Vec<PathBuf> = self.maps.clone();
         let mut demos = self.read_tables(&maps)?;
@@ -242,6 +269,7 @@ impl Stage for IngestParams {
         }
         let mut names = BTreeSet::new();
         for (map, path) in maps.iter().zip(&sources) {
+            check_map_name(&map.name).map_err(|why| Error::input(path, why))?;
             if !names.insert(map.name.clone()) {
                 return Err(Error::input(
                     path,

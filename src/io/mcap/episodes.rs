@@ -103,7 +103,11 @@ pub fn read_log(
         .unwrap_or_default();
     let problem = |message: String| Error::input(path, message);
     // First pass over the channel list (summary when present, else a scan) to find topics.
-    let report = super::inspect::inspect(path, true, mapping.allow_truncated)?;
+    let report = super::inspect::inspect(
+        path,
+        super::inspect::Source::Summary,
+        mapping.allow_truncated,
+    )?;
     let channels: Vec<(String, String)> = report
         .channels
         .iter()

@@ -70,6 +70,35 @@ struct Registry {
     channels: HashMap<u16, Arc<ChannelInfo>>,
 }
 
+/// The most a chunk may decompress to. Real recorders write chunks of kilobytes to a
+/// few megabytes; a header claiming more than this is damage, refused before any
+/// allocation (a claim of 2^50 bytes would otherwise abort the process).
+pub const CHUNK_MEMORY_BUDGET: u64 = 4 << 30;
+
+/// Checks a chunk's claimed uncompressed size against the budget and, for a stored
+/// chunk, against the bytes it holds.
+fn check_chunk_size(
+    compression: &str,
+    compressed: usize,
+    claimed: u64,
+) -> std::result::Result<usize, String> {
+    if claimed > CHUNK_MEMORY_BUDGET {
+        return Err(format!(
+            "its header claims {claimed} uncompressed bytes (from {compressed} compressed), \
+             more than the {} GiB a chunk may hold",
+            CHUNK_MEMORY_BUDGET >> 30
+        ));
+    }
+    let size =
+        usize::try_from(claimed).map_err(|_| format!("{claimed} bytes do not fit in memory"))?;
+    if compression.is_empty() && size != compressed {
+        return Err(format!(
+            "an uncompressed chunk of {compressed} bytes whose header says {size}"
+        ));
+    }
+    Ok(size)
+}
+
 /// A decompressor per compression, reused across chunks.
 #[derive(Default)]
 struct Decompressors {
@@ -85,6 +114,8 @@ impl Decompressors {
         out: &mut Vec<u8>,
     ) -> std::result::Result<(), String> {
         out.clear();
+        out.try_reserve_exact(size)
+            .map_err(|_| format!("cannot hold its {size} uncompressed bytes in memory"))?;
         match compression {
             "" => out.extend_from_slice(data),
             "zstd" => {
@@ -94,14 +125,13 @@ impl Decompressors {
                         .zstd
                         .insert(zstd::bulk::Decompressor::new().map_err(|e| e.to_string())?),
                 };
-                out.reserve(size);
                 zstd.decompress_to_buffer(data, out)
                     .map_err(|e| format!("zstd: {e}"))?;
             }
             "lz4" => {
-                out.reserve(size);
+                // `take` keeps a lying header from growing the buffer past its claim.
                 lz4::Decoder::new(data)
-                    .and_then(|mut d| d.read_to_end(out))
+                    .and_then(|d| d.take(size as u64 + 1).read_to_end(out))
                     .map_err(|e| format!("lz4: {e}"))?;
             }
             other => return Err(format!("unsupported chunk compression '{other}'")),
@@ -156,6 +186,12 @@ fn scan_inner(
         .metadata()
         .map_err(|e| Error::io(format!("reading {}", path.display()), e))?
         .len();
+    if file_bytes < mcap::MAGIC.len() as u64 {
+        return Err(Error::input(
+            path,
+            format!("is not an MCAP file: {file_bytes} bytes, shorter than the magic"),
+        ));
+    }
     // No record can be longer than the file; the limit also keeps the `mcap` crate from
     // overflowing on the garbage lengths of a cut-off file.
     let mut reader = LinearReader::new_with_options(
@@ -208,10 +244,12 @@ fn scan_inner(
         };
         let flow = match record {
             Record::Chunk { header, data } => {
-                let size = usize::try_from(header.uncompressed_size).unwrap_or(usize::MAX);
-                if let Err(e) =
-                    decompressors.decompress(&header.compression, &data, size, &mut chunk)
-                {
+                let decompressed =
+                    check_chunk_size(&header.compression, data.len(), header.uncompressed_size)
+                        .and_then(|size| {
+                            decompressors.decompress(&header.compression, &data, size, &mut chunk)
+                        });
+                if let Err(e) = decompressed {
                     return damage(offset, format!("chunk (record {records}): {e}"));
                 }
                 if header.uncompressed_crc != 0 {
