@@ -194,3 +194,133 @@ fn a_symlinked_output_folder_does_not_carry_a_pipeline_outside() {
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(elsewhere.path().join("features/manifest.json").is_file());
 }
+
+/// Flips one byte in the middle of `file`.
+fn flip_a_byte(file: &Path) {
+    let mut bytes = std::fs::read(file).unwrap();
+    let at = bytes.len() / 2;
+    bytes[at] ^= 0x20;
+    std::fs::write(file, bytes).unwrap();
+}
+
+#[test]
+fn a_flipped_byte_in_a_dagger_round_is_refused_by_every_reader() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    assert!(run(&["dagger", "init", "ds"]).status.success());
+    for seed in ["1", "2"] {
+        let added = run(&["dagger", "add", "ds", "--seed", seed]);
+        assert!(added.status.success(), "{}", stderr(&added));
+    }
+    copy_dir(&dir.path().join("ds"), &dir.path().join("original"));
+    let verified = run(&["verify", "ds"]);
+    assert!(verified.status.success(), "{}", stderr(&verified));
+    assert!(
+        stdout(&verified).contains("ds: ok (dagger-dataset"),
+        "{}",
+        stdout(&verified)
+    );
+
+    flip_a_byte(&dir.path().join("ds/data/round=001/part-000.parquet"));
+    let round_file = "round=001/part-000.parquet";
+    for args in [
+        vec!["dagger", "train", "ds", "--out", "p"],
+        vec!["dagger", "status", "ds"],
+        vec!["verify", "ds"],
+        vec!["diff", "original", "ds"],
+        vec!["inspect", "ds"],
+    ] {
+        let out = run(&args);
+        assert_input_error(&out, &[round_file]);
+        assert!(!dir.path().join("p").exists());
+    }
+    let out = run(&["dagger", "train", "ds", "--out", "p"]);
+    assert!(stderr(&out).contains("round 1"), "{}", stderr(&out));
+    let out = run(&["verify", "ds"]);
+    assert!(stdout(&out).contains("DAMAGED"), "{}", stdout(&out));
+}
+
+#[test]
+fn a_flipped_byte_in_an_artifact_is_refused_by_the_next_stage() {
+    let ws = prepared_workspace();
+    flip_a_byte(&ws.path().join("fs/features/terrain-002.parquet"));
+    let out = imitate(
+        ws.path(),
+        &[
+            "learch",
+            "--dataset",
+            "ds",
+            "--features",
+            "fs",
+            "--out",
+            "c",
+        ],
+    );
+    assert_input_error(&out, &["terrain-002.parquet", "digest"]);
+    assert!(!ws.path().join("c").exists());
+    let out = imitate(ws.path(), &["verify", "ds", "fs"]);
+    assert_input_error(
+        &out,
+        &["fs/features/terrain-002.parquet", "1 damaged file(s)"],
+    );
+    assert!(stdout(&out).contains("ds: ok (dataset"), "{}", stdout(&out));
+}
+
+#[test]
+fn the_output_cache_reports_its_size_and_is_bounded_by_gc() {
+    let ws = quickstart_workspace();
+    pipeline(ws.path(), &features_stage("out/features"));
+    let ran = imitate(ws.path(), &["run"]);
+    assert!(ran.status.success(), "{}", stderr(&ran));
+    let status: serde_json::Value =
+        serde_json::from_str(&stdout(&imitate(ws.path(), &["cache", "status", "--json"]))).unwrap();
+    let outputs = status["outputs"].as_array().unwrap();
+    assert_eq!(outputs.len(), 2, "{status}");
+    assert!(status["bytes"].as_u64().unwrap() > 0);
+    let kinds: Vec<&str> = outputs
+        .iter()
+        .map(|o| o["kind"].as_str().unwrap())
+        .collect();
+    assert!(
+        kinds.contains(&"dataset") && kinds.contains(&"features"),
+        "{kinds:?}"
+    );
+
+    let refused = imitate(ws.path(), &["cache", "gc"]);
+    assert_eq!(refused.status.code(), Some(2));
+    let gc = imitate(ws.path(), &["cache", "gc", "--max-size", "0"]);
+    assert!(gc.status.success(), "{}", stderr(&gc));
+    assert_eq!(stdout(&gc).lines().count(), 2, "{}", stdout(&gc));
+    let text = stdout(&imitate(ws.path(), &["cache", "status"]));
+    assert!(text.contains("0 outputs, 0 B"), "{text}");
+    // The workspace's outputs are untouched, and a run is still up to date.
+    let verified = imitate(ws.path(), &["verify", "out/dataset", "out/features"]);
+    assert!(verified.status.success(), "{}", stdout(&verified));
+    let again = imitate(ws.path(), &["run"]);
+    assert!(
+        stderr(&again).contains("features: up to date"),
+        "{}",
+        stderr(&again)
+    );
+}
+
+#[test]
+fn a_nan_cell_in_one_map_gives_every_map_the_same_features() {
+    let ws = quickstart_workspace();
+    let file = ws.path().join("testdata/world/maps/terrain-001.parquet");
+    let mut map = read_map(&file).unwrap();
+    map.layers[0].values[5] = f32::NAN;
+    write_map(&file, &map).unwrap();
+    pipeline(ws.path(), &features_stage("out/features"));
+    let learch = "  learch:\n    uses: learch\n    with:\n      dataset: out/dataset\n      features: out/features\n      rounds: 2\n      out: out/costmap\n";
+    let yaml = std::fs::read_to_string(ws.path().join("imitate.yaml")).unwrap() + learch;
+    std::fs::write(ws.path().join("imitate.yaml"), yaml).unwrap();
+    let out = imitate(ws.path(), &["run"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let manifest: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(ws.path().join("out/features/manifest.json")).unwrap(),
+    )
+    .unwrap();
+    let features = manifest["metrics"]["features"].to_string();
+    assert!(features.contains("elevation/nodata"), "{features}");
+}

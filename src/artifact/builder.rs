@@ -7,10 +7,11 @@ use super::guard::{check_relative, check_replaceable};
 use super::manifest::{FileEntry, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest};
 use crate::error::{Error, Result};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
+use crate::io::leftovers;
 
 pub struct ArtifactBuilder {
     destination: PathBuf,
-    staging: tempfile::TempDir,
+    staging: Staging,
     files: Vec<(String, String)>,
     started: std::time::Instant,
 }
@@ -31,7 +32,7 @@ impl ArtifactBuilder {
     /// Refuses names that would leave the artifact (see [`check_relative`]).
     pub fn file(&mut self, relative: &str, role: &str) -> Result<PathBuf> {
         check_relative(relative)?;
-        let path = self.staging.path().join(relative);
+        let path = self.staging.dir.path().join(relative);
         if let Some(dir) = path.parent() {
             std::fs::create_dir_all(dir)
                 .map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
@@ -55,7 +56,7 @@ impl ArtifactBuilder {
             .unwrap_or_default();
         let mut files = Vec::with_capacity(self.files.len());
         for (relative, role) in &self.files {
-            let (digest, size) = file_digest(&self.staging.path().join(relative))?;
+            let (digest, size) = file_digest(&self.staging.dir.path().join(relative))?;
             files.push(FileEntry {
                 path: relative.clone(),
                 role: role.clone(),
@@ -75,7 +76,7 @@ impl ArtifactBuilder {
             metrics,
         };
         write_bytes_atomic(
-            &self.staging.path().join(MANIFEST),
+            &self.staging.dir.path().join(MANIFEST),
             &to_json_bytes(&manifest),
         )?;
         let finished = std::time::SystemTime::now()
@@ -87,7 +88,10 @@ impl ArtifactBuilder {
             "duration_s": self.started.elapsed().as_secs_f64(),
             "threads": rayon::current_num_threads(),
         });
-        write_bytes_atomic(&self.staging.path().join(RUN_INFO), &to_json_bytes(&run))?;
+        write_bytes_atomic(
+            &self.staging.dir.path().join(RUN_INFO),
+            &to_json_bytes(&run),
+        )?;
         install(self.staging, &self.destination)?;
         Ok(manifest)
     }
@@ -97,7 +101,7 @@ impl ArtifactBuilder {
 /// folder beside `to` first, then moved into place.
 pub fn copy_artifact(from: &Path, to: &Path) -> Result<()> {
     let staging = staging_beside(to)?;
-    copy_tree(from, staging.path())?;
+    copy_tree(from, staging.dir.path())?;
     install(staging, to)
 }
 
@@ -123,32 +127,44 @@ fn copy_tree(from: &Path, to: &Path) -> Result<()> {
     Ok(())
 }
 
+/// A staging folder, locked by this process while it lives so that no sweep takes it
+/// for a killed run's leftover.
+struct Staging {
+    dir: tempfile::TempDir,
+    _held: Option<std::fs::File>,
+}
+
 /// A new, empty staging folder in the folder that will hold `destination`, so that
-/// moving it into place is a rename within one file system.
-fn staging_beside(destination: &Path) -> Result<tempfile::TempDir> {
+/// moving it into place is a rename within one file system. Leftovers of killed runs
+/// in that folder are swept first.
+fn staging_beside(destination: &Path) -> Result<Staging> {
     let parent = match destination.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
     };
     std::fs::create_dir_all(&parent)
         .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
-    tempfile::Builder::new()
-        .prefix(".imitate-staging-")
+    leftovers::sweep(&parent, &leftovers::BESIDE_OUTPUTS);
+    let dir = tempfile::Builder::new()
+        .prefix(leftovers::STAGING)
         .tempdir_in(&parent)
         .map_err(|e| {
             Error::io(
                 format!("creating a staging folder in {}", parent.display()),
                 e,
             )
-        })
+        })?;
+    let held = leftovers::hold(dir.path());
+    Ok(Staging { dir, _held: held })
 }
 
 /// Replaces `destination` with the staged folder: the old version is moved aside,
 /// the new one renamed in, then the old one removed. What is there is checked again
 /// first: something may have appeared since the work began.
-fn install(staging: tempfile::TempDir, destination: &Path) -> Result<()> {
+fn install(staging: Staging, destination: &Path) -> Result<()> {
     check_replaceable(destination)?;
-    let staged = staging.keep();
+    let Staging { dir, _held } = staging;
+    let staged = dir.keep();
     crate::io::fs::set_public_permissions(&staged, 0o755)?;
     let parent = staged
         .parent()
@@ -160,15 +176,23 @@ fn install(staging: tempfile::TempDir, destination: &Path) -> Result<()> {
     };
     let result = if destination.exists() {
         let retired = tempfile::Builder::new()
-            .prefix(".imitate-retired-")
+            .prefix(leftovers::RETIRED)
             .tempdir_in(&parent)
             .map_err(|e| Error::io(format!("creating a folder in {}", parent.display()), e))?
             .keep();
-        rename(destination, &retired.join("old"))
-            .and_then(|_| rename(&staged, destination))
-            .map(|_| {
-                let _ = std::fs::remove_dir_all(&retired);
+        let _retired_held = leftovers::hold(&retired);
+        let old = retired.join("old");
+        let result = rename(destination, &old).and_then(|_| {
+            rename(&staged, destination).inspect_err(|_| {
+                // Put the old version back rather than leave nothing.
+                let _ = std::fs::rename(&old, destination);
             })
+        });
+        // Kept only when the old version could not be put back: it is all there is.
+        if result.is_ok() || !old.exists() {
+            let _ = std::fs::remove_dir_all(&retired);
+        }
+        result
     } else {
         rename(&staged, destination)
     };

@@ -116,7 +116,8 @@ pub fn stage_key(
     )
 }
 
-/// Reads and checks an artifact's manifest; `kind` is the kind expected.
+/// Reads and checks an artifact's manifest, and checks its files against their
+/// digests; `kind` is the kind expected.
 pub fn read_manifest(dir: &Path, kind: &str) -> Result<Manifest> {
     let path = dir.join(MANIFEST);
     if !dir.is_dir() {
@@ -146,6 +147,7 @@ pub fn read_manifest(dir: &Path, kind: &str) -> Result<Manifest> {
             ),
         ));
     }
+    super::verify::verify_entries(dir, &manifest.files)?;
     Ok(manifest)
 }
 

@@ -7,6 +7,7 @@ mod builder;
 mod costs;
 mod guard;
 mod manifest;
+mod verify;
 
 pub use builder::{ArtifactBuilder, copy_artifact};
 pub use costs::load_costs;
@@ -15,3 +16,4 @@ pub use manifest::{
     FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest, digest_input,
     digest_input_with, read_manifest, stage_key,
 };
+pub use verify::{Problem, Verification, verify_entries, verify_entry, verify_folder};

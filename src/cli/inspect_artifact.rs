@@ -39,6 +39,18 @@ pub fn inspect_folder(dir: &Path) -> Result<Value> {
         .map_err(|_| Error::input(dir, "is a folder without a manifest.json: not an artifact"))?;
     let manifest: Value = serde_json::from_slice(&bytes)
         .map_err(|e| Error::input(&path, format!("is not a manifest: {e}")))?;
+    let verification = crate::artifact::verify_folder(dir)?;
+    if let Some(first) = verification.problems.first() {
+        return Err(Error::input(
+            dir.join(&first.path),
+            format!(
+                "{} ({} damaged file(s) in {}; `imitate verify` lists them)",
+                first.problem,
+                verification.problems.len(),
+                dir.display()
+            ),
+        ));
+    }
     let files = manifest["files"].as_array().cloned().unwrap_or_default();
     let bytes_total: u64 = files.iter().filter_map(|f| f["size"].as_u64()).sum();
     let mut report = json!({

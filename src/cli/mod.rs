@@ -24,6 +24,7 @@ mod bench_learch;
 mod bench_objectworld;
 mod bench_terrain;
 mod bench_track;
+mod cache;
 mod dagger;
 mod diff;
 mod export;
@@ -34,6 +35,7 @@ mod mcap;
 mod plan;
 mod report;
 mod testdata;
+mod verify;
 
 use std::path::PathBuf;
 
@@ -115,6 +117,12 @@ pub enum Command {
     /// What changed between two artifacts (folders or stored versions); thresholds set
     /// the exit code for CI.
     Diff(diff::DiffArgs),
+    /// The workspace's output cache (`.imitate/cache`): its size, and garbage collection.
+    #[command(subcommand)]
+    Cache(cache::CacheCommand),
+    /// Check artifacts and DAgger datasets against their manifests (every file's size and
+    /// digest), and MCAP files against their chunk CRCs; exit 2 naming what is damaged.
+    Verify(verify::VerifyArgs),
     /// A costmap artifact as PNG (with a colour bar), GeoTIFF and MCAP (for Foxglove).
     Export(export::ExportArgs),
     /// A report on a costmap artifact: markdown and self-contained HTML with previews,
@@ -227,6 +235,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Inspect(args) => mcap::inspect_command(args),
         Command::Cat(args) => mcap::cat_command(args),
         Command::Diff(args) => diff::run(args),
+        Command::Verify(args) => verify::run(args),
+        Command::Cache(command) => cache::run(command),
         Command::Export(args) => export::run(args),
         Command::Report(args) => report::run(args),
     }

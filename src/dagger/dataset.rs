@@ -31,9 +31,12 @@ use serde::{Deserialize, Serialize};
 
 use super::query::{RoundStatistics, round_statistics};
 use super::{Actor, PolicyData, Step};
-use crate::artifact::{FileEntry, Lineage, MANIFEST, artifact_digest};
+use crate::artifact::{
+    FileEntry, Lineage, MANIFEST, artifact_digest, verify_entries, verify_entry,
+};
 use crate::error::{Error, Result};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
+use crate::io::leftovers;
 use crate::io::tables::{Table, read_table, write_table};
 
 const INFO: &str = "meta/info.json";
@@ -97,6 +100,8 @@ pub struct Dataset {
     dir: PathBuf,
     pub info: DatasetInfo,
     pub rounds: Vec<RoundInfo>,
+    /// The manifest's files: every partition read is checked against its digest.
+    files: Vec<FileEntry>,
 }
 
 /// Whether `dir` or a folder below it holds a file (it stops at the first).
@@ -131,32 +136,80 @@ impl Dataset {
         std::fs::create_dir_all(dir.join("meta"))
             .map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
         write_bytes_atomic(&dir.join(INFO), &to_json_bytes(&info))?;
-        let dataset = Dataset {
+        let mut dataset = Dataset {
             dir: dir.to_path_buf(),
             info,
             rounds: Vec::new(),
+            files: Vec::new(),
         };
         dataset.write_rounds()?;
         dataset.write_manifest(&[])?;
         Ok(dataset)
     }
 
+    /// Opens a dataset, checking its description and round list against the manifest.
     pub fn open(dir: &Path) -> Result<Dataset> {
         let info_path = dir.join(INFO);
+        if !info_path.is_file() {
+            return Err(Error::input(
+                dir,
+                "is not a DAgger dataset (no meta/info.json)",
+            ));
+        }
+        // What killed appends left (each leftover is locked while its writer lives).
+        leftovers::sweep(dir, &[leftovers::TEMPORARY]);
+        leftovers::sweep(&dir.join("meta"), &[leftovers::TEMPORARY]);
+        leftovers::sweep(&dir.join("data"), &[leftovers::ROUND]);
+        let files = manifest_files(dir)?;
+        verify_entry(dir, &files, INFO)?;
+        let rounds_checked = verify_entry(dir, &files, ROUNDS);
         let bytes = std::fs::read(&info_path)
             .map_err(|_| Error::input(dir, "is not a DAgger dataset (no meta/info.json)"))?;
         let info: DatasetInfo = serde_json::from_slice(&bytes)
             .map_err(|e| Error::input(&info_path, format!("is not a dataset description: {e}")))?;
         let rounds = read_rounds(&dir.join(ROUNDS))?;
-        Ok(Dataset {
+        let mut dataset = Dataset {
             dir: dir.to_path_buf(),
             info,
             rounds,
-        })
+            files,
+        };
+        if let Err(damage) = rounds_checked
+            && !dataset.finish_interrupted_append()?
+        {
+            return Err(damage);
+        }
+        Ok(dataset)
+    }
+
+    /// An append commits when the round list (`meta/rounds.parquet`) lands; the
+    /// manifest follows. When a kill fell between the two, the list holds exactly one
+    /// round more than the manifest, whose partition is in place: the manifest is
+    /// brought up to date. Anything else is damage (returns false).
+    fn finish_interrupted_append(&mut self) -> Result<bool> {
+        let previous = self.files.clone();
+        let listed: Vec<FileEntry> = (previous.iter())
+            .filter(|f| f.path.starts_with("data/"))
+            .cloned()
+            .collect();
+        let n = self.rounds.len();
+        let interrupted = n == listed.len() + 1
+            && (0..n - 1).all(|r| listed.iter().any(|f| f.path == partition(r as u32)))
+            && self.dir.join(partition(n as u32 - 1)).is_file();
+        if !interrupted {
+            return Ok(false);
+        }
+        verify_entries(&self.dir, &listed)?;
+        self.write_manifest(&previous)?;
+        Ok(true)
     }
 
     /// Per-round statistics of the steps (a polars scan of the listed partitions).
     pub fn statistics(&self) -> Result<Vec<RoundStatistics>> {
+        let listed: Vec<FileEntry> = (self.rounds.iter())
+            .map(|r| self.entry(&partition(r.round)))
+            .collect::<Result<_>>()?;
+        verify_entries(&self.dir, &listed)?;
         let files: Vec<PathBuf> = (self.rounds.iter())
             .map(|r| self.dir.join(partition(r.round)))
             .collect();
@@ -171,6 +224,7 @@ impl Dataset {
     /// already in the dataset. Refuses (and writes nothing) when an observation has
     /// another length than the dataset's or a label is not finite.
     pub fn append(&mut self, new: &NewRound<'_>) -> Result<u32> {
+        let _lock = self.lock_for_append()?;
         if let Some(existing) = self.rounds.iter().find(|r| r.source == new.source) {
             return Ok(existing.round);
         }
@@ -217,9 +271,10 @@ impl Dataset {
         std::fs::create_dir_all(&data)
             .map_err(|e| Error::io(format!("creating {}", data.display()), e))?;
         let staging = tempfile::Builder::new()
-            .prefix(".round-")
+            .prefix(leftovers::ROUND)
             .tempdir_in(&data)
             .map_err(|e| Error::io(format!("creating a folder in {}", data.display()), e))?;
+        let _staging_held = leftovers::hold(staging.path());
         let batch = steps_batch(round, first_index, new, dims);
         write_table(
             &staging.path().join("part-000.parquet"),
@@ -254,19 +309,70 @@ impl Dataset {
         mut visit: impl FnMut(&RoundInfo, &RoundSteps) -> Result<()>,
     ) -> Result<()> {
         for info in &self.rounds {
-            let path = self.dir.join(partition(info.round));
-            let steps = RoundSteps::read(&path, self.info.observation_names.len())?;
+            let steps = self.round_steps(info.round)?;
             visit(info, &steps)?;
         }
         Ok(())
     }
 
-    /// One round's steps, read back.
+    /// One round's steps, read back after checking the partition's digest.
     pub fn round_steps(&self, round: u32) -> Result<RoundSteps> {
-        RoundSteps::read(
-            &self.dir.join(partition(round)),
-            self.info.observation_names.len(),
-        )
+        let relative = partition(round);
+        verify_entry(&self.dir, &self.files, &relative).map_err(|e| self.in_round(round, e))?;
+        RoundSteps::read(&self.dir.join(relative), self.info.observation_names.len())
+            .map_err(|e| self.in_round(round, e))
+    }
+
+    /// Holds the dataset for one append: no other process appends meanwhile (so what a
+    /// killed append left can be swept), and a dataset changed since it was opened is
+    /// refused rather than overwritten. The lock ends with the returned handle.
+    fn lock_for_append(&self) -> Result<std::fs::File> {
+        let folder = std::fs::File::open(&self.dir)
+            .map_err(|e| Error::io(format!("opening {}", self.dir.display()), e))?;
+        match folder.try_lock() {
+            Ok(()) => {}
+            Err(std::fs::TryLockError::WouldBlock) => {
+                return Err(Error::Failed(format!(
+                    "another imitate is adding a round to {}; wait for it to finish",
+                    self.dir.display()
+                )));
+            }
+            Err(std::fs::TryLockError::Error(e)) => {
+                return Err(Error::io(format!("locking {}", self.dir.display()), e));
+            }
+        }
+        let on_disk = read_rounds(&self.dir.join(ROUNDS))?;
+        if on_disk.len() != self.rounds.len() {
+            return Err(Error::Failed(format!(
+                "{} gained rounds since it was opened (another process added them); run again",
+                self.dir.display()
+            )));
+        }
+        Ok(folder)
+    }
+
+    /// The manifest entry of `relative`, or an error saying the dataset is damaged.
+    fn entry(&self, relative: &str) -> Result<FileEntry> {
+        self.files
+            .iter()
+            .find(|e| e.path == relative)
+            .cloned()
+            .ok_or_else(|| {
+                Error::input(
+                    self.dir.join(relative),
+                    "is not listed in the dataset's manifest: the dataset is damaged",
+                )
+            })
+    }
+
+    /// Names the round in an error about its partition.
+    fn in_round(&self, round: u32, error: Error) -> Error {
+        match error {
+            Error::Input { path, message } => {
+                Error::input(path, format!("round {round}: {message}"))
+            }
+            other => other,
+        }
     }
 
     /// The sufficient statistics of every (observation, label) pair in the dataset.
@@ -313,7 +419,7 @@ impl Dataset {
     }
 
     /// Writes the manifest, digesting only files `previous` does not already list.
-    fn write_manifest(&self, previous: &[FileEntry]) -> Result<()> {
+    fn write_manifest(&mut self, previous: &[FileEntry]) -> Result<()> {
         let mut relative: Vec<(String, &str)> =
             vec![(INFO.to_string(), "info"), (ROUNDS.to_string(), "rounds")];
         relative.extend(self.rounds.iter().map(|r| (partition(r.round), "steps")));
@@ -356,7 +462,9 @@ impl Dataset {
             ),
             "metrics": {"rounds": self.rounds.len(), "steps": self.steps()},
         });
-        write_bytes_atomic(&self.dir.join(MANIFEST), &to_json_bytes(&manifest))
+        write_bytes_atomic(&self.dir.join(MANIFEST), &to_json_bytes(&manifest))?;
+        self.files = files;
+        Ok(())
     }
 }
 

@@ -164,7 +164,7 @@ struct Layout {
 }
 
 /// Turns the spec into named planes over the given layers; errors name what is wrong.
-fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
+fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layout, String> {
     let mut used: Vec<usize> = Vec::new();
     let layer = |name: &str, used: &mut Vec<usize>| -> Result<usize, String> {
         let i = map
@@ -465,7 +465,7 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
                 map.geo.cell_at(j)
             ));
         }
-        if values.iter().any(|v| v.is_nan()) {
+        if nodata_layers.contains(&map.layers[i].name) || values.iter().any(|v| v.is_nan()) {
             nodata.push(i);
             push(
                 format!("{}/nodata", map.layers[i].name),
@@ -490,11 +490,36 @@ fn plan(map: &Map, spec: &FeatureSpec) -> Result<Layout, String> {
 
 /// Builds the feature stack of one map; the error names what is missing or invalid.
 pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
+    compute_with_nodata(map, spec, &[])
+}
+
+/// The layers of `maps` that hold no-data (NaN) cells in any of them: each gets its
+/// `<layer>/nodata` indicator on every map, so that all stacks of a dataset have the
+/// same features.
+pub fn nodata_layers(maps: &[Map]) -> Vec<String> {
+    let mut names: Vec<String> = maps
+        .iter()
+        .flat_map(|m| m.layers.iter())
+        .filter(|l| l.values.iter().any(|v| v.is_nan()))
+        .map(|l| l.name.clone())
+        .collect();
+    names.sort();
+    names.dedup();
+    names
+}
+
+/// [`compute`], with a `<layer>/nodata` indicator for each of `nodata_layers` the spec
+/// uses, whether or not this map has no-data cells in it.
+pub fn compute_with_nodata(
+    map: &Map,
+    spec: &FeatureSpec,
+    nodata_layers: &[String],
+) -> Result<FeatureStack, String> {
     let Layout {
         names,
         planes,
         nodata,
-    } = plan(map, spec)?;
+    } = plan(map, spec, nodata_layers)?;
     let (w, h, res) = (
         map.geo.width as usize,
         map.geo.height as usize,

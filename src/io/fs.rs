@@ -32,6 +32,8 @@ pub fn write_atomic_seekable(
         .prefix(".imitate-tmp-")
         .tempfile_in(dir)
         .map_err(|e| Error::io(format!("creating a temporary file in {}", dir.display()), e))?;
+    // Marks the file as ours while we live (see `leftovers`); released on drop.
+    let _ = tmp.as_file().try_lock();
     let mut out = BufWriter::new(tmp);
     write(&mut out)?;
     let tmp = out

@@ -309,10 +309,20 @@ pub fn train(
         return Err("no training examples".into());
     }
     let names = stacks[0].names.clone();
-    if let Some(bad) = stacks.iter().find(|s| s.names != names) {
+    if let Some(k) = stacks.iter().position(|s| s.names != names) {
+        let only = |a: &[String], b: &[String]| -> Vec<String> {
+            a.iter().filter(|n| !b.contains(n)).cloned().collect()
+        };
+        let map = |i: usize| map_names.get(i).map_or("?", String::as_str);
         return Err(format!(
-            "feature stacks disagree: {:?} versus {:?}",
-            names, bad.names
+            "the feature stacks of maps '{}' and '{}' have different features (only in '{}': \
+             {:?}; only in '{}': {:?}); make them with one feature spec",
+            map(0),
+            map(k),
+            map(0),
+            only(&names, &stacks[k].names),
+            map(k),
+            only(&stacks[k].names, &names)
         ));
     }
     if config.method != GridMethod::Learch && config.weak_learner != WeakLearnerKind::Ridge {

@@ -19,6 +19,7 @@ mod lock;
 mod spec;
 mod statcache;
 
+pub use cache::CachedOutput;
 pub use lock::{LockFile, LockedStage, differences, lock_path};
 pub use spec::{ExpandedStage, Foreach, PipelineSpec, StageSpec};
 
@@ -216,6 +217,41 @@ fn check_output(out: &Path, allow_outside_workspace: bool) -> std::result::Resul
     Ok(())
 }
 
+/// The outputs kept in the workspace's cache, most recently used first.
+pub fn cache_outputs() -> Result<Vec<CachedOutput>> {
+    cache::OutputCache::in_workspace().outputs()
+}
+
+/// Bounds the workspace's cache (see [`cache::OutputCache::collect_garbage`]), holding
+/// the run lock so that no run uses the cache meanwhile.
+pub fn cache_gc(keep_last: Option<usize>, max_bytes: Option<u64>) -> Result<Vec<CachedOutput>> {
+    let _lock = RunLock::acquire()?;
+    let cache = cache::OutputCache::in_workspace();
+    for folder in cache.folders() {
+        crate::io::leftovers::sweep(&folder, &crate::io::leftovers::BESIDE_OUTPUTS);
+    }
+    cache.collect_garbage(keep_last, max_bytes)
+}
+
+/// Removes what killed runs left beside every output, in the cache and beside the lock
+/// file (staging folders, temporary files), whether or not any stage runs now.
+fn sweep_leftovers(outs: &[PathBuf], lock_file: &Path) {
+    use crate::io::leftovers::{BESIDE_OUTPUTS, sweep};
+    let parent = |p: &Path| match p.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let mut folders: std::collections::BTreeSet<PathBuf> = outs.iter().map(|o| parent(o)).collect();
+    folders.insert(parent(lock_file));
+    folders.extend(cache::OutputCache::in_workspace().folders());
+    folders.insert(PathBuf::from(".imitate"));
+    folders.insert(PathBuf::from(".imitate/checkpoints"));
+    let removed: usize = folders.iter().map(|f| sweep(f, &BESIDE_OUTPUTS)).sum();
+    if removed > 0 {
+        tracing::info!(removed, "swept the leftovers of killed runs");
+    }
+}
+
 /// What every stage's processing shares.
 struct Context<'a> {
     options: &'a RunOptions,
@@ -387,6 +423,9 @@ pub fn run(
     } else {
         Some(RunLock::acquire()?)
     };
+    if !options.dry_run {
+        sweep_leftovers(&outs, &lock_path(path));
+    }
     let ctx = Context {
         options,
         lock_file: lock_path(path),

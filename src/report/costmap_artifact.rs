@@ -28,8 +28,11 @@ pub fn read_any_manifest(dir: &Path) -> Result<Manifest> {
         return Err(Error::input(dir, "no such artifact folder"));
     }
     let path = dir.join(MANIFEST);
-    serde_json::from_slice(&read_input(&path)?)
-        .map_err(|e| Error::input(&path, format!("not a valid manifest: {e}")))
+    let manifest: Manifest = serde_json::from_slice(&read_input(&path)?)
+        .map_err(|e| Error::input(&path, format!("not a valid manifest: {e}")))?;
+    // Compared, reported or exported, the contents are what the manifest says.
+    crate::artifact::verify_entries(dir, &manifest.files)?;
+    Ok(manifest)
 }
 
 impl CostmapArtifact {

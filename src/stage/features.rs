@@ -8,11 +8,12 @@ use serde::{Deserialize, Serialize};
 use super::{Stage, StageReport, commit_artifact, resolved};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
-use crate::features::{Bank, FeatureSpec, Op, compute};
+use crate::features::{Bank, FeatureSpec, Op, compute_with_nodata, nodata_layers};
 use crate::io::tables::{read_map, write_features};
 
 pub const KIND: &str = "features";
-const VERSION: u32 = 1;
+/// 2: every map gets the no-data indicators of any map in the dataset.
+const VERSION: u32 = 2;
 
 fn default_bias() -> bool {
     true
@@ -92,12 +93,15 @@ impl Stage for FeaturesParams {
             .files_with_role("map")
             .map(|f| self.dataset.join(&f.path))
             .collect();
-        let stacks = map_files
+        let maps = first_error_in_order(map_files.par_iter().map(|p| read_map(p)).collect())?;
+        let nodata = nodata_layers(&maps);
+        let stacks = maps
             .par_iter()
-            .map(|path| {
-                let map = read_map(path)?;
-                let stack = compute(&map, &spec).map_err(|e| Error::input(path, e))?;
-                Ok((map.name, stack))
+            .zip(&map_files)
+            .map(|(map, path)| {
+                let stack =
+                    compute_with_nodata(map, &spec, &nodata).map_err(|e| Error::input(path, e))?;
+                Ok((map.name.clone(), stack))
             })
             .collect::<Vec<_>>();
         let stacks = first_error_in_order(stacks)?;
