@@ -55,6 +55,8 @@ pub enum BenchCommand {
         #[arg(long)]
         json: bool,
     },
+    /// What checking an artifact's digests costs beside decoding its tables.
+    Verify(super::bench_verify::VerifyBenchArgs),
     /// Inverse optimal control methods on the GPIRL objectworld benchmark: expected value
     /// difference per method and number of demonstrations, over seeds.
     Objectworld(super::bench_objectworld::ObjectworldArgs),
@@ -129,6 +131,7 @@ pub fn run(command: BenchCommand) -> Result<()> {
             json,
         } => movingai(map, scen, planner, json),
         BenchCommand::Ingest(args) => super::bench_ingest::run(args),
+        BenchCommand::Verify(args) => super::bench_verify::run(args),
         BenchCommand::Learch(args) => super::bench_learch::run(args),
         BenchCommand::Objectworld(args) => super::bench_objectworld::run(args),
         BenchCommand::IocMethods(args) => super::bench_ioc::run(args),

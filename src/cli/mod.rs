@@ -24,6 +24,7 @@ mod bench_learch;
 mod bench_objectworld;
 mod bench_terrain;
 mod bench_track;
+mod bench_verify;
 mod cache;
 mod dagger;
 mod diff;
