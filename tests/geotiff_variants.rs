@@ -7,43 +7,15 @@ mod common;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-use common::{assert_input_error, imitate, repo, shared_data};
+use common::{assert_input_error, imitate, python_writer, shared_data};
 use imitate::grid::Map;
 use imitate::io::geotiff::read_geotiff;
 
-/// Writes the variants into `out`; `None` (skipped, with a message) where rasterio is
-/// not installed, except in CI, where its absence is a failure.
+/// Writes the variants into `out` with rasterio (see [`python_writer`]).
 fn write_variants(out: &Path) -> Option<Vec<serde_json::Value>> {
     let rasters = shared_data("raster")?;
-    let deps = repo().join("target/python-deps");
-    let run = Command::new("python3")
-        .arg(repo().join("tests/python/geotiff_variants.py"))
-        .arg(&rasters)
-        .arg(out)
-        .env("PYTHONPATH", &deps)
-        .output();
-    match run {
-        Ok(o) if o.status.success() => Some(
-            String::from_utf8_lossy(&o.stdout)
-                .lines()
-                .map(|l| serde_json::from_str(l).unwrap())
-                .collect(),
-        ),
-        other => {
-            let why = match other {
-                Ok(o) => String::from_utf8_lossy(&o.stderr).into_owned(),
-                Err(e) => e.to_string(),
-            };
-            assert!(
-                std::env::var_os("CI").is_none(),
-                "rasterio is missing in CI (scripts/python-deps.sh installs it): {why}"
-            );
-            eprintln!("skipped: rasterio is not installed (run scripts/python-deps.sh): {why}");
-            None
-        }
-    }
+    python_writer("geotiff_variants.py", &[&rasters, out])
 }
 
 fn same_values(a: &Map, b: &Map) -> bool {

@@ -60,7 +60,13 @@ impl CostmapArtifact {
         }
         let costmaps = manifest
             .files_with_role("costmap")
-            .map(|f| read_costmap(&dir.join(&f.path)))
+            .map(|f| {
+                let path = dir.join(&f.path);
+                let (name, grid) = read_costmap(&path)?;
+                // Exports and reports name files after the map.
+                crate::grid::check_map_name(&name).map_err(|why| Error::input(&path, why))?;
+                Ok((name, grid))
+            })
             .collect::<Result<Vec<_>>>()?;
         let paths = match manifest.files_with_role("paths").next() {
             Some(f) => read_paths(&dir.join(&f.path))?,

@@ -36,9 +36,10 @@ fn default_gap() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct IngestParams {
     /// Map layers: a Parquet `map/1` table, a GeoTIFF (.tif, .tiff; bands become layers
-    /// band1, band2, ...) or a MovingAI .map (layer `blocked`); repeat for several maps.
-    /// GeoTIFF and MovingAI maps are named after their file.
-    #[arg(long = "map", value_name = "FILE")]
+    /// band1, band2, ...) or a MovingAI .map (layer `blocked`); several after one --map
+    /// (as a shell glob gives them) or --map repeated. GeoTIFF and MovingAI maps are
+    /// named after their file.
+    #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
     pub maps: Vec<PathBuf>,
     /// Demonstrations as a Parquet table (columns episode, map, t, x, y[, yaw], or as
@@ -54,11 +55,12 @@ pub struct IngestParams {
     pub columns: Vec<String>,
     /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
     /// is read from observation.state elements named x, y (yaw) unless --column says.
-    #[arg(long = "lerobot", value_name = "DIR")]
+    #[arg(long = "lerobot", value_name = "DIR", num_args = 1..)]
     #[serde(default)]
     pub lerobot: Vec<PathBuf>,
-    /// Robot logs (MCAP) to take demonstrations (and maps) from; repeat for several.
-    #[arg(long = "log", value_name = "FILE")]
+    /// Robot logs (MCAP) to take demonstrations (and maps) from; several after one --log
+    /// or --log repeated.
+    #[arg(long = "log", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
     pub logs: Vec<PathBuf>,
     /// The logs' map topic (OccupancyGrid, GridMap or foxglove.Grid); default: the only

@@ -104,3 +104,34 @@ pub fn prepared_workspace() -> tempfile::TempDir {
     assert!(out.status.success(), "{}", stderr(&out));
     ws
 }
+
+/// Runs `tests/python/SCRIPT ARGS` with the packages `scripts/python-deps.sh` installs,
+/// and parses its stdout as one JSON value per line. `None` (the test is skipped, with a
+/// message) where they are not installed, except in CI, where that is a failure.
+pub fn python_writer(script: &str, args: &[&Path]) -> Option<Vec<serde_json::Value>> {
+    let run = Command::new("python3")
+        .arg(repo().join("tests/python").join(script))
+        .args(args)
+        .env("PYTHONPATH", repo().join("target/python-deps"))
+        .output();
+    match run {
+        Ok(o) if o.status.success() => Some(
+            String::from_utf8_lossy(&o.stdout)
+                .lines()
+                .map(|l| serde_json::from_str(l).unwrap())
+                .collect(),
+        ),
+        other => {
+            let why = match other {
+                Ok(o) => String::from_utf8_lossy(&o.stderr).into_owned(),
+                Err(e) => e.to_string(),
+            };
+            assert!(
+                std::env::var_os("CI").is_none(),
+                "{script} failed in CI (scripts/python-deps.sh installs its packages): {why}"
+            );
+            eprintln!("skipped: {script} cannot run (run scripts/python-deps.sh): {why}");
+            None
+        }
+    }
+}

@@ -1,0 +1,104 @@
+//! Parquet as users' tools write it: a demonstrations table from pyarrow (every codec),
+//! pandas and polars (zstd, its default, and its other codecs), and a map table with
+//! the codecs GDAL-era pipelines choose, each ingested to the same dataset as the
+//! original. The files come from `tests/python/parquet_writers.py`.
+
+mod common;
+
+use std::path::Path;
+
+use common::*;
+
+/// Ingests the quickstart world with `demonstrations` and with `replace_map` (a file
+/// standing for terrain-000) and returns the dataset's digest, which covers the maps,
+/// demonstrations and paths imitate writes from what it read.
+fn ingest_digest(ws: &Path, demonstrations: &str, replace_map: Option<&str>, out: &str) -> String {
+    let mut args = vec!["ingest", "--demonstrations", demonstrations];
+    let maps: Vec<String> = (0..4)
+        .map(|i| match (i, replace_map) {
+            (0, Some(file)) => file.to_string(),
+            _ => format!("testdata/world/maps/terrain-00{i}.parquet"),
+        })
+        .collect();
+    for map in &maps {
+        args.extend(["--map", map.as_str()]);
+    }
+    args.extend(["--out", out]);
+    let result = imitate(ws, &args);
+    assert!(
+        result.status.success(),
+        "{demonstrations} {replace_map:?}: {}",
+        stderr(&result)
+    );
+    stdout(&result)
+        .trim()
+        .split('\t')
+        .nth(2)
+        .unwrap()
+        .to_string()
+}
+
+#[test]
+fn tables_from_pyarrow_pandas_and_polars_read_as_the_original() {
+    let ws = quickstart_workspace();
+    let written = ws.path().join("written");
+    let Some(files) = python_writer(
+        "parquet_writers.py",
+        &[
+            &ws.path().join("testdata/world/demonstrations.parquet"),
+            &ws.path().join("testdata/world/maps/terrain-000.parquet"),
+            &written,
+        ],
+    ) else {
+        return;
+    };
+    let reference = ingest_digest(
+        ws.path(),
+        "testdata/world/demonstrations.parquet",
+        None,
+        "reference",
+    );
+    assert!(files.len() >= 18, "{files:?}");
+    for (i, file) in files.iter().enumerate() {
+        let path = file["file"].as_str().unwrap();
+        let out = format!("ds{i}");
+        let digest = match file["table"].as_str().unwrap() {
+            "demonstrations" => ingest_digest(ws.path(), path, None, &out),
+            _ => ingest_digest(
+                ws.path(),
+                "testdata/world/demonstrations.parquet",
+                Some(path),
+                &out,
+            ),
+        };
+        assert_eq!(digest, reference, "{}: another dataset", file["writer"]);
+    }
+}
+
+#[test]
+fn maps_follow_one_flag_as_a_shell_glob_gives_them() {
+    let ws = quickstart_workspace();
+    let mut args = vec![
+        "ingest",
+        "--demonstrations",
+        "testdata/world/demonstrations.parquet",
+        "--map",
+    ];
+    let maps: Vec<String> = (0..4)
+        .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
+        .collect();
+    args.extend(maps.iter().map(String::as_str));
+    args.extend(["--out", "globbed"]);
+    let globbed = imitate(ws.path(), &args);
+    assert!(globbed.status.success(), "{}", stderr(&globbed));
+    let repeated = ingest_digest(
+        ws.path(),
+        "testdata/world/demonstrations.parquet",
+        None,
+        "repeated",
+    );
+    assert_eq!(
+        stdout(&globbed).trim().split('\t').nth(2).unwrap(),
+        repeated
+    );
+}
