@@ -84,3 +84,48 @@ pub fn first_error_in_order<T, E>(
 ) -> std::result::Result<Vec<T>, E> {
     results.into_iter().collect()
 }
+
+std::thread_local! {
+    /// How deep this thread is inside [`guard_decoder`].
+    static GUARDED: std::cell::Cell<u32> = const { std::cell::Cell::new(0) };
+}
+
+/// Runs third-party decoding that may panic on damaged input (the `parquet` and `mcap`
+/// crates assert or index out of bounds on some corrupt records), turning such a panic
+/// into an error message, so that a damaged file is an input error (exit code 2) and
+/// never a crash. Our own code checks its input instead; this is only for what we
+/// cannot check before calling in.
+pub fn catch_decoder_panic<T>(work: impl FnOnce() -> T) -> std::result::Result<T, String> {
+    GUARDED.with(|g| g.set(g.get() + 1));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(work));
+    GUARDED.with(|g| g.set(g.get() - 1));
+    result.map_err(|payload| {
+        payload
+            .downcast_ref::<String>()
+            .cloned()
+            .or_else(|| payload.downcast_ref::<&str>().map(|s| s.to_string()))
+            .unwrap_or_else(|| "the decoder failed".into())
+    })
+}
+
+/// [`catch_decoder_panic`] for work on one file: a panic is an input error naming it.
+pub fn guard_decoder<T>(path: &Path, what: &str, work: impl FnOnce() -> Result<T>) -> Result<T> {
+    catch_decoder_panic(work).unwrap_or_else(|cause| {
+        Err(Error::input(
+            path,
+            format!("{what}: the file is damaged ({cause})"),
+        ))
+    })
+}
+
+/// Installs a panic hook that is silent for the panics [`guard_decoder`] turns into
+/// errors (and [`catch_decoder_panic`] to messages) and hands every other panic (a
+/// bug) to the hook installed before.
+pub fn install_panic_hook() {
+    let previous = std::panic::take_hook();
+    std::panic::set_hook(Box::new(move |info| {
+        if GUARDED.with(|g| g.get()) == 0 {
+            previous(info);
+        }
+    }));
+}

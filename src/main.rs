@@ -1,6 +1,7 @@
 use clap::Parser;
 
 fn main() {
+    imitate::error::install_panic_hook();
     let cli = imitate::cli::Cli::parse();
     let level = match cli.verbose {
         0 => "warn",

@@ -174,7 +174,7 @@ fn an_unknown_encoding_names_the_topic_and_the_encoding() {
         ..CHATTER
     };
     write_mcap(&file, &channel, &[vec![1, 2, 3]]);
-    let out = cat(dir.path(), &file, &[]);
+    let out = cat(dir.path(), &file, &["--strict"]);
     assert_input_error(&out, &["cbor.mcap", "/chatter", "message 0", "'cbor'"]);
 }
 
@@ -187,7 +187,7 @@ fn a_schema_that_does_not_parse_names_the_schema_and_line() {
         ..CHATTER
     };
     write_mcap(&file, &channel, &[string_message("x")]);
-    let out = cat(dir.path(), &file, &[]);
+    let out = cat(dir.path(), &file, &["--strict"]);
     assert_input_error(
         &out,
         &[
@@ -206,7 +206,7 @@ fn a_message_shorter_than_its_schema_names_the_field() {
     let mut short = string_message("hello");
     short.truncate(9);
     write_mcap(&file, &CHATTER, &[string_message("fine"), short]);
-    let out = cat(dir.path(), &file, &[]);
+    let out = cat(dir.path(), &file, &["--strict"]);
     assert_input_error(
         &out,
         &[
@@ -216,6 +216,40 @@ fn a_message_shorter_than_its_schema_names_the_field() {
             "field data",
             "does not fit",
         ],
+    );
+}
+
+#[test]
+fn a_message_that_cannot_be_decoded_is_an_error_record_and_the_rest_is_printed() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("mixed.mcap");
+    let mut short = string_message("hello");
+    short.truncate(9);
+    write_mcap(
+        &file,
+        &CHATTER,
+        &[string_message("first"), short, string_message("third")],
+    );
+    let out = cat(dir.path(), &file, &[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let lines: Vec<serde_json::Value> = stdout(&out)
+        .lines()
+        .map(|l| serde_json::from_str(l).unwrap())
+        .collect();
+    assert_eq!(lines.len(), 3);
+    assert_eq!(lines[0]["message"]["data"], "first");
+    assert_eq!(lines[1]["topic"], "/chatter");
+    assert_eq!(lines[1]["sequence"], 1);
+    assert!(
+        lines[1]["error"].as_str().unwrap().contains("does not fit"),
+        "{}",
+        lines[1]
+    );
+    assert_eq!(lines[2]["message"]["data"], "third");
+    let err = stderr(&out);
+    assert!(
+        err.contains("1 messages could not be decoded") && err.contains("/chatter: 1"),
+        "{err}"
     );
 }
 

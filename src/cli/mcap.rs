@@ -40,6 +40,10 @@ pub struct CatArgs {
     /// and say on stderr what was dropped.
     #[arg(long)]
     pub allow_truncated: bool,
+    /// Stop with exit code 2 at the first message that cannot be decoded, instead of
+    /// printing an error record for it and going on.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 pub fn inspect_command(args: InspectArgs) -> Result<()> {
@@ -132,6 +136,16 @@ fn render_report(report: &McapReport) -> String {
     text
 }
 
+/// The line of `cat --json` for a message that cannot be decoded.
+#[derive(Serialize)]
+struct CatError<'a> {
+    topic: &'a str,
+    schema: &'a str,
+    log_time: u64,
+    sequence: u32,
+    error: &'a str,
+}
+
 /// One line of `cat --json`; the field names are the ones of Foxglove's Python tools.
 #[derive(Serialize)]
 struct CatLine<'a> {
@@ -150,6 +164,7 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
     let mut out = std::io::BufWriter::new(stdout.lock());
     let write_error = |e: std::io::Error| Error::io("writing to stdout", e);
     let mut printed = 0u64;
+    let mut undecodable: std::collections::BTreeMap<String, u64> = Default::default();
     let visit = |event: Event<'_>| {
         let Event::Message {
             channel,
@@ -174,11 +189,35 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
                 ),
             )
         };
-        let message = decoders
+        let decoded = decoders
             .get(channel)
-            .map_err(&problem)?
-            .decode(data)
-            .map_err(&problem)?;
+            .and_then(|decoder| decoder.decode(data));
+        let message = match decoded {
+            Ok(message) => message,
+            Err(e) if args.strict => return Err(problem(e)),
+            Err(e) => {
+                // As Foxglove's tools do: say what could not be decoded, and go on.
+                *undecodable.entry(channel.topic.clone()).or_insert(0u64) += 1;
+                if args.json {
+                    let line = CatError {
+                        topic: &channel.topic,
+                        schema: channel.schema_name(),
+                        log_time: header.log_time,
+                        sequence: header.sequence,
+                        error: &e,
+                    };
+                    serde_json::to_writer(&mut out, &line).map_err(|e| write_error(e.into()))?;
+                    return writeln!(out).map_err(write_error);
+                }
+                return writeln!(
+                    out,
+                    "{} {} error: {e}",
+                    seconds(header.log_time),
+                    channel.topic
+                )
+                .map_err(write_error);
+            }
+        };
         printed += 1;
         if args.json {
             let line = CatLine {
@@ -208,6 +247,19 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
             "warning: {}: {}; printed the {printed} messages before it",
             args.file.display(),
             describe_damage(&damage)
+        );
+    }
+    if !undecodable.is_empty() {
+        let total: u64 = undecodable.values().sum();
+        let topics: Vec<String> = undecodable
+            .iter()
+            .map(|(topic, n)| format!("{topic}: {n}"))
+            .collect();
+        eprintln!(
+            "warning: {}: {total} messages could not be decoded ({}); printed as error \
+             records (--strict stops at the first)",
+            args.file.display(),
+            topics.join(", ")
         );
     }
     let missing: Vec<&str> = wanted

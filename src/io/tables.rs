@@ -22,7 +22,7 @@ use parquet::file::properties::WriterProperties;
 use serde::{Deserialize, Serialize};
 
 use super::fs::write_atomic;
-use crate::error::{Error, Result, open_input};
+use crate::error::{Error, Result, guard_decoder, open_input};
 use crate::grid::{CellPath, Demonstration, FeatureStack, GeoRef, Grid, Layer, Map};
 
 pub const SCHEMA_KEY: &str = "imitate.schema";
@@ -207,8 +207,21 @@ pub(crate) struct ReadTable {
 
 pub(crate) fn read_table(path: &Path, table: Table, allow_untagged: bool) -> Result<ReadTable> {
     let file = open_input(path)?;
+    guard_decoder(path, &format!("reading a '{table}' table"), || {
+        decode_table(path, file, table, allow_untagged)
+    })
+}
+
+fn decode_table(
+    path: &Path,
+    file: std::fs::File,
+    table: Table,
+    allow_untagged: bool,
+) -> Result<ReadTable> {
+    let file_len = file.metadata().map(|m| m.len()).unwrap_or(u64::MAX);
     let builder = ParquetRecordBatchReaderBuilder::try_new(file)
         .map_err(|e| Error::input(path, format!("not a readable Parquet file: {e}")))?;
+    check_layout(path, builder.metadata(), file_len)?;
     let metadata: BTreeMap<String, String> = builder
         .metadata()
         .file_metadata()
@@ -233,6 +246,49 @@ pub(crate) fn read_table(path: &Path, table: Table, allow_untagged: bool) -> Res
     let batch = arrow::compute::concat_batches(&schema, &batches)
         .map_err(|e| Error::input(path, format!("cannot read '{table}' rows: {e}")))?;
     Ok(ReadTable { metadata, batch })
+}
+
+/// Checks that every column chunk the footer describes lies inside the file, before
+/// the reader seeks to it: the `parquet` crate asserts (panics) on negative offsets
+/// and lengths, which a damaged footer can hold.
+fn check_layout(
+    path: &Path,
+    metadata: &parquet::file::metadata::ParquetMetaData,
+    file_len: u64,
+) -> Result<()> {
+    for (g, group) in metadata.row_groups().iter().enumerate() {
+        if group.num_rows() < 0 {
+            return Err(Error::input(
+                path,
+                format!(
+                    "row group {g} claims {} rows: the file is damaged",
+                    group.num_rows()
+                ),
+            ));
+        }
+        for (c, column) in group.columns().iter().enumerate() {
+            let start = column
+                .dictionary_page_offset()
+                .unwrap_or(column.data_page_offset());
+            let inside = start >= 0
+                && column.data_page_offset() >= 0
+                && column.compressed_size() >= 0
+                && column.num_values() >= 0
+                && (start as u64).saturating_add(column.compressed_size() as u64) <= file_len;
+            if !inside {
+                return Err(Error::input(
+                    path,
+                    format!(
+                        "row group {g}, column {c} ({}): its pages (offset {start}, {} bytes) \
+                         are not inside the file of {file_len} bytes: the file is damaged",
+                        column.column_path(),
+                        column.compressed_size()
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// Finds a column by name, with an error naming the file and the table when absent.

@@ -8,7 +8,7 @@ use std::path::Path;
 use mcap::records::Record;
 use serde::Serialize;
 
-use super::reader::{Damage, Event, scan, scan_until_damage};
+use super::reader::{Damage, Event, parse_record, records, scan, scan_until_damage};
 use crate::error::{Error, Result, open_input};
 
 #[derive(Debug, Default, Serialize, PartialEq)]
@@ -128,7 +128,7 @@ fn read_header(path: &Path) -> Result<(String, String)> {
     if !start.starts_with(mcap::MAGIC) {
         return Err(Error::input(path, "not an MCAP file (bad magic bytes)"));
     }
-    match mcap::read::LinearReader::sans_magic(&start[mcap::MAGIC.len()..]).next() {
+    match records(&start[mcap::MAGIC.len()..]).next() {
         Some(Ok(Record::Header(header))) => Ok((header.profile, header.library)),
         _ => Err(Error::input(
             path,
@@ -200,7 +200,7 @@ fn read_summary(path: &Path, bytes: u64, verify: bool) -> Result<Option<McapRepo
     if tail[0] != mcap::records::op::FOOTER || &tail[FOOTER_RECORD as usize..] != mcap::MAGIC {
         return Ok(None);
     }
-    let Ok(Record::Footer(footer)) = mcap::parse_record(tail[0], &tail[9..29]) else {
+    let Ok(Record::Footer(footer)) = parse_record(tail[0], &tail[9..29]) else {
         return Ok(None);
     };
     if footer.summary_start == 0 || footer.summary_start >= footer_at {
@@ -225,7 +225,7 @@ fn read_summary(path: &Path, bytes: u64, verify: bool) -> Result<Option<McapRepo
     let mut schemas = BTreeMap::new();
     let mut channels = Vec::new();
     let mut statistics = None;
-    for record in mcap::read::LinearReader::sans_magic(&summary) {
+    for record in records(&summary) {
         let Ok(record) = record else {
             return Ok(None);
         };

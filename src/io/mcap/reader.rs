@@ -12,7 +12,7 @@ use std::sync::Arc;
 use mcap::records::{MessageHeader, Record};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
-use crate::error::{Error, Result, open_input};
+use crate::error::{Error, Result, catch_decoder_panic, open_input};
 
 #[derive(Debug)]
 pub struct SchemaInfo {
@@ -212,10 +212,11 @@ fn scan_inner(
             problem,
         }))
     };
-    while let Some(event) = reader.next_event() {
-        let event = match event {
-            Ok(event) => event,
-            Err(e) => {
+    loop {
+        let event = match catch_decoder_panic(|| reader.next_event()) {
+            Ok(None) => break,
+            Ok(Some(Ok(event))) => event,
+            Ok(Some(Err(e))) => {
                 return damage(
                     offset,
                     format!(
@@ -223,6 +224,9 @@ fn scan_inner(
                         describe(&e)
                     ),
                 );
+            }
+            Err(panic) => {
+                return damage(offset, format!("record {}: {panic}", records + 1));
             }
         };
         let record = match event {
@@ -236,9 +240,9 @@ fn scan_inner(
             }
             LinearReadEvent::Record { opcode, data } => {
                 records += 1;
-                match mcap::parse_record(opcode, data) {
+                match parse_record(opcode, data) {
                     Ok(record) => record,
-                    Err(e) => return damage(offset, format!("record {records}: {}", describe(&e))),
+                    Err(e) => return damage(offset, format!("record {records}: {e}")),
                 }
             }
         };
@@ -271,13 +275,13 @@ fn scan_inner(
                     uncompressed: header.uncompressed_size,
                 })?;
                 let mut flow = ControlFlow::Continue(());
-                for inner in mcap::read::LinearReader::sans_magic(&chunk) {
+                for inner in self::records(&chunk) {
                     let inner = match inner {
                         Ok(inner) => inner,
                         Err(e) => {
                             return damage(
                                 offset,
-                                format!("inside the chunk of record {records}: {}", describe(&e)),
+                                format!("inside the chunk of record {records}: {e}"),
                             );
                         }
                     };
@@ -306,6 +310,33 @@ enum Stop {
     End,
     Visit(Error),
     Damage(String),
+}
+
+/// One record parsed by the `mcap` crate, whose parser can panic on some damaged
+/// records (an attachment shorter than its header): the panic is a message like any
+/// other parse error.
+pub(super) fn parse_record(opcode: u8, data: &[u8]) -> std::result::Result<Record<'_>, String> {
+    catch_decoder_panic(|| mcap::parse_record(opcode, data))?.map_err(|e| describe(&e))
+}
+
+/// The records of a run of bytes (a chunk's inside, the summary section, the file
+/// after its magic), each parsed as [`parse_record`] does.
+pub(super) fn records(
+    bytes: &[u8],
+) -> impl Iterator<Item = std::result::Result<Record<'_>, String>> {
+    let mut inner = mcap::read::LinearReader::sans_magic(bytes);
+    std::iter::from_fn(move || match catch_decoder_panic(|| inner.next()) {
+        Ok(next) => next.map(|r| r.map_err(|e| describe(&e))),
+        Err(panic) => Some(Err(panic)),
+    })
+    .scan(false, |failed, item| {
+        // After an error the reader's position is unknown: stop there.
+        if *failed {
+            return None;
+        }
+        *failed = item.is_err();
+        Some(item)
+    })
 }
 
 fn describe(error: &mcap::McapError) -> String {
