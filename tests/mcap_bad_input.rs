@@ -254,6 +254,39 @@ fn a_message_that_cannot_be_decoded_is_an_error_record_and_the_rest_is_printed()
 }
 
 #[test]
+fn inspect_says_which_topics_cannot_be_decoded() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("cbor.mcap");
+    let channel = Channel {
+        message_encoding: "cbor",
+        ..CHATTER
+    };
+    write_mcap(&file, &channel, &[vec![1, 2, 3]]);
+    let ok = chatter(dir.path(), "ok.mcap", 1);
+    for scan in [false, true] {
+        let mut args = vec!["inspect", "--json", "cbor.mcap"];
+        if scan {
+            args.push("--scan");
+        }
+        let out = imitate(dir.path(), &args);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+        let why = report["channels"][0]["undecodable"]
+            .as_str()
+            .unwrap_or_default();
+        assert!(why.contains("cbor"), "scan {scan}: {report}");
+        let out = imitate(dir.path(), &["inspect", "--json", ok.to_str().unwrap()]);
+        let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+        assert!(
+            report["channels"][0].get("undecodable").is_none(),
+            "{report}"
+        );
+    }
+    let text = stdout(&imitate(dir.path(), &["inspect", "cbor.mcap"]));
+    assert!(text.contains("cannot decode"), "{text}");
+}
+
+#[test]
 fn bad_magic_is_not_mcap() {
     let dir = tempfile::tempdir().unwrap();
     let file = chatter(dir.path(), "magic.mcap", 1);

@@ -132,6 +132,9 @@ fn render_report(report: &McapReport) -> String {
             "  {:>3}  {:<topic_width$}  {:>8} msgs  {} / {} ({})\n",
             c.id, c.topic, c.message_count, c.message_encoding, c.schema, c.schema_encoding
         );
+        if let Some(why) = &c.undecodable {
+            text += &format!("       cannot decode: {why}\n");
+        }
     }
     text
 }

@@ -28,6 +28,15 @@ pub struct ChannelReport {
     pub schema: String,
     pub schema_encoding: String,
     pub message_count: u64,
+    /// Why this channel's messages cannot be decoded (unknown encoding, a schema that
+    /// does not parse), when they cannot.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub undecodable: Option<String>,
+}
+
+/// Whether messages of `channel` can be decoded: `None`, or why not.
+fn undecodable(channel: &super::ChannelInfo) -> Option<String> {
+    super::MessageDecoder::for_channel(channel).err()
 }
 
 #[derive(Debug, Serialize, PartialEq)]
@@ -230,8 +239,8 @@ fn read_summary(path: &Path, bytes: u64, verify: bool) -> Result<Option<McapRepo
             return Ok(None);
         };
         match record {
-            Record::Schema { header, .. } => {
-                schemas.insert(header.id, (header.name, header.encoding));
+            Record::Schema { header, data } => {
+                schemas.insert(header.id, (header.name, header.encoding, data.into_owned()));
             }
             Record::Channel(channel) => channels.push(channel),
             Record::Statistics(stats) => statistics = Some(stats),
@@ -263,8 +272,24 @@ fn read_summary(path: &Path, bytes: u64, verify: bool) -> Result<Option<McapRepo
     report.channels = channels
         .into_iter()
         .map(|c| {
-            let (schema, schema_encoding) = schemas.get(&c.schema_id).cloned().unwrap_or_default();
+            let (schema, schema_encoding, data) =
+                schemas.get(&c.schema_id).cloned().unwrap_or_default();
+            let info = super::ChannelInfo {
+                id: c.id,
+                topic: c.topic.clone(),
+                message_encoding: c.message_encoding.clone(),
+                schema: (c.schema_id != 0).then(|| {
+                    std::sync::Arc::new(super::reader::SchemaInfo {
+                        id: c.schema_id,
+                        name: schema.clone(),
+                        encoding: schema_encoding.clone(),
+                        data,
+                    })
+                }),
+                metadata: Default::default(),
+            };
             ChannelReport {
+                undecodable: undecodable(&info),
                 id: c.id,
                 message_count: stats
                     .channel_message_counts
@@ -300,6 +325,7 @@ fn scan_report(path: &Path, allow_damage: bool) -> Result<McapReport> {
                         .map(|s| s.encoding.clone())
                         .unwrap_or_default(),
                     message_count: 0,
+                    undecodable: undecodable(channel),
                 });
             }
             Event::Message {
