@@ -165,15 +165,21 @@ fn a_cut_file_fails_unless_truncation_is_allowed() {
     assert!(err.contains("bytes were not read"), "{err}");
 }
 
-#[test]
-fn an_unknown_encoding_names_the_topic_and_the_encoding() {
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("cbor.mcap");
+/// A file whose one message is in an encoding imitate does not decode (CBOR).
+fn cbor_file(dir: &Path) -> PathBuf {
+    let file = dir.join("cbor.mcap");
     let channel = Channel {
         message_encoding: "cbor",
         ..CHATTER
     };
     write_mcap(&file, &channel, &[vec![1, 2, 3]]);
+    file
+}
+
+#[test]
+fn an_unknown_encoding_names_the_topic_and_the_encoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = cbor_file(dir.path());
     let out = cat(dir.path(), &file, &["--strict"]);
     assert_input_error(&out, &["cbor.mcap", "/chatter", "message 0", "'cbor'"]);
 }
@@ -256,12 +262,7 @@ fn a_message_that_cannot_be_decoded_is_an_error_record_and_the_rest_is_printed()
 #[test]
 fn inspect_says_which_topics_cannot_be_decoded() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("cbor.mcap");
-    let channel = Channel {
-        message_encoding: "cbor",
-        ..CHATTER
-    };
-    write_mcap(&file, &channel, &[vec![1, 2, 3]]);
+    cbor_file(dir.path());
     let ok = chatter(dir.path(), "ok.mcap", 1);
     for scan in [false, true] {
         let mut args = vec!["inspect", "--json", "cbor.mcap"];
