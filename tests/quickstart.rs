@@ -52,9 +52,9 @@ fn quickstart_learns_a_costmap_that_imitates_the_teacher() {
         "{holdout}"
     );
     let rounds = metrics["rounds"].as_array().unwrap();
-    assert_eq!(rounds.len(), 40);
+    assert_eq!(rounds.len(), 80);
     let first = rounds[0]["training_loss"].as_f64().unwrap();
-    let last = rounds[39]["training_loss"].as_f64().unwrap();
+    let last = rounds[79]["training_loss"].as_f64().unwrap();
     assert!(last < first, "training loss {first} -> {last}");
 }
 

@@ -22,10 +22,9 @@ use crate::features::{FeatureSpec, Op, compute};
 use crate::grid::{Cell, FeatureStack, GeoRef, Grid, Layer, Map, rasterize};
 use crate::io::geotiff::read_geotiff;
 use crate::ioc::{
-    Example, GridMethod, LearchConfig, WeakLearnerKind, hold_out_every, learch_evaluate, summarize,
-    train,
+    Example, GridMethod, LearchConfig, WeakLearnerKind, default_rounds_and_step, hold_out_every,
+    learch_evaluate, summarize, train,
 };
-use crate::learn::TreeConfig;
 use crate::plan::shortest_path;
 use crate::sim::{WorldConfig, generate_world};
 
@@ -40,8 +39,9 @@ pub struct IocMethodsArgs {
     /// Teacher demonstrations on the raster terrain.
     #[arg(long, default_value_t = 40)]
     pub demonstrations: usize,
-    #[arg(long, default_value_t = 40)]
-    pub rounds: usize,
+    /// Rounds of every method (default: each method's own, as `learch` runs it).
+    #[arg(long)]
+    pub rounds: Option<usize>,
     #[arg(long)]
     pub json: bool,
 }
@@ -65,13 +65,17 @@ pub(super) struct MethodResult {
     pub within_radius: f64,
     pub mean_cost_ratio: f64,
     pub max_cost_ratio: f64,
+    pub rounds: usize,
     pub seconds: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub training_within_radius: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub training_mean_cost_ratio: Option<f64>,
 }
 
 #[derive(Serialize)]
 struct IocMethodsReport {
     schema: &'static str,
-    rounds: usize,
     results: Vec<MethodResult>,
 }
 
@@ -243,68 +247,53 @@ pub(super) fn teacher_paths(
 /// One line per terrain and method, the terrain's column `terrain_width` wide.
 pub(super) fn results_table(results: &[MethodResult], terrain_width: usize) -> String {
     let mut text = format!(
-        "{:<terrain_width$} {:<16} held out  within  mean ratio  max ratio  seconds\n",
+        "{:<terrain_width$} {:<16} held out  within  mean ratio  max ratio  rounds  seconds\n",
         "terrain", "method"
     );
     for m in results {
         text += &format!(
-            "{:<terrain_width$} {:<16} {:>8}  {:>6.3}  {:>10.3}  {:>9.3}  {:>7.1}\n",
+            "{:<terrain_width$} {:<16} {:>8}  {:>6.3}  {:>10.3}  {:>9.3}  {:>6}  {:>7.1}\n",
             m.terrain,
             m.method,
             m.held_out,
             m.within_radius,
             m.mean_cost_ratio,
             m.max_cost_ratio,
+            m.rounds,
             m.seconds
         );
     }
     text
 }
 
-/// The methods compared, with the settings each runs with.
-pub(super) fn methods(rounds: usize) -> Vec<(&'static str, LearchConfig)> {
-    let base = LearchConfig {
-        rounds,
-        ..LearchConfig::default()
+/// The methods compared, with the settings each runs with: `learch`'s defaults, and
+/// `rounds` for every method when given.
+pub(super) fn methods(rounds: Option<usize>) -> Vec<(&'static str, LearchConfig)> {
+    let with = |method: GridMethod, weak_learner: WeakLearnerKind| {
+        let (default_rounds, step_size) = default_rounds_and_step(method, weak_learner);
+        LearchConfig {
+            method,
+            weak_learner,
+            rounds: rounds.unwrap_or(default_rounds),
+            step_size,
+            ..LearchConfig::default()
+        }
     };
     vec![
-        ("learch-ridge", base.clone()),
+        (
+            "learch-ridge",
+            with(GridMethod::Learch, WeakLearnerKind::Ridge),
+        ),
         (
             "learch-tree",
-            LearchConfig {
-                weak_learner: WeakLearnerKind::Tree,
-                tree: TreeConfig {
-                    max_depth: 3,
-                    ..base.tree
-                },
-                ..base.clone()
-            },
+            with(GridMethod::Learch, WeakLearnerKind::Tree),
         ),
         (
             "learch-alternate",
-            LearchConfig {
-                weak_learner: WeakLearnerKind::Alternate,
-                tree: TreeConfig {
-                    max_depth: 3,
-                    ..base.tree
-                },
-                ..base.clone()
-            },
+            with(GridMethod::Learch, WeakLearnerKind::Alternate),
         ),
-        (
-            "mmp",
-            LearchConfig {
-                method: GridMethod::Mmp,
-                ..base.clone()
-            },
-        ),
-        (
-            "maxent",
-            LearchConfig {
-                method: GridMethod::Maxent,
-                ..base
-            },
-        ),
+        ("mmp", with(GridMethod::Mmp, WeakLearnerKind::Ridge)),
+        ("maxent", with(GridMethod::Maxent, WeakLearnerKind::Ridge)),
     ]
 }
 
@@ -336,19 +325,32 @@ pub(super) fn measure(
     )
     .map_err(Error::Failed)?;
     let agreement = summarize(&evaluations);
+    let training = summarize(
+        &learch_evaluate(
+            &trained.model,
+            &terrain.stacks,
+            &terrain.names,
+            &terrain.training,
+            Some(&terrain.truth),
+        )
+        .map_err(Error::Failed)?,
+    );
     Ok(MethodResult {
+        training_within_radius: Some(training.within_radius),
+        training_mean_cost_ratio: training.mean_reference_cost_ratio,
         terrain: terrain.name.clone(),
         method,
         held_out: agreement.examples,
         within_radius: agreement.within_radius,
         mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
         max_cost_ratio: agreement.max_reference_cost_ratio.unwrap_or(f64::NAN),
+        rounds: trained.rounds.len(),
         seconds,
     })
 }
 
 pub fn run(args: IocMethodsArgs) -> Result<()> {
-    if args.rounds == 0 || args.demonstrations < 4 {
+    if args.rounds == Some(0) || args.demonstrations < 4 {
         return Err(Error::Usage(
             "bench ioc-methods needs --rounds >= 1 and --demonstrations >= 4".into(),
         ));
@@ -361,14 +363,12 @@ pub fn run(args: IocMethodsArgs) -> Result<()> {
         }
     }
     let report = IocMethodsReport {
-        schema: "imitate.bench-ioc-methods/1",
-        rounds: args.rounds,
+        schema: "imitate.bench-ioc-methods/2",
         results,
     };
     emit(&report, args.json, |r| {
         format!(
-            "held-out agreement after {} rounds (within {} cells; cost ratio under the true cost)\n{}",
-            r.rounds,
+            "held-out agreement (within {} cells; cost ratio under the true cost)\n{}",
             crate::ioc::AGREEMENT_RADIUS,
             results_table(&r.results, 11)
         )

@@ -58,8 +58,9 @@ pub struct TerrainArgs {
     /// Teacher paths per raster and teacher; a quarter is held out.
     #[arg(long, default_value_t = 60)]
     pub paths: usize,
-    #[arg(long, default_value_t = 40)]
-    pub rounds: usize,
+    /// Rounds of every method (default: each method's own, as `learch` runs it).
+    #[arg(long)]
+    pub rounds: Option<usize>,
     #[arg(long, default_value_t = 7)]
     pub seed: u64,
     /// Overrides of every method's settings, for tuning: step size, depth of the trees,
@@ -73,13 +74,20 @@ pub struct TerrainArgs {
     #[arg(long)]
     pub bins: Option<usize>,
     #[arg(long)]
+    pub min_leaf_weight: Option<f64>,
+    #[arg(long)]
+    pub leaf_l2: Option<f64>,
+    #[arg(long, value_enum)]
+    pub loss_kind: Option<crate::ioc::LossKind>,
+    #[arg(long, value_enum)]
+    pub schedule: Option<crate::ioc::StepSchedule>,
+    #[arg(long)]
     pub json: bool,
 }
 
 #[derive(Serialize)]
 struct TerrainReport {
     schema: &'static str,
-    rounds: usize,
     cells: u32,
     paths: usize,
     results: Vec<MethodResult>,
@@ -286,12 +294,15 @@ fn uniform(terrain: &Terrain) -> MethodResult {
         within_radius: agreement.within_radius,
         mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
         max_cost_ratio: agreement.max_reference_cost_ratio.unwrap_or(f64::NAN),
+        rounds: 0,
         seconds: 0.0,
+        training_within_radius: None,
+        training_mean_cost_ratio: None,
     }
 }
 
 pub fn run(args: TerrainArgs) -> Result<()> {
-    if args.rounds == 0 || args.paths < 8 {
+    if args.rounds == Some(0) || args.paths < 8 {
         return Err(Error::Usage(
             "bench terrain needs --rounds >= 1 and --paths >= 8".into(),
         ));
@@ -309,6 +320,18 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         }
         if let Some(bins) = args.bins {
             config.tree.bins = bins;
+        }
+        if let Some(v) = args.min_leaf_weight {
+            config.tree.min_leaf_weight = v;
+        }
+        if let Some(v) = args.leaf_l2 {
+            config.tree.leaf_l2 = v;
+        }
+        if let Some(v) = args.loss_kind {
+            config.loss_kind = v;
+        }
+        if let Some(v) = args.schedule {
+            config.schedule = v;
         }
     }
     for m in &args.methods {
@@ -359,17 +382,15 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         }
     }
     let report = TerrainReport {
-        schema: "imitate.bench-terrain/1",
-        rounds: args.rounds,
+        schema: "imitate.bench-terrain/2",
         cells: args.cells,
         paths: args.paths,
         results,
     };
     emit(&report, args.json, |r| {
         format!(
-            "held-out plans after {} rounds, {} teacher paths per terrain (within {} cells of \
-             the teacher; cost ratio under the teacher's hidden cost)\n{}",
-            r.rounds,
+            "held-out plans, {} teacher paths per terrain (within {} cells of the teacher; \
+             cost ratio under the teacher's hidden cost)\n{}",
             r.paths,
             crate::ioc::AGREEMENT_RADIUS,
             results_table(&r.results, 40)

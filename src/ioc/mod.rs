@@ -9,7 +9,8 @@ pub mod tabular;
 
 pub use learch::{
     Example, GridMethod, LearchConfig, LossKind, Progress, RoundMetrics, StepSchedule, TREE_BINS,
-    TrainedLearch, WeakLearnerKind, evaluate as learch_evaluate, hold_out_every, train,
+    TREE_LEAF_L2, TrainedLearch, WeakLearnerKind, default_rounds_and_step,
+    evaluate as learch_evaluate, hold_out_every, train,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
 pub use model::{CostLink, LogCostModel, WeakLearner};

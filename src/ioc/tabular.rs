@@ -149,6 +149,7 @@ impl TabularConfig {
                 max_depth: 2,
                 min_leaf_weight: 0.5,
                 bins: 32,
+                leaf_l2: 0.0,
             },
         };
         match method {

@@ -11,6 +11,10 @@ pub struct TreeConfig {
     /// Smallest total weight a leaf may hold.
     pub min_leaf_weight: f64,
     pub bins: usize,
+    /// L2 penalty on leaf values: a leaf predicts Σwy / (Σw + leaf_l2), so leaves
+    /// holding little weight move the model little.
+    #[serde(default)]
+    pub leaf_l2: f64,
 }
 
 impl Default for TreeConfig {
@@ -19,6 +23,7 @@ impl Default for TreeConfig {
             max_depth: 3,
             min_leaf_weight: 1.0,
             bins: 32,
+            leaf_l2: 0.0,
         }
     }
 }
@@ -145,7 +150,11 @@ impl Fitter<'_> {
             (w + self.weights[i], wy + self.weights[i] * self.targets[i])
         });
         Node::Leaf {
-            value: if sw > 0.0 { swy / sw } else { 0.0 },
+            value: if sw > 0.0 {
+                swy / (sw + self.config.leaf_l2)
+            } else {
+                0.0
+            },
         }
     }
 
@@ -172,7 +181,8 @@ impl Fitter<'_> {
         let (total_w, total_wy) = rows.iter().fold((0.0, 0.0), |(w, wy), &i| {
             (w + self.weights[i], wy + self.weights[i] * self.targets[i])
         });
-        let parent = total_wy * total_wy / total_w.max(f64::MIN_POSITIVE);
+        let l2 = self.config.leaf_l2;
+        let parent = total_wy * total_wy / (total_w + l2).max(f64::MIN_POSITIVE);
         let mut best: Option<(f64, usize, usize)> = None;
         for (feature, edges) in self.edges.iter().enumerate() {
             if edges.is_empty() {
@@ -194,7 +204,8 @@ impl Fitter<'_> {
                     continue;
                 }
                 let right_wy = total_wy - left_wy;
-                let gain = left_wy * left_wy / left_w + right_wy * right_wy / right_w - parent;
+                let gain = left_wy * left_wy / (left_w + l2) + right_wy * right_wy / (right_w + l2)
+                    - parent;
                 if gain > 1e-12 && best.is_none_or(|(g, _, _)| gain > g + 1e-12) {
                     best = Some((gain, feature, bin));
                 }
@@ -270,5 +281,24 @@ mod tests {
             },
         );
         assert!((tree.predict(&[5.0]) - 2.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn the_leaf_penalty_shrinks_light_leaves_towards_zero() {
+        let x = [0.0, 1.0, 2.0, 3.0];
+        let y = [1.0, 1.0, -1.0, -1.0];
+        let heavy = [100.0, 100.0, 100.0, 100.0];
+        let light = [1.0, 1.0, 1.0, 1.0];
+        let config = TreeConfig {
+            max_depth: 1,
+            leaf_l2: 2.0,
+            ..TreeConfig::default()
+        };
+        let heavy = RegressionTree::fit(&x, 1, &y, &heavy, &config);
+        let light = RegressionTree::fit(&x, 1, &y, &light, &config);
+        // Σwy / (Σw + λ): 200 / 202 with heavy leaves, 2 / 4 with light ones.
+        assert!((heavy.predict(&[0.0]) - 200.0 / 202.0).abs() < 1e-12);
+        assert!((light.predict(&[0.0]) - 0.5).abs() < 1e-12);
+        assert!((light.predict(&[3.0]) + 0.5).abs() < 1e-12);
     }
 }

@@ -27,15 +27,9 @@ use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
-const VERSION: u32 = 5;
+const VERSION: u32 = 6;
 
 mod defaults {
-    pub fn rounds() -> usize {
-        40
-    }
-    pub fn step_size() -> f64 {
-        1.0
-    }
     pub fn schedule() -> crate::ioc::StepSchedule {
         crate::ioc::StepSchedule::InverseSqrt
     }
@@ -99,14 +93,15 @@ pub struct LearchParams {
     #[arg(long, value_enum, default_value_t = defaults::method())]
     #[serde(default = "defaults::method")]
     pub method: GridMethod,
-    /// Rounds T (boosting rounds, or gradient steps for MMP and MaxEnt).
-    #[arg(long, default_value_t = defaults::rounds())]
-    #[serde(default = "defaults::rounds")]
-    pub rounds: usize,
-    /// Step size α (the first round's, under inverse-sqrt).
-    #[arg(long, default_value_t = defaults::step_size())]
-    #[serde(default = "defaults::step_size")]
-    pub step_size: f64,
+    /// Rounds T (boosting rounds, or gradient steps for MMP and MaxEnt); default 80
+    /// for LEARCH with trees, 40 otherwise.
+    #[arg(long)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rounds: Option<usize>,
+    /// Step size α (the first round's, under inverse-sqrt); default 0.5 for LEARCH with trees (shrinkage), 1 otherwise.
+    #[arg(long)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub step_size: Option<f64>,
     #[arg(long, value_enum, default_value_t = defaults::schedule())]
     #[serde(default = "defaults::schedule")]
     pub schedule: StepSchedule,
@@ -187,12 +182,28 @@ pub struct LearchParams {
 }
 
 impl LearchParams {
+    fn weak_learner(&self) -> WeakLearnerKind {
+        self.weak_learner
+            .unwrap_or_else(|| defaults::weak_learner(self.method))
+    }
+
+    /// The rounds to run: the given ones, or the method's and learner's default.
+    fn rounds(&self) -> usize {
+        self.rounds
+            .unwrap_or_else(|| ioc::default_rounds_and_step(self.method, self.weak_learner()).0)
+    }
+
+    fn step_size(&self) -> f64 {
+        self.step_size
+            .unwrap_or_else(|| ioc::default_rounds_and_step(self.method, self.weak_learner()).1)
+    }
+
     fn validate(&self) -> Result<()> {
         let bad = |what: &str| Err(Error::Usage(format!("learch: {what}")));
-        if self.rounds == 0 {
+        if self.rounds() == 0 {
             return bad("rounds must be at least 1");
         }
-        if !(self.step_size.is_finite() && self.step_size > 0.0) {
+        if !(self.step_size().is_finite() && self.step_size() > 0.0) {
             return bad("step_size must be a positive number");
         }
         if !(self.ridge_lambda.is_finite() && self.ridge_lambda >= 0.0) {
@@ -360,26 +371,25 @@ impl Stage for LearchParams {
             method: self.method,
             horizon_factor: self.horizon_factor,
             window_margin: self.window_margin,
-            rounds: self.rounds,
-            step_size: self.step_size,
+            rounds: self.rounds(),
+            step_size: self.step_size(),
             schedule: self.schedule,
             ridge_lambda: self.ridge_lambda,
             loss: self.loss,
             loss_kind: self.loss_kind,
             loss_sigma: self.loss_sigma,
             schedule_offset: self.schedule_offset,
-            weak_learner: self
-                .weak_learner
-                .unwrap_or_else(|| defaults::weak_learner(self.method)),
+            weak_learner: self.weak_learner(),
             tree: TreeConfig {
                 max_depth: self.tree_depth,
                 bins: crate::ioc::TREE_BINS,
+                leaf_l2: crate::ioc::TREE_LEAF_L2,
                 ..TreeConfig::default()
             },
             patience: self.patience,
         };
         let progress =
-            indicatif::ProgressBar::new(self.rounds as u64).with_message("learch rounds");
+            indicatif::ProgressBar::new(self.rounds() as u64).with_message("learch rounds");
         let checkpoint = checkpoint_path(&super::lineage(self, extra_deps)?.stage_key);
         let resume = if self.resume {
             read_checkpoint(&checkpoint)?
@@ -491,7 +501,7 @@ impl Stage for LearchParams {
         )?;
         let final_loss = trained.rounds.last().map(|r| r.training_loss);
         let summary_metrics = serde_json::json!({
-            "rounds": self.rounds,
+            "rounds": self.rounds(),
             "kept_round": trained.kept_round,
             "training_examples": training.len(),
             "holdout_examples": holdout.len(),
@@ -499,13 +509,14 @@ impl Stage for LearchParams {
             "holdout": holdout_summary,
         });
         let rounds_run = trained.rounds.len();
-        let rounds = if rounds_run < self.rounds || trained.kept_round < rounds_run {
+        let rounds = if rounds_run < self.rounds() || trained.kept_round < rounds_run {
             format!(
                 "stopped early after {rounds_run} of {} rounds, kept round {}",
-                self.rounds, trained.kept_round
+                self.rounds(),
+                trained.kept_round
             )
         } else {
-            format!("{} rounds", self.rounds)
+            format!("{} rounds", self.rounds())
         };
         let mut summary = format!(
             "{rounds}, {} training / {} held-out demonstrations; held-out: {:.1}% of planned cells within {} cells",
