@@ -434,7 +434,7 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     );
     assert!(out.status.success(), "{}", stderr(&out));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
-    assert_eq!(report["schema"], "imitate.bench-terrain/1");
+    assert_eq!(report["schema"], "imitate.bench-terrain/2");
     let results = report["results"].as_array().unwrap();
     let by = |method: &str| {
         results
@@ -445,6 +445,14 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     let (uniform, tree) = (by("uniform"), by("learch-tree"));
     assert_eq!(tree["terrain"], "osgeo_spot_chicago_utm/threshold");
     assert_eq!(tree["held_out"], 4);
+    assert_eq!(tree["rounds"], 8, "--rounds overrides the method's default");
+    // The same figures on the training paths, to tell overfitting from underfitting.
+    let training = tree["training_mean_cost_ratio"].as_f64().unwrap();
+    assert!(training >= 1.0 - 1e-9, "{tree}");
+    assert!(
+        tree["training_within_radius"].as_f64().unwrap() > 0.0,
+        "{tree}"
+    );
     // Even a short run learns more than planning on a uniform cost.
     let ratio = |r: &serde_json::Value| r["mean_cost_ratio"].as_f64().unwrap();
     assert!(ratio(tree) < ratio(uniform), "{tree} vs {uniform}");

@@ -187,7 +187,8 @@ pub struct LearchConfig {
 }
 
 impl Default for LearchConfig {
-    /// The quickstart's settings: 40 rounds of ridge LEARCH, α 1/√t, Hamming loss 0.3.
+    /// Ridge LEARCH's settings: 40 rounds, α 1/√t, Hamming loss 0.3 (trees take the
+    /// steps of [`default_rounds_and_step`]).
     fn default() -> Self {
         LearchConfig {
             method: GridMethod::Learch,
