@@ -388,6 +388,46 @@ mod tests {
     }
 
     #[test]
+    fn topics_ingest_does_not_need_are_never_decoded() {
+        // Odometry beside what no decoder reads: a ROS 1 channel and a rosbag2 service
+        // event whose bytes do not match its schema.
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("mixed.mcap");
+        super::super::writer::write_log(&path, |log| {
+            let odom = log.channel("/odom", "nav_msgs/msg/Odometry", &ros2::schemas::odometry())?;
+            let ros1 = log.raw_channel(
+                "/chatter",
+                "std_msgs/String",
+                "ros1msg",
+                b"string data",
+                "ros1",
+            )?;
+            let event = log.raw_channel(
+                "/add/_service_event",
+                "example_interfaces/srv/AddTwoInts_Event",
+                "ros2msg",
+                b"service_msgs/ServiceEventInfo info\nAddTwoInts_Request[<=1] request",
+                "cdr",
+            )?;
+            for k in 0..5u64 {
+                let t = 1_000_000_000 * (k + 1);
+                log.write(
+                    odom,
+                    t,
+                    &ros2::odometry(t, "map", "base_link", k as f64, 0.0, 0.0),
+                )?;
+                log.write_raw(ros1, t, &[3, 0, 0, 0, b'a', b'b', b'c'])?;
+                log.write_raw(event, t, &[0xff; 3])?;
+            }
+            Ok(())
+        })
+        .unwrap();
+        let contents = read_log(&path, &mapping(Split::File), Some(("field", "map"))).unwrap();
+        assert_eq!(contents.demonstrations.len(), 1);
+        assert_eq!(contents.demonstrations[0].poses.len(), 5);
+    }
+
+    #[test]
     fn splits_per_file_on_gaps_and_on_goals() {
         let s = 1_000_000_000;
         let poses: Vec<_> = [0, s / 2, s, 3 * s, 3 * s + 1, 10 * s].map(pose).to_vec();
