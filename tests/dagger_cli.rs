@@ -212,25 +212,61 @@ fn the_mixture_selection_keeps_every_rounds_policy() {
 
 /// A robot log: 20 lane observations 100 ms apart, the executed steering 5 ms after
 /// each, the teacher's label 10 ms after each but for observations 4, 9, 14 and 19 (and with
-/// `with_labels` false, no label topic at all).
-fn robot_log(path: &std::path::Path, with_labels: bool) {
+/// `with_labels` false, no label topic at all). ROS 2 messages (CDR), or with `ros1` the
+/// same messages as a bag converted from ROS 1 holds them.
+fn robot_log(path: &std::path::Path, with_labels: bool, ros1: bool) {
     use imitate::io::mcap::Value;
     use imitate::io::mcap::ros2::record;
-    use imitate::io::mcap::writer::write_log;
+    use imitate::io::mcap::writer::{LogWriter, write_log};
+    use imitate::io::mcap::{cdr, ros2msg};
     let lane = "float64 lateral_offset\nfloat64 heading_error\nfloat64[3] curvature\n";
     let float = "float64 data\n";
+    type Log<'a> = LogWriter<&'a mut std::io::BufWriter<tempfile::NamedTempFile>>;
+    // Declares a topic; its messages are written with `write`.
+    let channel = |log: &mut Log, topic: &str, ros2_type: &str, text: &str| {
+        if ros1 {
+            log.raw_channel(
+                topic,
+                &ros2_type.replace("/msg/", "/"),
+                "ros1msg",
+                text.as_bytes(),
+                "ros1",
+            )
+        } else {
+            log.channel(topic, ros2_type, text)
+        }
+    };
+    let lane_schema = ros2msg::parse_ros1("example_msgs/LaneState", lane).unwrap();
+    let float_schema = ros2msg::parse_ros1("std_msgs/Float64", float).unwrap();
+    let write = |log: &mut Log, channel: usize, t: u64, message: &Value| {
+        if !ros1 {
+            return log.write(channel, t, message);
+        }
+        let schema = if channel == 0 {
+            &lane_schema
+        } else {
+            &float_schema
+        };
+        log.write_raw(channel, t, &cdr::encode_ros1(schema, message).unwrap())
+    };
     write_log(path, |log| {
-        let observation = log.channel("/lane_state", "example_msgs/msg/LaneState", lane)?;
-        let action = log.channel("/steering", "std_msgs/msg/Float64", float)?;
+        let observation = channel(log, "/lane_state", "example_msgs/msg/LaneState", lane)?;
+        let action = channel(log, "/steering", "std_msgs/msg/Float64", float)?;
         let label = if with_labels {
-            Some(log.channel("/teacher/steering", "std_msgs/msg/Float64", float)?)
+            Some(channel(
+                log,
+                "/teacher/steering",
+                "std_msgs/msg/Float64",
+                float,
+            )?)
         } else {
             None
         };
         for i in 0..20u64 {
             let t = 1_000_000_000 + i * 100_000_000;
             let offset = (i as f64 * 0.3).sin();
-            log.write(
+            write(
+                log,
                 observation,
                 t,
                 &record(vec![
@@ -239,7 +275,8 @@ fn robot_log(path: &std::path::Path, with_labels: bool) {
                     ("curvature", Value::Float64s(vec![0.01, 0.02, 0.03])),
                 ]),
             )?;
-            log.write(
+            write(
+                log,
                 action,
                 t + 5_000_000,
                 &record(vec![("data", Value::Float64(0.0))]),
@@ -247,7 +284,8 @@ fn robot_log(path: &std::path::Path, with_labels: bool) {
             if let Some(label) = label
                 && i % 5 != 4
             {
-                log.write(
+                write(
+                    log,
                     label,
                     t + 10_000_000,
                     &record(vec![("data", Value::Float64(-offset))]),
@@ -259,11 +297,33 @@ fn robot_log(path: &std::path::Path, with_labels: bool) {
     .unwrap();
 }
 
+/// `dagger add DATASET --log LOG` with the topics of [`robot_log`].
+fn add_robot_log(dir: &std::path::Path, dataset: &str, log: &str) -> std::process::Output {
+    imitate(
+        dir,
+        &[
+            "dagger",
+            "add",
+            dataset,
+            "--log",
+            log,
+            "--observation-topic",
+            "/lane_state",
+            "--action-topic",
+            "/steering",
+            "--label-topic",
+            "/teacher/steering",
+            "--tolerance-ms",
+            "20",
+        ],
+    )
+}
+
 #[test]
 fn a_robot_log_becomes_a_round_with_unlabelled_steps_counted() {
     let dir = tempfile::tempdir().unwrap();
-    robot_log(&dir.path().join("drive.mcap"), true);
-    robot_log(&dir.path().join("unlabelled.mcap"), false);
+    robot_log(&dir.path().join("drive.mcap"), true, false);
+    robot_log(&dir.path().join("unlabelled.mcap"), false, false);
     let run = |args: &[&str]| imitate(dir.path(), args);
     let init = run(&[
         "dagger",
@@ -275,23 +335,7 @@ fn a_robot_log_becomes_a_round_with_unlabelled_steps_counted() {
         "lateral_offset,heading_error,k3,k8,k15",
     ]);
     assert!(init.status.success(), "{}", stderr(&init));
-    let add = |log: &str| {
-        run(&[
-            "dagger",
-            "add",
-            "ds",
-            "--log",
-            log,
-            "--observation-topic",
-            "/lane_state",
-            "--action-topic",
-            "/steering",
-            "--label-topic",
-            "/teacher/steering",
-            "--tolerance-ms",
-            "20",
-        ])
-    };
+    let add = |log: &str| add_robot_log(dir.path(), "ds", log);
     let added = add("drive.mcap");
     assert!(added.status.success(), "{}", stderr(&added));
     assert!(
@@ -353,6 +397,38 @@ fn a_robot_log_becomes_a_round_with_unlabelled_steps_counted() {
         |j: usize| policy["weights"][j].as_f64().unwrap() / policy["scale"][j].as_f64().unwrap();
     let slope = raw(0) + 0.1 * raw(1);
     assert!((slope + 1.0).abs() < 0.05, "{policy}");
+}
+
+#[test]
+fn a_ros1_log_gives_the_round_its_ros2_twin_gives() {
+    let dir = tempfile::tempdir().unwrap();
+    robot_log(&dir.path().join("ros2.mcap"), true, false);
+    robot_log(&dir.path().join("ros1.mcap"), true, true);
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let mut trained = Vec::new();
+    for log in ["ros2", "ros1"] {
+        let init = run(&[
+            "dagger",
+            "init",
+            log,
+            "--env",
+            "log",
+            "--observations",
+            "a,b,c,d,e",
+        ]);
+        assert!(init.status.success(), "{}", stderr(&init));
+        let added = add_robot_log(dir.path(), log, &format!("{log}.mcap"));
+        assert!(added.status.success(), "{log}: {}", stderr(&added));
+        assert!(stdout(&added).contains("16 steps"), "{}", stdout(&added));
+        let policy = format!("{log}-policy");
+        let out = run(&["dagger", "train", log, "--out", &policy]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        trained.push(std::fs::read(dir.path().join(policy).join("policy.json")).unwrap());
+    }
+    assert_eq!(
+        trained[0], trained[1],
+        "the same steps give the same policy"
+    );
 }
 
 #[test]

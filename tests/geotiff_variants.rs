@@ -8,14 +8,14 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use common::{assert_input_error, imitate, python_writer, shared_data};
+use common::{assert_input_error, imitate, python_script, shared_data};
 use imitate::grid::Map;
 use imitate::io::geotiff::read_geotiff;
 
-/// Writes the variants into `out` with rasterio (see [`python_writer`]).
+/// Writes the variants into `out` with rasterio (see [`python_script`]).
 fn write_variants(out: &Path) -> Option<Vec<serde_json::Value>> {
     let rasters = shared_data("raster")?;
-    python_writer("geotiff_variants.py", &[&rasters, out])
+    python_script("geotiff_variants.py", &[&rasters, out])
 }
 
 fn same_values(a: &Map, b: &Map) -> bool {

@@ -1,9 +1,10 @@
-//! `imitate inspect` and `imitate cat` on real ROS 2 bags (../shared/data/mcap), checked
-//! against what Foxglove's Python decoder produces for the same files.
+//! `imitate inspect` and `imitate cat` on real ROS 2 bags (../shared/data/mcap) and real
+//! ROS 1 logs (the `mcap` crate's test files), checked against what Foxglove's Python
+//! decoders produce for the same files.
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use common::*;
 
@@ -31,6 +32,127 @@ fn cat_decodes_every_bag_exactly_as_the_reference_decoder() {
             assert_eq!(a, b, "{bag}: message {i}");
         }
     }
+}
+
+/// The `mcap` crate's own test data, where cargo unpacked the locked version of the crate
+/// to build it: a car's `/tf` and `/diagnostics` (DiagnosticArray, nested arrays of
+/// strings), a ROS 1 bag converted by the Go `mcap` tool, compressed and not.
+fn mcap_crate_test_data() -> PathBuf {
+    let lock = std::fs::read_to_string(repo().join("Cargo.lock")).unwrap();
+    let version = lock
+        .split("[[package]]")
+        .find_map(|entry| {
+            entry
+                .contains("name = \"mcap\"\n")
+                .then(|| entry.split("version = \"").nth(1)?.split('"').next())
+                .flatten()
+        })
+        .expect("Cargo.lock locks the mcap crate");
+    let cargo_home = std::env::var_os("CARGO_HOME")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| PathBuf::from(std::env::var_os("HOME").unwrap()).join(".cargo"));
+    std::fs::read_dir(cargo_home.join("registry/src"))
+        .unwrap()
+        .map(|index| {
+            index
+                .unwrap()
+                .path()
+                .join(format!("mcap-{version}/tests/data"))
+        })
+        .find(|dir| dir.is_dir())
+        .expect("cargo unpacked the mcap crate to build it")
+}
+
+#[test]
+fn cat_decodes_ros1_logs_exactly_as_foxgloves_ros1_decoder() {
+    for name in ["compressed.mcap", "uncompressed.mcap"] {
+        let file = mcap_crate_test_data().join(name);
+        let Some(theirs) = python_script("foxglove_mcap.py", &[Path::new("decode"), &file]) else {
+            return;
+        };
+        let out = imitate(&repo(), &["cat", "--json", file.to_str().unwrap()]);
+        assert!(out.status.success(), "{name}: {}", stderr(&out));
+        let ours = json_lines(&stdout(&out));
+        assert_eq!(ours.len(), 826, "{name}");
+        assert_eq!(ours.len(), theirs.len(), "{name}");
+        for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
+            assert_eq!(a, b, "{name}: message {i}");
+        }
+        let report = inspect(&file, &[]);
+        assert_eq!(report["profile"], "ros1");
+        for channel in report["channels"].as_array().unwrap() {
+            assert!(channel["undecodable"].is_null(), "{channel}");
+        }
+    }
+}
+
+/// A rosbag2 recording of a service (Jazzy on): the schema holds the `.srv` text as
+/// rosbag2's message-definition source writes it, the message the CDR of the event type
+/// rosidl generates. The bytes are laid out by hand here, not by our encoder.
+#[test]
+fn cat_decodes_service_events_from_the_srv_text_rosbag2_stores() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("services.mcap");
+    let srv = format!(
+        "{0}\nSRV: example_interfaces/srv/AddTwoInts\nint64 a\nint64 b\n---\nint64 sum\n",
+        "=".repeat(80)
+    );
+    let mut event = vec![0, 1, 0, 0]; // CDR, little endian
+    event.push(1); // info.event_type: REQUEST_RECEIVED
+    event.extend_from_slice(&[0; 3]); // align 4
+    event.extend_from_slice(&7i32.to_le_bytes()); // info.stamp.sec
+    event.extend_from_slice(&9u32.to_le_bytes()); // info.stamp.nanosec
+    event.extend_from_slice(&[3; 16]); // info.client_gid
+    event.extend_from_slice(&[0; 4]); // align 8
+    event.extend_from_slice(&42i64.to_le_bytes()); // info.sequence_number
+    event.extend_from_slice(&1u32.to_le_bytes()); // one request
+    event.extend_from_slice(&[0; 4]); // align 8
+    event.extend_from_slice(&2i64.to_le_bytes()); // request.a
+    event.extend_from_slice(&40i64.to_le_bytes()); // request.b
+    event.extend_from_slice(&0u32.to_le_bytes()); // no response
+    {
+        let out = std::io::BufWriter::new(std::fs::File::create(&file).unwrap());
+        let mut writer = mcap::WriteOptions::new()
+            .profile("ros2")
+            .create(out)
+            .unwrap();
+        let schema = writer
+            .add_schema(
+                "example_interfaces/srv/AddTwoInts_Event",
+                "ros2msg",
+                srv.as_bytes(),
+            )
+            .unwrap();
+        let channel = writer
+            .add_channel(
+                schema,
+                "/add_two_ints/_service_event",
+                "cdr",
+                &Default::default(),
+            )
+            .unwrap();
+        let header = mcap::records::MessageHeader {
+            channel_id: channel,
+            sequence: 0,
+            log_time: 5,
+            publish_time: 5,
+        };
+        writer.write_to_known_channel(&header, &event).unwrap();
+        writer.finish().unwrap();
+    }
+    let out = imitate(
+        &repo(),
+        &["cat", "--json", "--strict", file.to_str().unwrap()],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let lines = json_lines(&stdout(&out));
+    let message = &lines[0]["message"];
+    assert_eq!(message["info"]["event_type"], 1);
+    assert_eq!(message["info"]["stamp"]["sec"], 7);
+    assert_eq!(message["info"]["sequence_number"], 42);
+    assert_eq!(message["request"][0]["a"], 2);
+    assert_eq!(message["request"][0]["b"], 40);
+    assert_eq!(message["response"], serde_json::json!([]));
 }
 
 #[test]

@@ -225,38 +225,82 @@ fn a_message_shorter_than_its_schema_names_the_field() {
     );
 }
 
+/// A ROS 1 `std_msgs/String`: the byte count, then the bytes.
+fn ros1_string(text: &str) -> Vec<u8> {
+    let mut data = (text.len() as u32).to_le_bytes().to_vec();
+    data.extend_from_slice(text.as_bytes());
+    data
+}
+
+const ROS1_CHATTER: Channel = Channel {
+    topic: "/chatter",
+    schema: "std_msgs/String",
+    schema_encoding: "ros1msg",
+    schema_text: STRING_SCHEMA,
+    message_encoding: "ros1",
+};
+
 #[test]
 fn a_message_that_cannot_be_decoded_is_an_error_record_and_the_rest_is_printed() {
+    // ROS 2 (CDR) and ROS 1 strings, the middle one cut inside its text.
+    let wires: [(&Channel, fn(&str) -> Vec<u8>, usize); 2] = [
+        (&CHATTER, string_message, 9),
+        (&ROS1_CHATTER, ros1_string, 6),
+    ];
+    for (channel, message, cut) in wires {
+        let dir = tempfile::tempdir().unwrap();
+        let file = dir.path().join("mixed.mcap");
+        let mut short = message("hello");
+        short.truncate(cut);
+        write_mcap(&file, channel, &[message("first"), short, message("third")]);
+        let out = cat(dir.path(), &file, &[]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let lines: Vec<serde_json::Value> = stdout(&out)
+            .lines()
+            .map(|l| serde_json::from_str(l).unwrap())
+            .collect();
+        assert_eq!(lines.len(), 3);
+        assert_eq!(lines[0]["message"]["data"], "first");
+        assert_eq!(lines[1]["topic"], "/chatter");
+        assert_eq!(lines[1]["sequence"], 1);
+        let error = lines[1]["error"].as_str().unwrap_or_default();
+        assert!(
+            error.contains("field data") && error.contains("does not fit"),
+            "{}",
+            lines[1]
+        );
+        assert_eq!(lines[2]["message"]["data"], "third");
+        let err = stderr(&out);
+        assert!(
+            err.contains("1 messages could not be decoded") && err.contains("/chatter: 1"),
+            "{err}"
+        );
+        let out = cat(dir.path(), &file, &["--strict"]);
+        assert_input_error(&out, &["mixed.mcap", "/chatter", "message 1", "field data"]);
+    }
+}
+
+#[test]
+fn a_ros1_schema_that_does_not_parse_names_the_schema_and_line() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("mixed.mcap");
-    let mut short = string_message("hello");
-    short.truncate(9);
-    write_mcap(
-        &file,
-        &CHATTER,
-        &[string_message("first"), short, string_message("third")],
+    let file = dir.path().join("schema.mcap");
+    let channel = Channel {
+        schema_text: "string data\nint32 count 5\n",
+        ..ROS1_CHATTER
+    };
+    write_mcap(&file, &channel, &[ros1_string("x")]);
+    let out = cat(dir.path(), &file, &["--strict"]);
+    let expected = ["std_msgs/String", "line 2", "no default value"];
+    assert_input_error(
+        &out,
+        &[&["schema.mcap", "/chatter"][..], &expected].concat(),
     );
-    let out = cat(dir.path(), &file, &[]);
-    assert!(out.status.success(), "{}", stderr(&out));
-    let lines: Vec<serde_json::Value> = stdout(&out)
-        .lines()
-        .map(|l| serde_json::from_str(l).unwrap())
-        .collect();
-    assert_eq!(lines.len(), 3);
-    assert_eq!(lines[0]["message"]["data"], "first");
-    assert_eq!(lines[1]["topic"], "/chatter");
-    assert_eq!(lines[1]["sequence"], 1);
-    assert!(
-        lines[1]["error"].as_str().unwrap().contains("does not fit"),
-        "{}",
-        lines[1]
-    );
-    assert_eq!(lines[2]["message"]["data"], "third");
-    let err = stderr(&out);
-    assert!(
-        err.contains("1 messages could not be decoded") && err.contains("/chatter: 1"),
-        "{err}"
-    );
+    let out = imitate(dir.path(), &["inspect", "--json", "schema.mcap"]);
+    let report: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let why = report["channels"][0]["undecodable"]
+        .as_str()
+        .unwrap_or_default();
+    assert!(expected.iter().all(|e| why.contains(e)), "{report}");
 }
 
 #[test]

@@ -42,7 +42,7 @@ fn ingest_digest(ws: &Path, demonstrations: &str, replace_map: Option<&str>, out
 fn tables_from_pyarrow_pandas_and_polars_read_as_the_original() {
     let ws = quickstart_workspace();
     let written = ws.path().join("written");
-    let Some(files) = python_writer(
+    let Some(files) = python_script(
         "parquet_writers.py",
         &[
             &ws.path().join("testdata/world/demonstrations.parquet"),

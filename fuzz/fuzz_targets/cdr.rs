@@ -1,11 +1,12 @@
 //! The CDR decoder on arbitrary bytes, against a fixed set of real ROS 2 schemas and
-//! against schemas the fuzzer writes itself (input = schema text, NUL, message).
+//! against schemas the fuzzer writes itself (input = schema text, NUL, message), which
+//! also drive the ROS 1 decoder.
 #![no_main]
 
 use std::sync::OnceLock;
 
 use imitate::io::mcap::ros2::schemas;
-use imitate::io::mcap::ros2msg::{Schema, parse};
+use imitate::io::mcap::ros2msg::{Schema, parse, parse_ros1};
 use imitate::io::mcap::{cdr, ros2};
 use libfuzzer_sys::fuzz_target;
 
@@ -44,10 +45,14 @@ fuzz_target!(|data: &[u8]| {
         }
     } else if let Some(split) = message.iter().position(|&b| b == 0) {
         let (text, bytes) = message.split_at(split);
-        if let Ok(text) = std::str::from_utf8(text)
-            && let Ok(schema) = parse("fuzz_msgs/msg/Root", text)
-        {
+        let Ok(text) = std::str::from_utf8(text) else {
+            return;
+        };
+        if let Ok(schema) = parse("fuzz_msgs/msg/Root", text) {
             let _ = cdr::decode(&schema, &bytes[1..]);
+        }
+        if let Ok(schema) = parse_ros1("fuzz_msgs/Root", text) {
+            let _ = cdr::decode_ros1(&schema, &bytes[1..]);
         }
     }
 });

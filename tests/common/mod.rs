@@ -105,10 +105,11 @@ pub fn prepared_workspace() -> tempfile::TempDir {
     ws
 }
 
-/// Runs `tests/python/SCRIPT ARGS` with the packages `scripts/python-deps.sh` installs,
-/// and parses its stdout as one JSON value per line. `None` (the test is skipped, with a
+/// Runs `tests/python/SCRIPT ARGS` (real tools writing or reading files) with the
+/// packages `scripts/python-deps.sh` installs, and parses its stdout as one JSON value
+/// per line. `None` (the test is skipped, with a
 /// message) where they are not installed, except in CI, where that is a failure.
-pub fn python_writer(script: &str, args: &[&Path]) -> Option<Vec<serde_json::Value>> {
+pub fn python_script(script: &str, args: &[&Path]) -> Option<Vec<serde_json::Value>> {
     let run = Command::new("python3")
         .arg(repo().join("tests/python").join(script))
         .args(args)

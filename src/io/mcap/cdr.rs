@@ -1,9 +1,15 @@
-//! Dynamic CDR (OMG XCDR1, as ROS 2 serialises messages) decoding and encoding, driven by
-//! a parsed `ros2msg` schema. A message starts with a 4-byte encapsulation header (kind in
-//! byte 1: bit 0 set means little endian; bytes 2–3 are options, ignored); primitives are
-//! aligned to their size counted from the end of that header; sequences and strings carry
-//! a u32 length (strings include their terminating NUL); empty messages hold one dummy
-//! byte; `wstring` is a u32 count of UTF-32 code units (Fast-CDR's `wchar_t` on Linux).
+//! Dynamic decoding and encoding of ROS messages, driven by a parsed message schema, in
+//! the two wire formats:
+//!
+//! - CDR (OMG XCDR1, as ROS 2 serialises messages). A message starts with a 4-byte
+//!   encapsulation header (kind in byte 1: bit 0 set means little endian; bytes 2–3 are
+//!   options, ignored); primitives are aligned to their size counted from the end of that
+//!   header; sequences and strings carry a u32 length (strings include their terminating
+//!   NUL); empty messages hold one dummy byte; `wstring` is a u32 count of UTF-32 code
+//!   units (Fast-CDR's `wchar_t` on Linux).
+//! - ROS 1 serialisation: the same walk, little endian, packed (no header, no alignment),
+//!   strings a u32 byte count without NUL (bytes that are not UTF-8 become U+FFFD, as
+//!   genpy reads them), empty messages empty.
 
 use std::fmt;
 
@@ -11,6 +17,13 @@ use super::ros2msg::{Arity, BaseType, Field, Primitive, Schema};
 use super::value::Value;
 
 const HEADER: usize = 4;
+
+/// How a message is laid out in bytes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Wire {
+    Cdr,
+    Ros1,
+}
 
 /// Where in a message decoding failed, and why.
 #[derive(Debug, Clone, PartialEq)]
@@ -42,6 +55,7 @@ struct Reader<'a> {
     data: &'a [u8],
     pos: usize,
     little: bool,
+    wire: Wire,
 }
 
 macro_rules! read_number {
@@ -95,6 +109,9 @@ impl<'a> Reader<'a> {
     }
 
     fn align(&mut self, size: usize) {
+        if self.wire == Wire::Ros1 {
+            return;
+        }
         let misalignment = (self.pos - HEADER) % size;
         if misalignment != 0 {
             self.pos += size - misalignment;
@@ -139,21 +156,37 @@ impl<'a> Reader<'a> {
     }
 
     /// A sequence length, checked against the bytes left (each element takes at least
-    /// `min_size` bytes) so that corrupt lengths fail instead of allocating.
+    /// `min_size` bytes) so that corrupt lengths fail instead of allocating. Elements
+    /// that take no bytes (ROS 1's empty messages) are held to `MAX_EMPTY_ITEMS`.
     fn length(&mut self, min_size: usize) -> Result<usize, CdrError> {
         let length = self.u32()? as usize;
+        self.fits(length, min_size)?;
+        Ok(length)
+    }
+
+    /// Whether `length` elements of at least `min_size` bytes each can follow.
+    fn fits(&self, length: usize, min_size: usize) -> Result<(), CdrError> {
+        const MAX_EMPTY_ITEMS: usize = 1 << 16;
         let left = self.data.len() - self.pos.min(self.data.len());
+        if min_size == 0 && length > MAX_EMPTY_ITEMS {
+            return Err(self.fail(format!(
+                "an array of {length} empty messages is longer than {MAX_EMPTY_ITEMS}"
+            )));
+        }
         if length.saturating_mul(min_size) > left {
             return Err(self.fail(format!(
                 "a length of {length} does not fit in the {left} bytes left"
             )));
         }
-        Ok(length)
+        Ok(())
     }
 
     fn string(&mut self) -> Result<String, CdrError> {
         let length = self.length(1)?;
         let bytes = self.take(length)?;
+        if self.wire == Wire::Ros1 {
+            return Ok(String::from_utf8_lossy(bytes).into_owned());
+        }
         // Serialisers differ on whether an empty string has its NUL (length 0 or 1).
         let text = match bytes.split_last() {
             Some((0, text)) => text,
@@ -200,6 +233,18 @@ pub fn decode(schema: &Schema, data: &[u8]) -> Result<Value, CdrError> {
         data,
         pos: HEADER,
         little: kind & 1 == 1,
+        wire: Wire::Cdr,
+    };
+    decode_message(schema, schema.root, &mut reader)
+}
+
+/// Decodes one ROS 1 message of the schema's root type.
+pub fn decode_ros1(schema: &Schema, data: &[u8]) -> Result<Value, CdrError> {
+    let mut reader = Reader {
+        data,
+        pos: 0,
+        little: true,
+        wire: Wire::Ros1,
     };
     decode_message(schema, schema.root, &mut reader)
 }
@@ -210,7 +255,7 @@ fn decode_message(
     reader: &mut Reader<'_>,
 ) -> Result<Value, CdrError> {
     let def = &schema.messages[index];
-    if def.fields.is_empty() {
+    if def.fields.is_empty() && reader.wire == Wire::Cdr {
         // ROS 2 gives empty messages a `uint8 structure_needs_at_least_one_member`.
         reader.u8()?;
     }
@@ -233,10 +278,21 @@ fn decode_field(
     field: &Field,
     reader: &mut Reader<'_>,
 ) -> Result<Value, CdrError> {
+    let item_size = || match field.base {
+        BaseType::Primitive(p) => p.min_size(),
+        // A CDR message takes a byte at least (an empty one its dummy byte).
+        BaseType::Message(inner) if reader.wire == Wire::Cdr => {
+            schema.messages[inner].min_size.max(1)
+        }
+        BaseType::Message(inner) => schema.messages[inner].min_size,
+    };
     let count = match field.arity {
         Arity::Single => None,
-        Arity::Fixed(n) => Some(n),
-        Arity::Unbounded | Arity::Bounded(_) => Some(reader.length(1)?),
+        Arity::Fixed(n) => {
+            reader.fits(n, item_size())?;
+            Some(n)
+        }
+        Arity::Unbounded | Arity::Bounded(_) => Some(reader.length(item_size())?),
     };
     match (&field.base, count) {
         (BaseType::Message(inner), None) => decode_message(schema, *inner, reader),
@@ -305,14 +361,15 @@ fn decode_primitives(
     })
 }
 
-/// Writes messages in little-endian CDR, the layout ROS 2 records.
+/// Writes messages little endian, in CDR (the layout ROS 2 records) or ROS 1's layout.
 struct Writer {
     out: Vec<u8>,
+    wire: Wire,
 }
 
 impl Writer {
     fn align(&mut self, size: usize) {
-        while !(self.out.len() - HEADER).is_multiple_of(size) {
+        while self.wire == Wire::Cdr && !(self.out.len() - HEADER).is_multiple_of(size) {
             self.out.push(0);
         }
     }
@@ -338,9 +395,10 @@ impl Writer {
     }
 
     fn string(&mut self, text: &str) -> Result<(), String> {
-        self.length(text.len() + 1)?;
+        let nul = usize::from(self.wire == Wire::Cdr);
+        self.length(text.len() + nul)?;
         self.out.extend_from_slice(text.as_bytes());
-        self.out.push(0);
+        self.out.resize(self.out.len() + nul, 0);
         Ok(())
     }
 }
@@ -349,6 +407,17 @@ impl Writer {
 pub fn encode(schema: &Schema, value: &Value) -> Result<Vec<u8>, String> {
     let mut writer = Writer {
         out: vec![0, 1, 0, 0],
+        wire: Wire::Cdr,
+    };
+    encode_message(schema, schema.root, value, &mut writer)?;
+    Ok(writer.out)
+}
+
+/// Encodes `value`, a struct of the schema's root type, in ROS 1's layout.
+pub fn encode_ros1(schema: &Schema, value: &Value) -> Result<Vec<u8>, String> {
+    let mut writer = Writer {
+        out: Vec::new(),
+        wire: Wire::Ros1,
     };
     encode_message(schema, schema.root, value, &mut writer)?;
     Ok(writer.out)
@@ -361,7 +430,7 @@ fn encode_message(
     writer: &mut Writer,
 ) -> Result<(), String> {
     let def = &schema.messages[index];
-    if def.fields.is_empty() {
+    if def.fields.is_empty() && writer.wire == Wire::Cdr {
         writer.out.push(0);
     }
     for field in &def.fields {
@@ -492,7 +561,7 @@ fn encode_primitive(
 
 #[cfg(test)]
 mod tests {
-    use super::super::ros2msg::parse;
+    use super::super::ros2msg::{parse, parse_ros1};
     use super::*;
     use proptest::prelude::*;
 
@@ -514,6 +583,55 @@ string[] names
 MSG: p/Empty
 int32 ONLY_A_CONSTANT=1
 ";
+
+    /// SCHEMA in ROS 1's words: no wstring or bounds, and `char` is unsigned there.
+    const SCHEMA_ROS1: &str = "\
+uint8 a
+float64 b
+string s
+int16[] v
+Inner[2] inner
+string w
+bool[3] flags
+Empty e
+================================================================================
+MSG: p/Inner
+int8 c
+float32[] f
+string[] names
+================================================================================
+MSG: p/Empty
+int32 ONLY_A_CONSTANT=1
+";
+
+    #[test]
+    fn ros1_is_packed_headerless_and_reads_strings_as_genpy_does() {
+        let schema = parse_ros1(
+            "p/M",
+            "uint8 a\nfloat64 b\nstring s\nEmpty e\nuint8 z\n\
+                                        ===\nMSG: p/Empty\n",
+        )
+        .unwrap();
+        let mut data = vec![7];
+        data.extend_from_slice(&2.5f64.to_le_bytes());
+        data.extend_from_slice(&[3, 0, 0, 0, b'a', 0xff, b'b', 9]);
+        let value = decode_ros1(&schema, &data).unwrap();
+        assert_eq!(value.get("b"), Some(&Value::Float64(2.5)));
+        // Bytes that are not UTF-8 become U+FFFD; the empty message takes no byte.
+        assert_eq!(value.get("s"), Some(&Value::String("a\u{fffd}b".into())));
+        assert_eq!(value.get("z"), Some(&Value::Uint(9)));
+
+        // Empty messages take no bytes, so their count is held to a bound of its own.
+        let schema = parse_ros1("p/M", "Empty[] e\n===\nMSG: p/Empty\n").unwrap();
+        let many = decode_ros1(&schema, &[0, 0, 1, 0]).unwrap();
+        assert_eq!(many.get("e").and_then(Value::array_len), Some(65536));
+        let err = decode_ros1(&schema, &[1, 0, 1, 0]).unwrap_err();
+        assert!(err.problem.contains("longer than 65536"), "{err}");
+        // Fixed arrays are checked against the bytes left before anything is built.
+        let schema = parse_ros1("p/M", "float64[100000000] big").unwrap();
+        let err = decode_ros1(&schema, &[0; 64]).unwrap_err();
+        assert!(err.problem.contains("does not fit"), "{err}");
+    }
 
     #[test]
     fn aligns_after_the_header_and_reads_big_endian_too() {
@@ -598,9 +716,18 @@ int32 ONLY_A_CONSTANT=1
         }
 
         #[test]
+        fn ros1_decode_inverts_encode(message in arbitrary_message()) {
+            let schema = parse_ros1("p/M", SCHEMA_ROS1).unwrap();
+            let bytes = encode_ros1(&schema, &message).unwrap();
+            prop_assert_eq!(decode_ros1(&schema, &bytes).unwrap(), message);
+        }
+
+        #[test]
         fn arbitrary_bytes_never_panic(data in prop::collection::vec(any::<u8>(), 0..200)) {
             let schema = parse("p/msg/M", SCHEMA).unwrap();
             let _ = decode(&schema, &data);
+            let schema = parse_ros1("p/M", SCHEMA_ROS1).unwrap();
+            let _ = decode_ros1(&schema, &data);
         }
 
         #[test]
@@ -609,6 +736,10 @@ int32 ONLY_A_CONSTANT=1
             let bytes = encode(&schema, &message).unwrap();
             let cut = cut % bytes.len();
             prop_assert!(decode(&schema, &bytes[..cut]).is_err());
+            let schema = parse_ros1("p/M", SCHEMA_ROS1).unwrap();
+            let bytes = encode_ros1(&schema, &message).unwrap();
+            let cut = cut % bytes.len();
+            prop_assert!(decode_ros1(&schema, &bytes[..cut]).is_err());
         }
     }
 }

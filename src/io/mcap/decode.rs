@@ -1,6 +1,7 @@
 //! Choosing and running a channel's decoder from its message encoding and the schema
-//! stored in the file: `cdr` + `ros2msg` (our parser and CDR decoder), `json` (any or no
-//! schema), `protobuf` + a `FileDescriptorSet` (through `prost-reflect`).
+//! stored in the file: `cdr` + `ros2msg` and `ros1` + `ros1msg` (our parser and
+//! decoders), `json` (any or no schema), `protobuf` + a `FileDescriptorSet` (through
+//! `prost-reflect`).
 
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -8,12 +9,13 @@ use std::sync::Arc;
 use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMessage};
 
 use super::cdr;
-use super::reader::ChannelInfo;
+use super::reader::{ChannelInfo, SchemaInfo};
 use super::ros2msg::{self, Schema};
 use super::value::Value;
 
 pub enum MessageDecoder {
     Cdr(Schema),
+    Ros1(Schema),
     Json,
     Protobuf(MessageDescriptor),
 }
@@ -25,10 +27,13 @@ impl MessageDecoder {
         let schema_encoding = schema.map_or("", |s| s.encoding.as_str());
         match (channel.message_encoding.as_str(), schema) {
             ("cdr", Some(schema)) if schema_encoding == "ros2msg" => {
-                let text = std::str::from_utf8(&schema.data)
-                    .map_err(|_| format!("schema '{}' is not UTF-8 text", schema.name))?;
-                ros2msg::parse(&schema.name, text)
+                ros2msg::parse(&schema.name, text(schema)?)
                     .map(MessageDecoder::Cdr)
+                    .map_err(|e| format!("schema '{}': {e}", schema.name))
+            }
+            ("ros1", Some(schema)) if schema_encoding == "ros1msg" => {
+                ros2msg::parse_ros1(&schema.name, text(schema)?)
+                    .map(MessageDecoder::Ros1)
                     .map_err(|e| format!("schema '{}': {e}", schema.name))
             }
             ("json", _) => Ok(MessageDecoder::Json),
@@ -47,7 +52,8 @@ impl MessageDecoder {
             }
             (encoding, _) => Err(format!(
                 "no decoder for message encoding '{encoding}' with schema encoding \
-                 '{schema_encoding}' (supported: cdr+ros2msg, json, protobuf+protobuf)"
+                 '{schema_encoding}' (supported: cdr+ros2msg, ros1+ros1msg, json, \
+                 protobuf+protobuf)"
             )),
         }
     }
@@ -55,6 +61,9 @@ impl MessageDecoder {
     pub fn decode(&self, data: &[u8]) -> Result<Value, String> {
         match self {
             MessageDecoder::Cdr(schema) => cdr::decode(schema, data).map_err(|e| e.to_string()),
+            MessageDecoder::Ros1(schema) => {
+                cdr::decode_ros1(schema, data).map_err(|e| e.to_string())
+            }
             MessageDecoder::Json => serde_json::from_slice::<serde_json::Value>(data)
                 .map(Value::from)
                 .map_err(|e| format!("not JSON: {e}")),
@@ -65,6 +74,11 @@ impl MessageDecoder {
             }
         }
     }
+}
+
+fn text(schema: &SchemaInfo) -> Result<&str, String> {
+    std::str::from_utf8(&schema.data)
+        .map_err(|_| format!("schema '{}' is not UTF-8 text", schema.name))
 }
 
 fn protobuf_message(message: &DynamicMessage) -> Value {
@@ -148,7 +162,6 @@ mod tests {
     use prost::Message;
     use prost_reflect::Value as P;
 
-    use super::super::reader::SchemaInfo;
     use super::super::ros2;
     use super::*;
 

@@ -111,7 +111,12 @@ pub fn read_log(
     let channels: Vec<(String, String)> = report
         .channels
         .iter()
-        .map(|c| (c.topic.clone(), c.schema.clone()))
+        .map(|c| {
+            (
+                c.topic.clone(),
+                ros2::canonical_type(&c.schema).into_owned(),
+            )
+        })
         .collect();
     let pose_topic = pick_topic(
         mapping.pose_topic.as_deref(),
@@ -170,7 +175,8 @@ pub fn read_log(
             return Ok(());
         };
         let topic = channel.topic.as_str();
-        let schema = channel.schema_name();
+        let schema = ros2::canonical_type(channel.schema_name());
+        let schema = schema.as_ref();
         let at = |e: String| problem(format!("topic {topic} message {}: {e}", header.sequence));
         if topic == pose_topic {
             let message = decode(&mut decoders, channel, header.sequence, data)?;
@@ -389,8 +395,8 @@ mod tests {
 
     #[test]
     fn topics_ingest_does_not_need_are_never_decoded() {
-        // Odometry beside what no decoder reads: a ROS 1 channel and a rosbag2 service
-        // event whose bytes do not match its schema.
+        // Odometry beside messages that cannot be decoded: ROS 1 strings cut short and a
+        // rosbag2 service event whose bytes do not match its schema.
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("mixed.mcap");
         super::super::writer::write_log(&path, |log| {
@@ -416,7 +422,7 @@ mod tests {
                     t,
                     &ros2::odometry(t, "map", "base_link", k as f64, 0.0, 0.0),
                 )?;
-                log.write_raw(ros1, t, &[3, 0, 0, 0, b'a', b'b', b'c'])?;
+                log.write_raw(ros1, t, &[9, 0, 0, 0, b'a'])?;
                 log.write_raw(event, t, &[0xff; 3])?;
             }
             Ok(())

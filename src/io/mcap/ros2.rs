@@ -4,6 +4,7 @@
 //! `geometry_msgs/msg/PoseStamped`, `PoseWithCovarianceStamped`, `nav_msgs/msg/Path`,
 //! `foxglove.PoseInFrame`, `foxglove.PosesInFrame`), and `tf2_msgs/msg/TFMessage`.
 
+use std::borrow::Cow;
 use std::sync::Arc;
 
 use super::value::Value;
@@ -402,10 +403,14 @@ fn yaw_of(q: &Value) -> Result<f64, String> {
     Ok((2.0 * (w * z + x * y)).atan2(1.0 - 2.0 * (y * y + z * z)))
 }
 
-/// Header stamp in nanoseconds (ROS `std_msgs/Header`, or Foxglove's `timestamp`).
+/// Header stamp in nanoseconds (ROS 2's or ROS 1's `std_msgs/Header`, or Foxglove's
+/// `timestamp`).
 fn stamp(value: &Value) -> Result<u64, String> {
     let (sec, nanos) = if let Some(stamp) = value.path("header.stamp") {
-        (number(stamp, "sec")?, number(stamp, "nanosec")?)
+        match stamp.get("secs") {
+            Some(_) => (number(stamp, "secs")?, number(stamp, "nsecs")?),
+            None => (number(stamp, "sec")?, number(stamp, "nanosec")?),
+        }
     } else if let Some(stamp) = value.get("timestamp") {
         // Foxglove: protobuf's Timestamp (seconds, nanos), or JSON's (sec, nsec).
         match (stamp.get("seconds"), stamp.get("sec")) {
@@ -429,6 +434,19 @@ fn planar(pose: &Value, time: u64, frame: &str) -> Result<StampedPose, String> {
         y: number(pose, "position.y")?,
         yaw: yaw_of(field(pose, "orientation")?)?,
     })
+}
+
+/// The name ingest knows a message type by: ROS 1's `pkg/Name` becomes ROS 2's
+/// `pkg/msg/Name` (the types ingest reads have the same fields in both, but for the
+/// stamp), and ROS 1's `tf/tfMessage` is `tf2_msgs/msg/TFMessage`.
+pub fn canonical_type(name: &str) -> Cow<'_, str> {
+    match name.split_once('/') {
+        _ if name == "tf/tfMessage" => Cow::Borrowed("tf2_msgs/msg/TFMessage"),
+        Some((package, message)) if !message.contains('/') => {
+            Cow::Owned(format!("{package}/msg/{message}"))
+        }
+        _ => Cow::Borrowed(name),
+    }
 }
 
 /// The pose types ingest understands, by schema name.

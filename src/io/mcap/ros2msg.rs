@@ -1,14 +1,21 @@
-//! Parser of ROS 2 `.msg` schema text as stored in MCAP `ros2msg` schemas: the main
-//! definition, then dependencies, each after a line of `=` signs and a `MSG: pkg/Name`
-//! line. Follows `rosidl_adapter` (the reference parser): comments start at `#`, a
-//! field is `TYPE name [default]`, a constant `TYPE NAME=value`, types are primitives,
-//! bounded strings `string<=N`, and messages `pkg/Name` or `Name` (same package), each
-//! optionally an array `[]`, `[N]` or `[<=N]`.
+//! Parser of ROS message schema text as stored in MCAP `ros2msg` and `ros1msg` schemas:
+//! the main definition, then dependencies, each after a line of `=` signs and a
+//! `MSG: pkg/Name` line.
+//!
+//! ROS 2 ([`parse`]) follows `rosidl_adapter` (the reference parser): comments start at
+//! `#`, a field is `TYPE name [default]`, a constant `TYPE NAME=value`, types are
+//! primitives, bounded strings `string<=N`, and messages `pkg/Name` or `Name` (same
+//! package), each optionally an array `[]`, `[N]` or `[<=N]`.
+//!
+//! ROS 1 ([`parse_ros1`]) follows `genmsg`: no defaults, bounds or `wstring`; `byte` is
+//! int8 and `char` uint8; `time` and `duration` are builtins (`secs`, `nsecs`); a bare
+//! `Header` is `std_msgs/Header`; a string constant's value is the rest of its line,
+//! `#` included.
 
 use std::collections::HashMap;
 use std::sync::Arc;
 
-/// A primitive ROS 2 type.
+/// A primitive ROS type.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Primitive {
     Bool,
@@ -28,8 +35,24 @@ pub enum Primitive {
     WString,
 }
 
+/// The two schema languages: they differ in a few type names and in what a line may hold.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Dialect {
+    Ros2,
+    Ros1,
+}
+
 impl Primitive {
-    fn parse(name: &str) -> Option<Primitive> {
+    fn parse(name: &str, dialect: Dialect) -> Option<Primitive> {
+        Some(match (name, dialect) {
+            ("byte", Dialect::Ros1) => Primitive::Int8,
+            ("char", Dialect::Ros1) => Primitive::Uint8,
+            ("wstring", Dialect::Ros1) => return None,
+            _ => return Primitive::parse_ros2(name),
+        })
+    }
+
+    fn parse_ros2(name: &str) -> Option<Primitive> {
         Some(match name {
             "bool" => Primitive::Bool,
             "byte" => Primitive::Byte,
@@ -48,6 +71,24 @@ impl Primitive {
             "wstring" => Primitive::WString,
             _ => return None,
         })
+    }
+
+    /// The fewest bytes a value takes (a string's or wstring's is its length).
+    pub fn min_size(self) -> usize {
+        match self {
+            Primitive::Bool
+            | Primitive::Byte
+            | Primitive::Char
+            | Primitive::Int8
+            | Primitive::Uint8 => 1,
+            Primitive::Int16 | Primitive::Uint16 => 2,
+            Primitive::Float64 | Primitive::Int64 | Primitive::Uint64 => 8,
+            Primitive::Float32
+            | Primitive::Int32
+            | Primitive::Uint32
+            | Primitive::String
+            | Primitive::WString => 4,
+        }
     }
 
     /// The integer range of an integer type, `None` for the others.
@@ -119,6 +160,9 @@ pub struct MessageDef {
     pub constants: Vec<Constant>,
     /// The field names, shared by every decoded value of this type.
     pub field_names: Arc<[Arc<str>]>,
+    /// The fewest bytes a message of this type takes in either wire format (0 for one
+    /// without fields), so that a corrupt array length fails before it allocates.
+    pub min_size: usize,
 }
 
 /// A parsed schema: the root message and every message it uses.
@@ -156,14 +200,95 @@ struct RawMessage {
     constants: Vec<Constant>,
 }
 
-/// Parses `text`, the schema stored for message type `name` (e.g. `nav_msgs/msg/Odometry`).
-/// Errors carry the line number (1-based) within `text`.
+/// Parses `text`, the ROS 2 schema stored for message type `name` (e.g.
+/// `nav_msgs/msg/Odometry`). Errors carry the line number (1-based) within `text`.
+/// A service's event type, stored as rosbag2 stores it (the `.srv` text), is read as
+/// the message it stands for.
 pub fn parse(name: &str, text: &str) -> Result<Schema, String> {
+    match service_event_as_messages(text) {
+        Some(messages) => parse_dialect(name, &messages, Dialect::Ros2)
+            .map_err(|e| format!("{e} (of the service event type made from the .srv text)")),
+        None => parse_dialect(name, text, Dialect::Ros2),
+    }
+}
+
+/// `service_msgs/msg/ServiceEventInfo`, the header of every service event; rosbag2 does
+/// not store it with the `.srv` text.
+const SERVICE_EVENT_INFO: &str = "\
+uint8 REQUEST_SENT = 0
+uint8 REQUEST_RECEIVED = 1
+uint8 RESPONSE_SENT = 2
+uint8 RESPONSE_RECEIVED = 3
+uint8 event_type
+builtin_interfaces/Time stamp
+char[16] client_gid
+int64 sequence_number
+";
+
+const DELIMITER: &str =
+    "================================================================================";
+
+/// rosbag2 (Jazzy on) records a service's events (`pkg/srv/Name_Event`) with the service
+/// text in place of a message definition: a delimiter, `SRV: pkg/srv/Name`, the request
+/// fields, `---`, the response fields, then the dependencies as usual. This writes out
+/// the event message rosidl generates from it (`info`, then the request and response as
+/// sequences of at most one), with the request, response and `ServiceEventInfo` as
+/// dependencies. `None` for text that is not a service's.
+fn service_event_as_messages(text: &str) -> Option<String> {
+    let mut lines = text.lines().skip_while(|l| {
+        let l = l.trim();
+        l.is_empty() || (l.len() >= 3 && l.bytes().all(|b| b == b'='))
+    });
+    let service = lines.next()?.trim().strip_prefix("SRV:")?.trim();
+    let (package, name) = match service.split('/').collect::<Vec<_>>().as_slice() {
+        [package, _, name] | [package, name] => (package.to_string(), name.to_string()),
+        _ => return None,
+    };
+    // The request, the response, and the dependencies after them.
+    let mut parts = [String::new(), String::new(), String::new()];
+    let mut part = 0;
+    for line in lines {
+        let trimmed = line.trim();
+        if part < 2 && trimmed.len() >= 3 && trimmed.bytes().all(|b| b == b'=') {
+            part = 2;
+        } else if part == 0 && trimmed == "---" {
+            part = 1;
+            continue;
+        }
+        parts[part].push_str(line);
+        parts[part].push('\n');
+    }
+    let [request, response, rest] = parts;
+    let mut out = format!(
+        "service_msgs/ServiceEventInfo info\n{name}_Request[<=1] request\n\
+         {name}_Response[<=1] response\n\
+         {DELIMITER}\nMSG: {package}/{name}_Request\n{request}\
+         {DELIMITER}\nMSG: {package}/{name}_Response\n{response}{rest}"
+    );
+    if !rest.contains("MSG: service_msgs/ServiceEventInfo")
+        && !rest.contains("MSG: service_msgs/msg/ServiceEventInfo")
+    {
+        out.push_str(&format!(
+            "{DELIMITER}\nMSG: service_msgs/ServiceEventInfo\n{SERVICE_EVENT_INFO}"
+        ));
+    }
+    Some(out)
+}
+
+/// Parses `text`, the ROS 1 schema (a `ros1msg` schema, the "message definition" of a
+/// ROS 1 connection) stored for message type `name` (e.g. `nav_msgs/Odometry`).
+pub fn parse_ros1(name: &str, text: &str) -> Result<Schema, String> {
+    // Old bags call the header `roslib/Header`; genpy renames it the same way.
+    let text = text.replace("roslib/Header", "std_msgs/Header");
+    parse_dialect(name, &text, Dialect::Ros1)
+}
+
+fn parse_dialect(name: &str, text: &str, dialect: Dialect) -> Result<Schema, String> {
     let mut raw = Vec::new();
     let mut current_name = name.to_string();
     let mut section: Vec<(usize, &str)> = Vec::new();
     let mut flush = |name: &str, lines: &mut Vec<(usize, &str)>| -> Result<(), String> {
-        raw.push(parse_message(name, lines)?);
+        raw.push(parse_message(name, lines, dialect)?);
         lines.clear();
         Ok(())
     };
@@ -191,7 +316,11 @@ fn short_name(name: &str) -> String {
     }
 }
 
-fn parse_message(name: &str, lines: &[(usize, &str)]) -> Result<RawMessage, String> {
+fn parse_message(
+    name: &str,
+    lines: &[(usize, &str)],
+    dialect: Dialect,
+) -> Result<RawMessage, String> {
     let name = short_name(name);
     let package = name.split('/').next().unwrap_or_default().to_string();
     let mut message = RawMessage {
@@ -214,7 +343,7 @@ fn parse_message(name: &str, lines: &[(usize, &str)]) -> Result<RawMessage, Stri
             .split_once(' ')
             .ok_or_else(|| at(format!("'{content}' has a type but no field name")))?;
         let rest = rest.trim_start();
-        let (base, arity, string_bound) = parse_type(type_text, &package).map_err(at)?;
+        let (base, arity, string_bound) = parse_type(type_text, &package, dialect).map_err(at)?;
         if let Some((constant, value)) = rest.split_once('=') {
             let RawBase::Primitive(ty) = base else {
                 return Err(at(format!("constant of message type '{type_text}'")));
@@ -222,7 +351,14 @@ fn parse_message(name: &str, lines: &[(usize, &str)]) -> Result<RawMessage, Stri
             if arity != Arity::Single {
                 return Err(at("array constants are not allowed".into()));
             }
-            let value = parse_literal(ty, Arity::Single, value.trim()).map_err(at)?;
+            let value = match (dialect, ty, line.split_once('=')) {
+                // genmsg: a string constant is everything after the `=`, quotes and `#`
+                // included.
+                (Dialect::Ros1, Primitive::String, Some((_, raw))) => {
+                    Literal::Str(raw.trim().to_string())
+                }
+                _ => parse_literal(ty, Arity::Single, value.trim()).map_err(at)?,
+            };
             message.constants.push(Constant {
                 name: constant.trim().to_string(),
                 ty,
@@ -234,6 +370,11 @@ fn parse_message(name: &str, lines: &[(usize, &str)]) -> Result<RawMessage, Stri
             Some((field, default)) => (field, Some(default.trim().to_string())),
             None => (rest, None),
         };
+        if dialect == Dialect::Ros1 && default_text.is_some() {
+            return Err(at(format!(
+                "'{content}': a ROS 1 field is a type and a name, with no default value"
+            )));
+        }
         if !is_identifier(field_name) {
             return Err(at(format!("'{field_name}' is not a valid field name")));
         }
@@ -258,7 +399,7 @@ fn is_identifier(name: &str) -> bool {
 
 type ParsedType = (RawBase, Arity, Option<usize>);
 
-fn parse_type(text: &str, package: &str) -> Result<ParsedType, String> {
+fn parse_type(text: &str, package: &str, dialect: Dialect) -> Result<ParsedType, String> {
     let (base_text, arity) = match text.find('[') {
         None => (text, Arity::Single),
         Some(open) => {
@@ -267,7 +408,9 @@ fn parse_type(text: &str, package: &str) -> Result<ParsedType, String> {
                 .ok_or_else(|| format!("type '{text}' has an unclosed '['"))?;
             let arity = if inside.is_empty() {
                 Arity::Unbounded
-            } else if let Some(bound) = inside.strip_prefix("<=") {
+            } else if let Some(bound) = inside.strip_prefix("<=")
+                && dialect == Dialect::Ros2
+            {
                 Arity::Bounded(parse_size(bound, text)?)
             } else {
                 Arity::Fixed(parse_size(inside, text)?)
@@ -276,7 +419,9 @@ fn parse_type(text: &str, package: &str) -> Result<ParsedType, String> {
         }
     };
     for string_type in ["string<=", "wstring<="] {
-        if let Some(bound) = base_text.strip_prefix(string_type) {
+        if let Some(bound) = base_text.strip_prefix(string_type)
+            && dialect == Dialect::Ros2
+        {
             let primitive = if string_type.starts_with('w') {
                 Primitive::WString
             } else {
@@ -286,13 +431,15 @@ fn parse_type(text: &str, package: &str) -> Result<ParsedType, String> {
             return Ok((RawBase::Primitive(primitive), arity, Some(bound)));
         }
     }
-    if let Some(primitive) = Primitive::parse(base_text) {
+    if let Some(primitive) = Primitive::parse(base_text, dialect) {
         return Ok((RawBase::Primitive(primitive), arity, None));
     }
-    let full = match base_text {
+    let full = match (base_text, dialect) {
         // ROS 1 compatibility names that rosidl still accepts.
-        "time" => "builtin_interfaces/Time".to_string(),
-        "duration" => "builtin_interfaces/Duration".to_string(),
+        ("time", Dialect::Ros2) => "builtin_interfaces/Time".to_string(),
+        ("duration", Dialect::Ros2) => "builtin_interfaces/Duration".to_string(),
+        ("time" | "duration", Dialect::Ros1) => base_text.to_string(),
+        ("Header", Dialect::Ros1) => "std_msgs/Header".to_string(),
         _ => match base_text.split('/').collect::<Vec<_>>().as_slice() {
             [name] => format!("{package}/{name}"),
             [pkg, name] | [pkg, "msg", name] => format!("{pkg}/{name}"),
@@ -300,7 +447,10 @@ fn parse_type(text: &str, package: &str) -> Result<ParsedType, String> {
         },
     };
     let message = full.rsplit('/').next().unwrap_or_default();
-    if !message.starts_with(|c: char| c.is_ascii_uppercase()) || !is_identifier(message) {
+    // ROS 1 type names need not be capitalised (`tf/tfMessage`); ROS 2 ones must be.
+    let capitalised =
+        dialect == Dialect::Ros1 || message.starts_with(|c: char| c.is_ascii_uppercase());
+    if !capitalised || !is_identifier(message) {
         return Err(format!(
             "'{base_text}' is neither a primitive nor a message type"
         ));
@@ -414,16 +564,25 @@ fn builtin(name: &str) -> Option<RawMessage> {
         default_text: None,
         line: 0,
     };
-    matches!(
-        name,
-        "builtin_interfaces/Time" | "builtin_interfaces/Duration"
-    )
-    .then(|| RawMessage {
-        name: name.to_string(),
-        fields: vec![
+    let fields = match name {
+        "builtin_interfaces/Time" | "builtin_interfaces/Duration" => vec![
             field("sec", Primitive::Int32),
             field("nanosec", Primitive::Uint32),
         ],
+        // ROS 1's builtins, named as genpy names their fields.
+        "time" => vec![
+            field("secs", Primitive::Uint32),
+            field("nsecs", Primitive::Uint32),
+        ],
+        "duration" => vec![
+            field("secs", Primitive::Int32),
+            field("nsecs", Primitive::Int32),
+        ],
+        _ => return None,
+    };
+    Some(RawMessage {
+        name: name.to_string(),
+        fields,
         constants: Vec::new(),
     })
 }
@@ -494,10 +653,41 @@ fn resolve(mut raw: Vec<RawMessage>) -> Result<Schema, String> {
             fields,
             constants: message.constants,
             field_names,
+            min_size: 0,
         });
     }
     detect_recursion(&messages)?;
+    fill_min_sizes(&mut messages);
     Ok(Schema { messages, root: 0 })
+}
+
+/// Sets every message's [`MessageDef::min_size`]: its fields' sizes, an unbounded or
+/// bounded array counting only its 4-byte length.
+fn fill_min_sizes(messages: &mut [MessageDef]) {
+    fn size(messages: &[MessageDef], at: usize, memo: &mut [Option<usize>]) -> usize {
+        if let Some(known) = memo[at] {
+            return known;
+        }
+        let mut total = 0usize;
+        for field in &messages[at].fields {
+            let item = match field.base {
+                BaseType::Primitive(p) => p.min_size(),
+                BaseType::Message(inner) => size(messages, inner, memo),
+            };
+            let bytes = match field.arity {
+                Arity::Single => item,
+                Arity::Fixed(n) => item.saturating_mul(n),
+                Arity::Unbounded | Arity::Bounded(_) => 4,
+            };
+            total = total.saturating_add(bytes);
+        }
+        memo[at] = Some(total);
+        total
+    }
+    let mut memo = vec![None; messages.len()];
+    for at in 0..messages.len() {
+        messages[at].min_size = size(messages, at, &mut memo);
+    }
 }
 
 /// A message that contains itself (other than through an unbounded array, which CDR can
@@ -597,6 +787,134 @@ float64 z
             ]))
         );
         assert_eq!(m.fields[3].arity, Arity::Unbounded);
+    }
+
+    const ODOMETRY_ROS1: &str = "\
+# comment
+Header header
+string child_frame_id
+geometry_msgs/PoseWithCovariance pose
+================================================================================
+MSG: std_msgs/Header
+uint32 seq
+time stamp
+string frame_id
+================================================================================
+MSG: geometry_msgs/PoseWithCovariance
+Pose pose
+float64[36] covariance
+================================================================================
+MSG: geometry_msgs/Pose
+float64 x
+";
+
+    #[test]
+    fn ros1_resolves_header_time_and_same_package_names() {
+        let schema = parse_ros1("nav_msgs/Odometry", ODOMETRY_ROS1).unwrap();
+        let root = schema.root();
+        assert_eq!(root.name, "nav_msgs/Odometry");
+        let BaseType::Message(header) = root.fields[0].base else {
+            panic!()
+        };
+        let header = &schema.messages[header];
+        assert_eq!(header.name, "std_msgs/Header");
+        let BaseType::Message(time) = header.fields[1].base else {
+            panic!()
+        };
+        assert_eq!(schema.messages[time].name, "time");
+        assert_eq!(
+            &*schema.messages[time].field_names,
+            &["secs".into(), "nsecs".into()]
+        );
+        let BaseType::Message(with_covariance) = root.fields[2].base else {
+            panic!()
+        };
+        let BaseType::Message(pose) = schema.messages[with_covariance].fields[0].base else {
+            panic!()
+        };
+        assert_eq!(schema.messages[pose].name, "geometry_msgs/Pose");
+        // seq 4 + stamp 8 + frame_id 4 | child_frame_id 4 | pose 8 + covariance 288.
+        assert_eq!(root.min_size, 16 + 4 + 296);
+        // Old bags' header name.
+        let old = ODOMETRY_ROS1.replace("std_msgs/Header", "roslib/Header");
+        assert_eq!(parse_ros1("nav_msgs/Odometry", &old).unwrap(), schema);
+    }
+
+    #[test]
+    fn ros1_byte_and_char_constants_and_what_it_does_not_have() {
+        let text = "byte b\nchar c\nduration d\ntf/tfMessage lower\n\
+                    string GREETING = hi # all of this\nchar MAX=255\nbool YES=True\n\
+                    ================\nMSG: tf/tfMessage\n";
+        let schema = parse_ros1("p/M", text).unwrap();
+        let m = schema.root();
+        assert_eq!(m.fields[0].base, BaseType::Primitive(Primitive::Int8));
+        assert_eq!(m.fields[1].base, BaseType::Primitive(Primitive::Uint8));
+        let BaseType::Message(duration) = m.fields[2].base else {
+            panic!()
+        };
+        assert_eq!(schema.messages[duration].name, "duration");
+        assert_eq!(
+            m.constants[0].value,
+            Literal::Str("hi # all of this".into())
+        );
+        assert_eq!(m.constants[1].value, Literal::Int(255));
+        assert_eq!(m.constants[2].value, Literal::Bool(true));
+        for (bad, problem) in [
+            ("int32 a 5", "no default value"),
+            ("int32[<=3] a", "invalid size"),
+            ("string<=3 a", "neither a primitive"),
+            ("wstring w", "wstring"),
+            ("byte B=200", "out of range"),
+        ] {
+            let err = parse_ros1("p/M", bad).unwrap_err();
+            assert!(
+                err.contains(problem) && err.contains("line 1"),
+                "{bad}: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn service_events_are_read_from_the_srv_text_rosbag2_stores() {
+        let text = format!(
+            "{DELIMITER}\nSRV: nav_msgs/srv/SetMap\n# a comment\nOccupancyGrid map\n\
+             geometry_msgs/Pose initial_pose\n---\nbool success\n\
+             {DELIMITER}\nMSG: nav_msgs/OccupancyGrid\nint8[] data\n\
+             {DELIMITER}\nMSG: geometry_msgs/Pose\nfloat64 x\n"
+        );
+        let schema = parse("nav_msgs/srv/SetMap_Event", &text).unwrap();
+        let root = schema.root();
+        assert_eq!(root.name, "nav_msgs/srv/SetMap_Event");
+        assert_eq!(
+            &*root.field_names,
+            &["info".into(), "request".into(), "response".into()]
+        );
+        let message = |field: &Field| match field.base {
+            BaseType::Message(i) => &schema.messages[i],
+            _ => panic!("{field:?}"),
+        };
+        let info = message(&root.fields[0]);
+        assert_eq!(info.name, "service_msgs/ServiceEventInfo");
+        assert_eq!(info.constants.len(), 4);
+        assert_eq!(info.fields[2].arity, Arity::Fixed(16));
+        let request = message(&root.fields[1]);
+        assert_eq!(root.fields[1].arity, Arity::Bounded(1));
+        assert_eq!(request.name, "nav_msgs/SetMap_Request");
+        assert_eq!(message(&request.fields[0]).name, "nav_msgs/OccupancyGrid");
+        assert_eq!(message(&request.fields[1]).name, "geometry_msgs/Pose");
+        let response = message(&root.fields[2]);
+        assert_eq!(
+            response.fields[0].base,
+            BaseType::Primitive(Primitive::Bool)
+        );
+        // Plain messages are untouched by this.
+        assert!(service_event_as_messages(POSE).is_none());
+        let err = parse(
+            "p/srv/S_Event",
+            &format!("{DELIMITER}\nSRV: p/srv/S\nNope x\n---\n"),
+        )
+        .unwrap_err();
+        assert!(err.contains("Nope") && err.contains(".srv"), "{err}");
     }
 
     #[test]
