@@ -240,10 +240,13 @@ const ROS1_CHATTER: Channel = Channel {
     message_encoding: "ros1",
 };
 
+/// A channel, how its messages are serialised, and where to cut one inside its text.
+type Wire<'a> = (&'a Channel<'a>, fn(&str) -> Vec<u8>, usize);
+
 #[test]
 fn a_message_that_cannot_be_decoded_is_an_error_record_and_the_rest_is_printed() {
     // ROS 2 (CDR) and ROS 1 strings, the middle one cut inside its text.
-    let wires: [(&Channel, fn(&str) -> Vec<u8>, usize); 2] = [
+    let wires: [Wire; 2] = [
         (&CHATTER, string_message, 9),
         (&ROS1_CHATTER, ros1_string, 6),
     ];

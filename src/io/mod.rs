@@ -7,5 +7,6 @@ pub mod leftovers;
 pub mod mcap;
 pub mod mdp_tables;
 pub mod movingai;
+pub mod parquet_check;
 pub mod png;
 pub mod tables;

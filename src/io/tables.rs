@@ -220,10 +220,11 @@ fn decode_table(
     table: Table,
     allow_untagged: bool,
 ) -> Result<ReadTable> {
-    let file_len = bytes.len() as u64;
-    let builder = ParquetRecordBatchReaderBuilder::try_new(bytes)
+    super::parquet_check::check_footer(&bytes)
         .map_err(|e| Error::input(path, format!("not a readable Parquet file: {e}")))?;
-    check_layout(path, builder.metadata(), file_len)?;
+    let builder = ParquetRecordBatchReaderBuilder::try_new(bytes.clone())
+        .map_err(|e| Error::input(path, format!("not a readable Parquet file: {e}")))?;
+    check_layout(path, builder.metadata(), &bytes)?;
     let metadata: BTreeMap<String, String> = builder
         .metadata()
         .file_metadata()
@@ -250,14 +251,16 @@ fn decode_table(
     Ok(ReadTable { metadata, batch })
 }
 
-/// Checks that every column chunk the footer describes lies inside the file, before
-/// the reader seeks to it: the `parquet` crate asserts (panics) on negative offsets
-/// and lengths, which a damaged footer can hold.
+/// Checks that every column chunk the footer describes lies inside the file, and that
+/// its pages fit in it and in the memory budget ([`super::parquet_check`]), before the
+/// reader seeks to it: the `parquet` crate asserts (panics) on negative offsets and
+/// lengths, which a damaged footer can hold, and allocates what page headers claim.
 fn check_layout(
     path: &Path,
     metadata: &parquet::file::metadata::ParquetMetaData,
-    file_len: u64,
+    file: &[u8],
 ) -> Result<()> {
+    let file_len = file.len() as u64;
     for (g, group) in metadata.row_groups().iter().enumerate() {
         if group.num_rows() < 0 {
             return Err(Error::input(
@@ -288,6 +291,16 @@ fn check_layout(
                     ),
                 ));
             }
+            let pages = &file[start as usize..(start + column.compressed_size()) as usize];
+            super::parquet_check::check_pages(pages, column.compression()).map_err(|e| {
+                Error::input(
+                    path,
+                    format!(
+                        "row group {g}, column {c} ({}): {e}: the file is damaged",
+                        column.column_path()
+                    ),
+                )
+            })?;
         }
     }
     Ok(())
