@@ -859,3 +859,137 @@ fn the_dagger_stage_runs_forward_training_on_the_track() {
     let bad = imitate(dir.path(), &["run", "pipelines/forward.yaml"]);
     assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
 }
+
+/// The action a policy.json gives for `x`: linear policies (alone or one per output),
+/// as `LinearPolicy::act` computes it.
+fn linear_actions(policy: &serde_json::Value, x: &[f64]) -> Vec<f64> {
+    let one = |p: &serde_json::Value| {
+        let floats = |key: &str| -> Vec<f64> {
+            p[key]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap())
+                .collect()
+        };
+        let (mean, scale, weights) = (floats("mean"), floats("scale"), floats("weights"));
+        let z: f64 = (0..x.len())
+            .map(|j| weights[j] * (x[j] - mean[j]) / scale[j])
+            .sum();
+        let range = p.get("range").map_or(vec![-1.0, 1.0], |_| floats("range"));
+        (p["bias"].as_f64().unwrap() + z).clamp(range[0], range[1])
+    };
+    match policy["kind"].as_str() {
+        Some("outputs") => policy["members"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(one)
+            .collect(),
+        _ => vec![one(policy)],
+    }
+}
+
+/// LeRobot datasets as LeRobot writes them (v2.1 and v3.0, pyarrow with the `datasets`
+/// metadata): a 26-joint robot whose action is a linear function of its state, in
+/// degrees. The dataset takes the joint names from meta/info.json, and ridge learns one
+/// output per joint that reproduces the rule far outside [−1, 1].
+#[test]
+fn lerobot_datasets_with_26_joint_actions_train_a_policy_per_joint() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(folders) = python_script("lerobot_writer.py", &[dir.path()]) else {
+        return;
+    };
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    for (k, folder) in folders.iter().enumerate() {
+        let path = folder["folder"].as_str().unwrap();
+        let ds = format!("ds{k}");
+        let init = run(&["dagger", "init", &ds, "--lerobot", path]);
+        assert!(init.status.success(), "{}", stderr(&init));
+        let added = run(&["dagger", "add", &ds, "--lerobot", path]);
+        assert!(added.status.success(), "{}", stderr(&added));
+        let expected = format!(
+            "{} steps in {} episodes",
+            folder["frames"], folder["episodes"]
+        );
+        assert!(stdout(&added).contains(&expected), "{}", stdout(&added));
+
+        let policy_dir = format!("p{k}");
+        let trained = run(&["dagger", "train", &ds, "--out", &policy_dir]);
+        assert!(trained.status.success(), "{}", stderr(&trained));
+        let read = |name: &str| -> serde_json::Value {
+            let bytes = std::fs::read(dir.path().join(&policy_dir).join(name)).unwrap();
+            serde_json::from_slice(&bytes).unwrap()
+        };
+        let (policy, metrics) = (read("policy.json"), read("metrics.json"));
+        assert_eq!(metrics["action_names"], folder["names"]);
+        let errors = metrics["training_rmse_per_action"].as_array().unwrap();
+        assert_eq!(errors.len(), 26);
+        assert!(
+            errors.iter().all(|e| e.as_f64().unwrap() < 0.5),
+            "{errors:?}"
+        );
+        assert_eq!(policy["members"].as_array().unwrap().len(), 26);
+        for probe in folder["probes"].as_array().unwrap() {
+            let numbers = |key: &str| -> Vec<f64> {
+                probe[key]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_f64().unwrap())
+                    .collect()
+            };
+            let got = linear_actions(&policy, &numbers("state"));
+            for (j, (a, b)) in got.iter().zip(numbers("action")).enumerate() {
+                // Within half a degree, where joints move by tens of degrees.
+                assert!((a - b).abs() < 0.5, "{path} joint {j}: {a} vs {b}");
+            }
+        }
+        // Trees learn every joint too; a discrete learner is refused, naming the joints.
+        let tree = run(&["dagger", "train", &ds, "--out", "tree", "--learner", "tree"]);
+        assert!(tree.status.success(), "{}", stderr(&tree));
+        let logistic = run(&[
+            "dagger",
+            "train",
+            &ds,
+            "--out",
+            "l",
+            "--learner",
+            "logistic",
+        ]);
+        assert_eq!(logistic.status.code(), Some(2), "{}", stderr(&logistic));
+        assert!(
+            stderr(&logistic).contains("left_hip_yaw"),
+            "{}",
+            stderr(&logistic)
+        );
+        assert!(!dir.path().join("l").exists());
+    }
+    // A dataset of one-number actions refuses the 26-number ones, saying how to take them.
+    let init = run(&[
+        "dagger",
+        "init",
+        "one",
+        "--env",
+        "log",
+        "--observations",
+        "a",
+    ]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    let path = folders[0]["folder"].as_str().unwrap();
+    let wide = run(&[
+        "dagger",
+        "add",
+        "one",
+        "--lerobot",
+        path,
+        "--observation",
+        "observation.state[0]",
+    ]);
+    assert_eq!(wide.status.code(), Some(2), "{}", stderr(&wide));
+    assert!(
+        stderr(&wide).contains("dagger init --lerobot"),
+        "{}",
+        stderr(&wide)
+    );
+}

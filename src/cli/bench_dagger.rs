@@ -14,7 +14,7 @@ use serde::Serialize;
 
 use super::bench::emit;
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
-use crate::dagger::{Actor, Step};
+use crate::dagger::{Actor, PolicyLearner, Step};
 use crate::error::{Error, Result};
 use crate::sim::track::gaussian;
 
@@ -67,12 +67,12 @@ fn synthetic_round(seed: u64, steps: usize) -> Vec<Step> {
             };
             Step {
                 executed: if actor == Actor::Teacher {
-                    label
+                    vec![label]
                 } else {
-                    rng.random::<f64>()
+                    vec![rng.random::<f64>()]
                 },
                 observation,
-                label,
+                label: vec![label],
                 actor,
                 failed: false,
             }
@@ -122,6 +122,7 @@ pub fn run(args: DaggerScaleArgs) -> Result<()> {
             DatasetInfo {
                 schema: "imitate.dagger-dataset/1".into(),
                 observation_names: (0..DIMS).map(|j| format!("x{j}")).collect(),
+                action_names: Vec::new(),
                 environment: "synthetic".into(),
                 costs: None,
             },
@@ -140,8 +141,8 @@ pub fn run(args: DaggerScaleArgs) -> Result<()> {
     append(&mut ds, next_seed, args.round_steps)?;
     let append_seconds = started.elapsed().as_secs_f64();
     let started = Instant::now();
-    let data = ds.policy_data()?;
-    let _policy = data.fit(1e-3);
+    let learner = PolicyLearner::Ridge { lambda: 1e-3 };
+    let _policy = ds.aggregate(&learner)?.fit(&learner);
     let retrain_seconds = started.elapsed().as_secs_f64();
     let report = DaggerScaleReport {
         schema: "imitate.bench-dagger-scale/1",

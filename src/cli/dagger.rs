@@ -17,10 +17,10 @@ use crate::dagger::dataset::{CostsSource, Dataset, DatasetInfo, NewRound, RoundI
 use crate::dagger::demo_round::{DemoColumns, read_demo_round};
 use crate::dagger::log_round::{LogTopics, read_log_round};
 use crate::dagger::query::RoundStatistics;
-use crate::dagger::{Aggregate, PolicyKind, gridnav_round, load_policy_artifact, track_round};
+use crate::dagger::{PolicyKind, gridnav_round, load_policy_artifact, track_round};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::io::demo_tables::{Column, lerobot_files};
+use crate::io::demo_tables::{Column, lerobot_feature_names, lerobot_files};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
 use crate::sim::gridnav::{self, Evaluation, evaluate, random_episode};
 use crate::sim::track::OBSERVATION_NAMES;
@@ -51,6 +51,15 @@ pub enum DaggerCommand {
         /// the log's observation messages hold them.
         #[arg(long, value_delimiter = ',')]
         observations: Vec<String>,
+        /// With --env log: the action's values when it holds several (a robot's
+        /// joints), comma-separated, in the order the label messages hold them.
+        #[arg(long, value_delimiter = ',')]
+        actions: Vec<String>,
+        /// A dataset for this LeRobot folder's demonstrations: the observation and
+        /// action names (and sizes) from its `meta/info.json` (`observation.state`,
+        /// `action`).
+        #[arg(long, value_name = "DIR", conflicts_with_all = ["observations", "actions", "costs"])]
+        lerobot: Option<PathBuf>,
         /// With --env gridnav: the true costmap (artifact folder, costmap table, GeoTIFF or
         /// MovingAI `.map`).
         #[arg(long, value_name = "PATH")]
@@ -300,7 +309,7 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
         );
         return Ok(());
     }
-    let episodes = read_demo_round(files, columns)?;
+    let episodes = read_demo_round(files, columns, ds.info.action_dims())?;
     let number = ds.append(&NewRound {
         source,
         beta: 1.0,
@@ -334,7 +343,7 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
         outln!("round {} already holds {}", existing.round, log.display());
         return Ok(());
     }
-    let round = read_log_round(log, topics)?;
+    let round = read_log_round(log, topics, ds.info.action_dims())?;
     if round.steps.is_empty() {
         return Err(Error::input(
             log,
@@ -370,7 +379,14 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
     if ds.steps() == 0 {
         return Err(Error::input(dataset, "holds no steps to train on"));
     }
-    let classes = if learner.discrete() {
+    let classes = if learner.discrete() && ds.info.action_dims() > 1 {
+        return Err(Error::Usage(format!(
+            "discrete learners take an action of one number (a class); this dataset's \
+             actions hold {} ({})",
+            ds.info.action_dims(),
+            ds.info.action_names.join(", ")
+        )));
+    } else if learner.discrete() {
         action_classes(&ds, dataset)?
     } else if ds.info.environment == "gridnav" {
         return Err(Error::Usage(
@@ -381,24 +397,21 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
     };
     let learner = learner.learner(depth, lambda, classes);
     // Ridge keeps only the sufficient statistics; a tree needs the rows.
-    let mut data = Aggregate::new(ds.info.observation_names.len(), &learner);
-    ds.for_each_round(|_, steps| {
-        for i in 0..steps.len() {
-            data.add(steps.observation(i), steps.labels[i]);
-        }
-        Ok(())
-    })?;
-    let policy = data.fit(&learner);
+    let policy = ds.aggregate(&learner)?.fit(&learner);
     let mut artifact = ArtifactBuilder::new(out)?;
     write_bytes_atomic(
         &artifact.file("policy.json", "policy")?,
         &to_json_bytes(&policy),
     )?;
-    let metrics = serde_json::json!({
+    let mut metrics = serde_json::json!({
         "rounds": ds.rounds.len(),
         "steps": ds.steps(),
         "observation_names": ds.info.observation_names,
     });
+    if !ds.info.action_names.is_empty() {
+        metrics["action_names"] = serde_json::json!(ds.info.action_names);
+        metrics["training_rmse_per_action"] = serde_json::json!(ds.errors_per_action(&policy)?);
+    }
     write_bytes_atomic(
         &artifact.file("metrics.json", "metrics")?,
         &to_json_bytes(&metrics),
@@ -423,7 +436,7 @@ fn action_classes(ds: &Dataset, dataset: &Path) -> Result<usize> {
     const MOST_CLASSES: f64 = 256.0;
     let mut largest = 0.0f64;
     ds.for_each_round(|info, steps| {
-        for (i, &label) in steps.labels.iter().enumerate() {
+        for (i, &label) in (0..steps.len()).map(|i| &steps.label(i)[0]).enumerate() {
             if !((0.0..MOST_CLASSES).contains(&label) && label.fract() == 0.0) {
                 return Err(Error::input(
                     dataset,
@@ -514,6 +527,8 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             dataset,
             env,
             observations,
+            actions,
+            lerobot,
             costs,
             map,
         } => {
@@ -522,7 +537,13 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                     "--env gridnav needs --costs (and only it takes --costs and --map)".into(),
                 ));
             }
+            if !actions.is_empty() && env != Env::Log {
+                return Err(Error::Usage(
+                    "--actions goes with --env log (the simulators' actions are one number)".into(),
+                ));
+            }
             let (names, environment) = match env {
+                _ if lerobot.is_some() => (Vec::new(), "lerobot"),
                 Env::Track | Env::Gridnav if !observations.is_empty() => {
                     return Err(Error::Usage(
                         "--observations goes with --env log (the simulators' are fixed)".into(),
@@ -559,11 +580,25 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                 }
                 None => None,
             };
+            let (names, actions) = match &lerobot {
+                Some(folder) => (
+                    lerobot_feature_names(folder, "observation.state")?,
+                    lerobot_feature_names(folder, "action")?,
+                ),
+                None => (names, actions),
+            };
+            // One action is the simulators' case and keeps no names.
+            let actions = if actions.len() == 1 {
+                Vec::new()
+            } else {
+                actions
+            };
             Dataset::create(
                 &dataset,
                 DatasetInfo {
                     schema: "imitate.dagger-dataset/1".into(),
                     observation_names: names,
+                    action_names: actions,
                     environment: environment.into(),
                     costs,
                 },

@@ -15,7 +15,7 @@ use crate::error::{Error, Result};
 fn describe_policy(policy: &Policy) -> Value {
     match policy {
         Policy::Linear(p) => json!({"kind": "linear", "inputs": p.weights.len()}),
-        Policy::Tree { tree } => json!({"kind": "tree", "leaves": tree.leaves()}),
+        Policy::Tree { tree, .. } => json!({"kind": "tree", "leaves": tree.leaves()}),
         Policy::Logistic(p) => {
             json!({"kind": "logistic", "classes": p.weights.len(), "inputs": p.mean.len()})
         }
@@ -28,6 +28,10 @@ fn describe_policy(policy: &Policy) -> Value {
         Policy::Mixture { members } => json!({
             "kind": "mixture",
             "members": members.iter().map(describe_policy).collect::<Vec<_>>(),
+        }),
+        Policy::Outputs { members } => json!({
+            "kind": "outputs",
+            "outputs": members.iter().map(describe_policy).collect::<Vec<_>>(),
         }),
     }
 }

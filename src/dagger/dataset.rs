@@ -30,7 +30,7 @@ use arrow::datatypes::{DataType, Field, Schema};
 use serde::{Deserialize, Serialize};
 
 use super::query::{RoundStatistics, round_statistics};
-use super::{Actor, PolicyData, Step};
+use super::{Actor, Aggregate, PolicyLearner, Step};
 use crate::artifact::{
     FileEntry, Lineage, MANIFEST, artifact_digest, verify_entries, verify_entry,
 };
@@ -47,11 +47,22 @@ const ROUNDS: &str = "meta/rounds.parquet";
 pub struct DatasetInfo {
     pub schema: String,
     pub observation_names: Vec<String>,
+    /// The names of an action's numbers when it holds several (a robot's joints);
+    /// empty for an action of one number.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub action_names: Vec<String>,
     /// What made the data ("track", "gridnav", "log", "demonstrations").
     pub environment: String,
     /// For `gridnav`: the costmap the episodes walk and the teacher plans on.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub costs: Option<CostsSource>,
+}
+
+impl DatasetInfo {
+    /// How many numbers an action holds.
+    pub fn action_dims(&self) -> usize {
+        self.action_names.len().max(1)
+    }
 }
 
 /// Where a `gridnav` dataset's costmap comes from, and the digest of its costs, so that
@@ -213,7 +224,12 @@ impl Dataset {
         let files: Vec<PathBuf> = (self.rounds.iter())
             .map(|r| self.dir.join(partition(r.round)))
             .collect();
-        round_statistics(&self.dir, &files, self.info.observation_names.len())
+        round_statistics(
+            &self.dir,
+            &files,
+            self.info.observation_names.len(),
+            self.info.action_dims(),
+        )
     }
 
     pub fn steps(&self) -> u64 {
@@ -243,7 +259,24 @@ impl Dataset {
                         ),
                     ));
                 }
-                if !step.label.is_finite() || step.observation.iter().any(|v| !v.is_finite()) {
+                let actions = self.info.action_dims();
+                if step.label.len() != actions || step.executed.len() != actions {
+                    return Err(Error::input(
+                        &self.dir,
+                        format!(
+                            "{}: the action has {} values, the dataset's have {actions}{}",
+                            at(),
+                            step.label.len(),
+                            if self.info.action_names.is_empty() {
+                                String::new()
+                            } else {
+                                format!(" ({})", self.info.action_names.join(", "))
+                            }
+                        ),
+                    ));
+                }
+                let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+                if !finite(&step.label) || !finite(&step.executed) || !finite(&step.observation) {
                     return Err(Error::input(
                         &self.dir,
                         format!("{}: the label or observation is not finite", at()),
@@ -275,7 +308,7 @@ impl Dataset {
             .tempdir_in(&data)
             .map_err(|e| Error::io(format!("creating a folder in {}", data.display()), e))?;
         let _staging_held = leftovers::hold(staging.path());
-        let batch = steps_batch(round, first_index, new, dims);
+        let batch = steps_batch(round, first_index, new, dims, self.info.action_dims());
         write_table(
             &staging.path().join("part-000.parquet"),
             Table::DAGGER_STEPS,
@@ -319,8 +352,12 @@ impl Dataset {
     pub fn round_steps(&self, round: u32) -> Result<RoundSteps> {
         let relative = partition(round);
         verify_entry(&self.dir, &self.files, &relative).map_err(|e| self.in_round(round, e))?;
-        RoundSteps::read(&self.dir.join(relative), self.info.observation_names.len())
-            .map_err(|e| self.in_round(round, e))
+        RoundSteps::read(
+            &self.dir.join(relative),
+            self.info.observation_names.len(),
+            self.info.action_dims(),
+        )
+        .map_err(|e| self.in_round(round, e))
     }
 
     /// Holds the dataset for one append: no other process appends meanwhile (so what a
@@ -375,16 +412,41 @@ impl Dataset {
         }
     }
 
-    /// The sufficient statistics of every (observation, label) pair in the dataset.
-    pub fn policy_data(&self) -> Result<PolicyData> {
-        let mut data = PolicyData::new(self.info.observation_names.len());
+    /// Every (observation, label) pair in the dataset, aggregated for `learner`.
+    pub fn aggregate(&self, learner: &PolicyLearner) -> Result<Aggregate> {
+        let mut data = Aggregate::new(
+            self.info.observation_names.len(),
+            self.info.action_dims(),
+            learner,
+        );
         self.for_each_round(|_, steps| {
             for i in 0..steps.len() {
-                data.add(steps.observation(i), steps.labels[i]);
+                data.add(steps.observation(i), steps.label(i));
             }
             Ok(())
         })?;
         Ok(data)
+    }
+
+    /// Per number of the action: the root mean square of `policy`'s action minus the
+    /// teacher's label over every step of the dataset.
+    pub fn errors_per_action(&self, policy: &super::Policy) -> Result<Vec<f64>> {
+        let mut squares = vec![0.0; self.info.action_dims()];
+        let mut count = 0usize;
+        self.for_each_round(|_, steps| {
+            for i in 0..steps.len() {
+                let action = policy.act_all(steps.observation(i));
+                for ((total, a), y) in squares.iter_mut().zip(action).zip(steps.label(i)) {
+                    *total += (a - y) * (a - y);
+                }
+            }
+            count += steps.len();
+            Ok(())
+        })?;
+        Ok(squares
+            .into_iter()
+            .map(|total| (total / count.max(1) as f64).sqrt())
+            .collect())
     }
 
     fn write_rounds(&self) -> Result<()> {
@@ -506,7 +568,13 @@ fn vectors(values: Vec<f32>, width: usize) -> ArrayRef {
     ))
 }
 
-fn steps_batch(round: u32, first_index: u64, new: &NewRound<'_>, dims: usize) -> RecordBatch {
+fn steps_batch(
+    round: u32,
+    first_index: u64,
+    new: &NewRound<'_>,
+    dims: usize,
+    actions: usize,
+) -> RecordBatch {
     let (mut episode, mut frame, mut index, mut time) = (vec![], vec![], vec![], vec![]);
     let (mut observation, mut action, mut executed, mut actor) = (vec![], vec![], vec![], vec![]);
     let (mut first, mut last, mut terminal) = (vec![], vec![], vec![]);
@@ -520,8 +588,8 @@ fn steps_batch(round: u32, first_index: u64, new: &NewRound<'_>, dims: usize) ->
             let at = index.len() - 1;
             time.push(new.timestamps.map_or(f as f64 * new.period, |t| t[at]));
             observation.extend(step.observation.iter().map(|&v| v as f32));
-            action.push(step.label as f32);
-            executed.push(step.executed as f32);
+            action.extend(step.label.iter().map(|&v| v as f32));
+            executed.extend(step.executed.iter().map(|&v| v as f32));
             actor.push(match step.actor {
                 Actor::Teacher => "teacher",
                 Actor::Learner => "learner",
@@ -538,8 +606,8 @@ fn steps_batch(round: u32, first_index: u64, new: &NewRound<'_>, dims: usize) ->
         ("index", Arc::new(Int64Array::from(index))),
         ("timestamp", Arc::new(Float64Array::from(time))),
         ("observation.state", vectors(observation, dims)),
-        ("action", vectors(action, 1)),
-        ("action_executed", vectors(executed, 1)),
+        ("action", vectors(action, actions)),
+        ("action_executed", vectors(executed, actions)),
         ("actor", Arc::new(StringArray::from(actor))),
         (
             "round",
@@ -555,12 +623,14 @@ fn steps_batch(round: u32, first_index: u64, new: &NewRound<'_>, dims: usize) ->
 /// One round's observations and labels, read back.
 pub struct RoundSteps {
     dims: usize,
+    actions: usize,
     observations: Vec<f64>,
-    pub labels: Vec<f64>,
+    /// `actions` numbers per step.
+    labels: Vec<f64>,
 }
 
 impl RoundSteps {
-    fn read(path: &Path, dims: usize) -> Result<RoundSteps> {
+    fn read(path: &Path, dims: usize, actions: usize) -> Result<RoundSteps> {
         let batch = read_table(path, Table::DAGGER_STEPS, false)?.batch;
         let list = |name: &str| -> Result<Vec<f64>> {
             let column = batch
@@ -579,21 +649,23 @@ impl RoundSteps {
         };
         let observations = list("observation.state")?;
         let labels = list("action")?;
-        if observations.len() != labels.len() * dims {
+        let steps = labels.len() / actions;
+        if labels.len() != steps * actions || observations.len() != steps * dims {
             return Err(Error::input(
                 path,
-                format!("observations are not {dims} values per step"),
+                format!("steps are not {dims} observation values and {actions} action values each"),
             ));
         }
         Ok(RoundSteps {
             dims,
+            actions,
             observations,
             labels,
         })
     }
 
     pub fn len(&self) -> usize {
-        self.labels.len()
+        self.labels.len() / self.actions
     }
 
     pub fn is_empty(&self) -> bool {
@@ -602,6 +674,11 @@ impl RoundSteps {
 
     pub fn observation(&self, i: usize) -> &[f64] {
         &self.observations[i * self.dims..(i + 1) * self.dims]
+    }
+
+    /// The teacher's action at step `i`, one number per output.
+    pub fn label(&self, i: usize) -> &[f64] {
+        &self.labels[i * self.actions..(i + 1) * self.actions]
     }
 }
 
@@ -662,6 +739,7 @@ mod tests {
         DatasetInfo {
             schema: "imitate.dagger-dataset/1".into(),
             observation_names: vec!["a".into(), "b".into()],
+            action_names: Vec::new(),
             environment: "test".into(),
             costs: None,
         }
@@ -670,11 +748,17 @@ mod tests {
     fn step(a: f64, label: f64, actor: Actor) -> Step {
         Step {
             observation: vec![a, 2.0 * a],
-            label,
-            executed: label,
+            label: vec![label],
+            executed: vec![label],
             actor,
             failed: false,
         }
+    }
+
+    fn steps_in(ds: &Dataset) -> usize {
+        ds.aggregate(&PolicyLearner::Ridge { lambda: 1e-3 })
+            .unwrap()
+            .len()
     }
 
     fn round<'a>(source: &str, episodes: &'a [Vec<Step>]) -> NewRound<'a> {
@@ -719,13 +803,13 @@ mod tests {
         reopened
             .for_each_round(|_, steps| {
                 for i in 0..steps.len() {
-                    labels.push((steps.observation(i).to_vec(), steps.labels[i]));
+                    labels.push((steps.observation(i).to_vec(), steps.label(i)[0]));
                 }
                 Ok(())
             })
             .unwrap();
         assert_eq!(labels[2], (vec![2.0, 4.0], 0.4f32 as f64));
-        assert_eq!(reopened.policy_data().unwrap().len(), 4);
+        assert_eq!(steps_in(&reopened), 4);
     }
 
     #[test]
@@ -743,8 +827,8 @@ mod tests {
         ]];
         // The learner was off by 0.3 and 0.4 where it drove (the teacher's step is not
         // counted): root mean square 0.354.
-        learner[0][0].executed = 0.8;
-        learner[0][1].executed = 0.1;
+        learner[0][0].executed = vec![0.8];
+        learner[0][1].executed = vec![0.1];
         ds.append(&round("teacher", &teacher)).unwrap();
         ds.append(&round("learner", &learner)).unwrap();
         // A partition no round lists (left by a killed append) is not scanned.
@@ -803,17 +887,53 @@ mod tests {
         std::fs::write(orphan.join("part-000.parquet"), b"half a file").unwrap();
         let reopened = Dataset::open(dir.path()).unwrap();
         assert_eq!(reopened.steps(), 1);
-        assert_eq!(reopened.policy_data().unwrap().len(), 1);
+        assert_eq!(steps_in(&reopened), 1);
         let mut ds = reopened;
         ds.append(&round("next", &[vec![step(2.0, 0.2, Actor::Teacher)]]))
             .unwrap();
-        assert_eq!(
-            Dataset::open(dir.path())
-                .unwrap()
-                .policy_data()
-                .unwrap()
-                .len(),
-            2
+        assert_eq!(steps_in(&Dataset::open(dir.path()).unwrap()), 2);
+    }
+
+    #[test]
+    fn actions_of_several_numbers_are_kept_checked_and_summarised_per_number() {
+        let dir = tempfile::tempdir().unwrap();
+        let info = DatasetInfo {
+            action_names: vec!["shoulder".into(), "elbow".into()],
+            ..info()
+        };
+        let mut ds = Dataset::create(dir.path(), info).unwrap();
+        let two = |a: f64, executed: [f64; 2], actor| Step {
+            observation: vec![a, 2.0 * a],
+            label: vec![a, -a],
+            executed: executed.to_vec(),
+            actor,
+            failed: false,
+        };
+        let steps = vec![vec![
+            two(1.0, [1.0, -1.0], Actor::Teacher),
+            two(2.0, [2.5, -2.0], Actor::Learner),
+            two(3.0, [3.0, -4.0], Actor::Learner),
+        ]];
+        ds.append(&round("arm", &steps)).unwrap();
+        let reopened = Dataset::open(dir.path()).unwrap();
+        let read = reopened.round_steps(0).unwrap();
+        assert_eq!(read.len(), 3);
+        assert_eq!(read.label(2), [3.0, -3.0]);
+        let stats = reopened.statistics().unwrap();
+        // Learner errors: shoulder 0.5 and 0, elbow 0 and 1.
+        let per = &stats[0].learner_disagreement_per_action;
+        assert!((per[0].unwrap() - 0.125f64.sqrt()).abs() < 1e-6, "{per:?}");
+        assert!((per[1].unwrap() - 0.5f64.sqrt()).abs() < 1e-6, "{per:?}");
+        let all = stats[0].learner_disagreement.unwrap();
+        assert!((all - (1.25f64 / 4.0).sqrt()).abs() < 1e-6, "{all}");
+        // An action of one number is refused, naming the step and the action names.
+        let err = ds
+            .append(&round("one", &[vec![step(1.0, 0.5, Actor::Teacher)]]))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("the action has 1 values, the dataset's have 2 (shoulder, elbow)"),
+            "{err}"
         );
     }
 }

@@ -1,8 +1,8 @@
 //! Round 0 from expert demonstrations in tables: Parquet files or LeRobot folders (v2
 //! and v3), where every step's action is the expert's own. Observations come from one
-//! or more columns (a list column gives all its elements, `name[i]` one element, a
-//! number column itself), the action from one number; rows of an episode are
-//! consecutive, in time order.
+//! or more columns and the action from one (a list column gives all its elements,
+//! `name[i]` one element, a number column itself); rows of an episode are consecutive,
+//! in time order.
 
 use std::path::PathBuf;
 
@@ -30,8 +30,13 @@ impl Default for DemoColumns {
     }
 }
 
-/// The episodes of `files`, each a list of expert steps.
-pub fn read_demo_round(files: &[PathBuf], columns: &DemoColumns) -> Result<Vec<Vec<Step>>> {
+/// The episodes of `files`, each a list of expert steps whose actions hold `actions`
+/// numbers.
+pub fn read_demo_round(
+    files: &[PathBuf],
+    columns: &DemoColumns,
+    actions: usize,
+) -> Result<Vec<Vec<Step>>> {
     let mut episodes: Vec<(String, Vec<Step>)> = Vec::new();
     for file in files {
         let batch = read_table(file, Table::DEMONSTRATIONS, true)?.batch;
@@ -41,24 +46,34 @@ pub fn read_demo_round(files: &[PathBuf], columns: &DemoColumns) -> Result<Vec<V
             .iter()
             .map(|c| row_vectors(file, &batch, c))
             .collect::<Result<_>>()?;
-        let actions = row_vectors(file, &batch, &columns.action)?;
+        let action_rows = row_vectors(file, &batch, &columns.action)?;
         for (row, id) in ids.iter().enumerate() {
-            if actions[row].len() != 1 {
+            let action = &action_rows[row];
+            if action.len() != actions {
                 return Err(Error::input(
                     file,
                     format!(
-                        "record {row}: the action '{}' holds {} numbers; name one element, as '{}[0]'",
+                        "record {row}: the action '{}' holds {} numbers, the dataset's actions \
+                         {actions}{}",
                         columns.action,
-                        actions[row].len(),
-                        columns.action.name
+                        action.len(),
+                        if actions == 1 && action.len() > 1 {
+                            format!(
+                                " (create the dataset with `dagger init --lerobot` or \
+                                 `--actions`, or name one element, as '{}[0]')",
+                                columns.action.name
+                            )
+                        } else {
+                            String::new()
+                        }
                     ),
                 ));
             }
             let observation: Vec<f64> = parts.iter().flat_map(|p| p[row].clone()).collect();
             let step = Step {
                 observation,
-                label: actions[row][0],
-                executed: actions[row][0],
+                label: action.clone(),
+                executed: action.clone(),
                 actor: Actor::Teacher,
                 failed: false,
             };

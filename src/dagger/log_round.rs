@@ -80,8 +80,8 @@ fn message_numbers(message: &Value) -> Vec<f64> {
     out
 }
 
-/// Reads the round from the log at `path`.
-pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
+/// Reads the round from the log at `path`, whose actions hold `actions` numbers.
+pub fn read_log_round(path: &Path, topics: &LogTopics, actions: usize) -> Result<LogRound> {
     let mut decoders = Decoders::default();
     let mut seen = std::collections::BTreeSet::new();
     // (log time, numbers) per topic: observation, action, label.
@@ -118,11 +118,12 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
                                 )
                             })?;
                     let values = message_numbers(&message);
-                    if k > 0 && values.len() != 1 {
+                    if k > 0 && values.len() != actions {
                         return Err(Error::input(
                             path,
                             format!(
-                                "topic {} message {}: an action must be one number, this message has {}",
+                                "topic {} message {}: the dataset's actions hold {actions} \
+                                 numbers, this message has {}",
                                 channel.topic,
                                 header.sequence,
                                 values.len()
@@ -150,13 +151,16 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
     for s in &mut series {
         s.sort_by_key(|(t, _)| *t);
     }
-    let [observations, actions, labels] = series;
+    let [observations, executed, labels] = series;
     let times_of = |series: &[(u64, Vec<f64>)]| series.iter().map(|(t, _)| *t).collect::<Vec<_>>();
     let observation_times = times_of(&observations);
     let nearest_label =
         nearest_within(&observation_times, &times_of(&labels), topics.tolerance_ns)?;
-    let nearest_action =
-        nearest_within(&observation_times, &times_of(&actions), topics.tolerance_ns)?;
+    let nearest_action = nearest_within(
+        &observation_times,
+        &times_of(&executed),
+        topics.tolerance_ns,
+    )?;
     let (mut steps, mut times, mut unlabelled, mut without_action) = (Vec::new(), Vec::new(), 0, 0);
     let first = observations.first().map_or(0, |(t, _)| *t);
     for (k, (t, observation)) in observations.iter().enumerate() {
@@ -166,8 +170,8 @@ pub fn read_log_round(path: &Path, topics: &LogTopics) -> Result<LogRound> {
             (Some(l), Some(a)) => {
                 steps.push(Step {
                     observation: observation.clone(),
-                    label: labels[l].1[0],
-                    executed: actions[a].1[0],
+                    label: labels[l].1.clone(),
+                    executed: executed[a].1.clone(),
                     actor: if demonstration {
                         Actor::Teacher
                     } else {

@@ -102,9 +102,9 @@ pub enum Actor {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Step {
     pub observation: Vec<f64>,
-    /// The teacher's action: the label.
-    pub label: f64,
-    pub executed: f64,
+    /// The teacher's action: the label (one number per output of the action).
+    pub label: Vec<f64>,
+    pub executed: Vec<f64>,
     pub actor: Actor,
     pub failed: bool,
 }
@@ -130,8 +130,8 @@ pub fn rollout<E: Environment>(
         let failed = env.execute(executed, rng);
         steps.push(Step {
             observation,
-            label,
-            executed,
+            label: vec![label],
+            executed: vec![executed],
             actor,
             failed,
         });
@@ -236,10 +236,10 @@ pub fn learn<E: Environment>(
         };
         let steps = rollout(&mut env, driver, beta, &mut rng, &mut done);
         let data = data.get_or_insert_with(|| {
-            Aggregate::new(steps.first().map_or(0, |s| s.observation.len()), learner)
+            Aggregate::new(steps.first().map_or(0, |s| s.observation.len()), 1, learner)
         });
         for step in &steps {
-            data.add(&step.observation, step.label);
+            data.add(&step.observation, &step.label);
         }
         let fitted = data.fit(learner);
         after_round(round, &fitted);
@@ -281,17 +281,17 @@ pub fn forward_training<E: Environment>(
             let label = env.teacher();
             Step {
                 observation,
-                label,
-                executed: label,
+                label: vec![label],
+                executed: vec![label],
                 actor: Actor::Teacher,
                 failed: false,
             }
         });
         let fitted = match reached.first() {
             Some(first) => {
-                let mut data = Aggregate::new(first.observation.len(), learner);
+                let mut data = Aggregate::new(first.observation.len(), 1, learner);
                 for step in &reached {
-                    data.add(&step.observation, step.label);
+                    data.add(&step.observation, &step.label);
                 }
                 data.fit(learner)
             }
@@ -378,6 +378,7 @@ mod tests {
             scale: vec![1.0; 5],
             weights: vec![0.0; 5],
             bias: 0.0,
+            range: [-1.0, 1.0],
         });
         let mut count = 0;
         let steps = rollout(&mut sim, Some(&straight), 0.5, &mut rng, |_| {
@@ -389,7 +390,7 @@ mod tests {
         assert!((60..140).contains(&by_learner), "{by_learner}");
         for s in &steps {
             match s.actor {
-                Actor::Learner => assert_eq!(s.executed, 0.0),
+                Actor::Learner => assert_eq!(s.executed, [0.0]),
                 Actor::Teacher => assert_eq!(s.executed, s.label),
             }
         }

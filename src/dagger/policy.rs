@@ -1,5 +1,8 @@
 //! Policies: linear on standardised observations (fitted by ridge regression from
-//! streaming sufficient statistics) or regression trees (fitted on the rows).
+//! streaming sufficient statistics) or regression trees (fitted on the rows). An action
+//! of several numbers (a robot's joints) is learned one output at a time, each output
+//! by the same learner ([`Policy::Outputs`]); actions are clamped to the range their
+//! labels span ([−1, 1] when they fit in it, the built-in simulators' range).
 //!
 //! The statistics are those of [1, x] (XᵀX holds the counts, sums and cross products),
 //! so the standardisation (means and standard deviations over all the data) and the
@@ -85,13 +88,36 @@ pub enum PolicyLearner {
     ClassTrees { classes: usize, config: TreeConfig },
 }
 
-/// A fitted policy: the action (in [−1, 1]) for an observation.
+/// The range actions are clamped to unless the labels went beyond it.
+const UNIT_RANGE: [f64; 2] = [-1.0, 1.0];
+
+fn unit_range() -> [f64; 2] {
+    UNIT_RANGE
+}
+
+fn is_unit_range(range: &[f64; 2]) -> bool {
+    *range == UNIT_RANGE
+}
+
+/// [−1, 1], or the labels' own span when they leave it.
+fn action_range(least: f64, largest: f64) -> [f64; 2] {
+    if least >= UNIT_RANGE[0] && largest <= UNIT_RANGE[1] || least > largest {
+        UNIT_RANGE
+    } else {
+        [least, largest]
+    }
+}
+
+/// A fitted policy: the action for an observation.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case", tag = "kind")]
 pub enum Policy {
     Linear(LinearPolicy),
     Tree {
         tree: RegressionTree,
+        /// What the tree's predictions are clamped to.
+        #[serde(default = "unit_range", skip_serializing_if = "is_unit_range")]
+        range: [f64; 2],
     },
     /// Discrete actions: the most probable class, as a number.
     Logistic(LogisticPolicy),
@@ -109,22 +135,47 @@ pub enum Policy {
     Mixture {
         members: Vec<Policy>,
     },
+    /// An action of several numbers: member j gives number j.
+    Outputs {
+        members: Vec<Policy>,
+    },
 }
 
 impl Policy {
-    /// The action for `x`; a mixture acts as its first member (use `for_episode` to
+    /// The action for `x` (the first number of a several-number action, see
+    /// [`Policy::act_all`]); a mixture acts as its first member (use `for_episode` to
     /// draw the member an episode runs with).
     pub fn act(&self, x: &[f64]) -> f64 {
         match self {
             Policy::Linear(p) => p.act(x),
-            Policy::Tree { tree } => tree.predict(x).clamp(-1.0, 1.0),
+            Policy::Tree { tree, range } => tree.predict(x).clamp(range[0], range[1]),
             Policy::Logistic(p) => p.most_probable(x) as f64,
             Policy::ClassTrees { trees } => {
                 let scores = trees.iter().map(|t| t.predict(x));
                 first_largest(scores) as f64
             }
-            Policy::Mixture { members } => members.first().map_or(0.0, |m| m.act(x)),
+            Policy::Mixture { members } | Policy::Outputs { members } => {
+                members.first().map_or(0.0, |m| m.act(x))
+            }
             Policy::Sequence { steps } => steps.first().map_or(0.0, |m| m.act(x)),
+        }
+    }
+
+    /// Every number of the action for `x`.
+    pub fn act_all(&self, x: &[f64]) -> Vec<f64> {
+        match self {
+            Policy::Outputs { members } => members.iter().map(|m| m.act(x)).collect(),
+            Policy::Mixture { members } => members.first().map_or(Vec::new(), |m| m.act_all(x)),
+            other => vec![other.act(x)],
+        }
+    }
+
+    /// How many numbers an action holds.
+    pub fn outputs(&self) -> usize {
+        match self {
+            Policy::Outputs { members } => members.len(),
+            Policy::Mixture { members } => members.first().map_or(1, Policy::outputs),
+            _ => 1,
         }
     }
 
@@ -160,52 +211,89 @@ fn first_largest(scores: impl Iterator<Item = f64>) -> usize {
     best.1
 }
 
-/// Every label so far: the sufficient statistics, and the rows when the learner needs
-/// them.
+/// Every label so far, per output of the action: the sufficient statistics, the
+/// labels' range, and the rows when the learner needs them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Aggregate {
-    pub stats: PolicyData,
+    stats: Vec<PolicyData>,
     rows: Vec<f64>,
-    labels: Vec<f64>,
+    /// Per output, its labels (kept with the rows).
+    labels: Vec<Vec<f64>>,
+    /// Per output, the least and largest label.
+    spans: Vec<[f64; 2]>,
     dims: usize,
     keep_rows: bool,
 }
 
 impl Aggregate {
-    pub fn new(dims: usize, learner: &PolicyLearner) -> Self {
+    /// For observations of `dims` numbers and actions of `outputs` numbers.
+    pub fn new(dims: usize, outputs: usize, learner: &PolicyLearner) -> Self {
+        let outputs = outputs.max(1);
         Aggregate {
-            stats: PolicyData::new(dims),
+            stats: vec![PolicyData::new(dims); outputs],
             rows: Vec::new(),
-            labels: Vec::new(),
+            labels: vec![Vec::new(); outputs],
+            spans: vec![[f64::INFINITY, f64::NEG_INFINITY]; outputs],
             dims,
             keep_rows: !matches!(learner, PolicyLearner::Ridge { .. }),
         }
     }
 
-    pub fn add(&mut self, observation: &[f64], label: f64) {
-        self.stats.add(observation, label);
+    /// Adds one step; `label` holds one number per output.
+    pub fn add(&mut self, observation: &[f64], label: &[f64]) {
+        debug_assert_eq!(label.len(), self.stats.len());
+        for (j, &y) in label.iter().enumerate() {
+            self.stats[j].add(observation, y);
+            let span = &mut self.spans[j];
+            *span = [span[0].min(y), span[1].max(y)];
+            if self.keep_rows {
+                self.labels[j].push(y);
+            }
+        }
         if self.keep_rows {
             self.rows.extend_from_slice(observation);
-            self.labels.push(label);
         }
     }
 
+    /// How many steps were added.
+    pub fn len(&self) -> usize {
+        self.stats[0].len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    /// The policy `learner` fits: one policy, or one per output for an action of
+    /// several numbers.
     pub fn fit(&self, learner: &PolicyLearner) -> Policy {
+        if self.stats.len() == 1 {
+            return self.fit_output(0, learner);
+        }
+        Policy::Outputs {
+            members: (0..self.stats.len())
+                .map(|j| self.fit_output(j, learner))
+                .collect(),
+        }
+    }
+
+    fn fit_output(&self, j: usize, learner: &PolicyLearner) -> Policy {
+        let labels = &self.labels[j];
+        let range = action_range(self.spans[j][0], self.spans[j][1]);
         match learner {
-            PolicyLearner::Ridge { lambda } => Policy::Linear(self.stats.fit(*lambda)),
+            PolicyLearner::Ridge { lambda } => Policy::Linear(LinearPolicy {
+                range,
+                ..self.stats[j].fit(*lambda)
+            }),
             PolicyLearner::Logistic { classes, lambda } => Policy::Logistic(LogisticPolicy::fit(
-                &self.rows,
-                self.dims,
-                &self.labels,
-                *classes,
-                *lambda,
+                &self.rows, self.dims, labels, *classes, *lambda,
             )),
             PolicyLearner::ClassTrees { classes, config } => {
-                let weights = vec![1.0; self.labels.len()];
+                let weights = vec![1.0; labels.len()];
                 let trees = (0..*classes)
                     .into_par_iter()
                     .map(|k| {
-                        let indicator: Vec<f64> = (self.labels.iter())
+                        let indicator: Vec<f64> = (labels.iter())
                             .map(|&label| f64::from(u8::from(label == k as f64)))
                             .collect();
                         RegressionTree::fit(&self.rows, self.dims, &indicator, &weights, config)
@@ -214,28 +302,25 @@ impl Aggregate {
                 Policy::ClassTrees { trees }
             }
             PolicyLearner::Tree(config) => {
-                let weights = vec![1.0; self.labels.len()];
+                let weights = vec![1.0; labels.len()];
                 Policy::Tree {
-                    tree: RegressionTree::fit(
-                        &self.rows,
-                        self.dims,
-                        &self.labels,
-                        &weights,
-                        config,
-                    ),
+                    tree: RegressionTree::fit(&self.rows, self.dims, labels, &weights, config),
+                    range,
                 }
             }
         }
     }
 }
 
-/// a(x) = clamp(bias + Σ w_j (x_j − mean_j) / scale_j, −1, 1).
+/// a(x) = clamp(bias + Σ w_j (x_j − mean_j) / scale_j, range).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct LinearPolicy {
     pub mean: Vec<f64>,
     pub scale: Vec<f64>,
     pub weights: Vec<f64>,
     pub bias: f64,
+    #[serde(default = "unit_range", skip_serializing_if = "is_unit_range")]
+    pub range: [f64; 2],
 }
 
 impl LinearPolicy {
@@ -247,7 +332,7 @@ impl LinearPolicy {
             .zip(&self.weights)
             .map(|(((v, m), s), w)| w * (v - m) / s)
             .sum();
-        (self.bias + z).clamp(-1.0, 1.0)
+        (self.bias + z).clamp(self.range[0], self.range[1])
     }
 }
 
@@ -405,6 +490,7 @@ impl PolicyData {
             scale,
             weights,
             bias: y_mean,
+            range: UNIT_RANGE,
         }
     }
 }
@@ -450,13 +536,50 @@ mod tests {
             }
         }
         let learner = PolicyKind::ClassTree.learner(3, 0.0, 3);
-        let mut data = Aggregate::new(2, &learner);
+        let mut data = Aggregate::new(2, 1, &learner);
         for (row, &label) in rows.chunks(2).zip(&labels) {
-            data.add(row, label);
+            data.add(row, &[label]);
         }
         let policy = data.fit(&learner);
         for (x, class) in [(-2.5, 0.0), (0.0, 1.0), (2.0, 2.0), (2.9, 0.0)] {
             assert_eq!(policy.act(&[x, 0.0]), class, "at {x}");
+        }
+    }
+
+    #[test]
+    fn actions_of_several_numbers_are_learned_per_output_within_their_range() {
+        // Joint targets in degrees: far outside [−1, 1], each its own linear rule.
+        let rules = [
+            |x: &[f64]| 40.0 + 10.0 * x[0],
+            |x: &[f64]| -90.0 + 5.0 * x[1],
+            |x: &[f64]| 0.5 * x[0] - 0.25 * x[1],
+        ];
+        for kind in [PolicyKind::Ridge, PolicyKind::Tree] {
+            let learner = kind.learner(8, 1e-6, 0);
+            let mut data = Aggregate::new(2, 3, &learner);
+            for k in 0..400 {
+                let x = [(k as f64 * 0.37).sin(), (k as f64 * 0.11).cos()];
+                data.add(&x, &rules.map(|r| r(&x)));
+            }
+            let policy = data.fit(&learner);
+            assert_eq!(policy.outputs(), 3);
+            let x = [0.3, -0.6];
+            let actions = policy.act_all(&x);
+            let tolerance = if kind == PolicyKind::Ridge { 1e-3 } else { 1.0 };
+            for (j, rule) in rules.iter().enumerate() {
+                assert!(
+                    (actions[j] - rule(&x)).abs() < tolerance,
+                    "{kind:?} {j}: {actions:?}"
+                );
+            }
+            // Far outside the data the action stays within the labels' span.
+            let far = policy.act_all(&[50.0, 0.0]);
+            assert!(far[0] <= 50.0 + 1e-9, "{far:?}");
+            let Policy::Outputs { members } = &policy else {
+                panic!("{policy:?}")
+            };
+            let json = serde_json::to_string(&members[2]).unwrap();
+            assert!(!json.contains("range"), "[−1, 1] is left out: {json}");
         }
     }
 

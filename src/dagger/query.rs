@@ -50,10 +50,13 @@ pub fn nearest_within(left: &[u64], right: &[u64], tolerance: u64) -> Result<Vec
 pub struct RoundStatistics {
     #[serde(skip)]
     pub round: u32,
-    /// Root mean square of (executed − teacher) over the learner's steps: how far the
-    /// learner's own actions were from the teacher's, where it drove. `None` when the
-    /// teacher drove every step.
+    /// Root mean square of (executed − teacher) over the learner's steps (and over
+    /// the action's numbers): how far the learner's own actions were from the teacher's,
+    /// where it drove. `None` when the teacher drove every step.
     pub learner_disagreement: Option<f64>,
+    /// For an action of several numbers: the same per number, in the dataset's order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub learner_disagreement_per_action: Vec<Option<f64>>,
     /// Per observation value: mean and standard deviation over the round's steps
     /// (the state distribution the round visited).
     pub observation_mean: Vec<f64>,
@@ -61,12 +64,13 @@ pub struct RoundStatistics {
 }
 
 /// Per-round statistics over the partitions `files` (one per round) of the dataset in
-/// `dataset`, whose observations have `dims` values: one lazy scan, grouped by round, in
-/// round order.
+/// `dataset`, whose observations have `dims` values and actions `actions`: one lazy
+/// scan, grouped by round, in round order.
 pub fn round_statistics(
     dataset: &Path,
     files: &[PathBuf],
     dims: usize,
+    actions: usize,
 ) -> Result<Vec<RoundStatistics>> {
     if files.is_empty() {
         return Ok(Vec::new());
@@ -80,22 +84,23 @@ pub fn round_statistics(
     // Rounds are `round=NNN` folders, but the files hold their `round` column already.
     args.hive_options.enabled = Some(false);
     let steps = LazyFrame::scan_parquet_files(paths.into_iter().collect(), args).map_err(fail)?;
-    let executed = col("action_executed").arr().get(lit(0), false);
-    let label = col("action").arr().get(lit(0), false);
-    let learner = col("actor").eq(lit("learner"));
-    let observation = |k: usize| {
-        col("observation.state")
+    let element = |column: &str, k: usize| {
+        col(column)
             .arr()
             .get(lit(k as i64), false)
             .cast(DataType::Float64)
     };
-    let mut aggregates = vec![
-        ((executed.clone() - label.clone()) * (executed - label))
-            .cast(DataType::Float64)
-            .filter(learner)
-            .mean()
-            .alias("learner_mse"),
-    ];
+    let learner = col("actor").eq(lit("learner"));
+    let mut aggregates: Vec<Expr> = (0..actions)
+        .map(|j| {
+            let error = element("action_executed", j) - element("action", j);
+            (error.clone() * error)
+                .filter(learner.clone())
+                .mean()
+                .alias(format!("learner_mse_{j}"))
+        })
+        .collect();
+    let observation = |k: usize| element("observation.state", k);
     for k in 0..dims {
         aggregates.push(observation(k).mean().alias(format!("mean_{k}")));
         aggregates.push(observation(k).std(1).alias(format!("std_{k}")));
@@ -118,7 +123,9 @@ pub fn round_statistics(
         Ok(column.f64().map_err(fail)?.iter().collect())
     };
     let rounds = floats("round")?;
-    let mse = floats("learner_mse")?;
+    let mse = (0..actions)
+        .map(|j| floats(&format!("learner_mse_{j}")))
+        .collect::<Result<Vec<_>>>()?;
     let means = (0..dims)
         .map(|k| floats(&format!("mean_{k}")))
         .collect::<Result<Vec<_>>>()?;
@@ -128,7 +135,16 @@ pub fn round_statistics(
     Ok((0..table.height())
         .map(|r| RoundStatistics {
             round: rounds[r].unwrap_or(0.0) as u32,
-            learner_disagreement: mse[r].map(f64::sqrt),
+            learner_disagreement: mse
+                .iter()
+                .map(|m| m[r])
+                .sum::<Option<f64>>()
+                .map(|total| (total / actions as f64).sqrt()),
+            learner_disagreement_per_action: if actions > 1 {
+                mse.iter().map(|m| m[r].map(f64::sqrt)).collect()
+            } else {
+                Vec::new()
+            },
             observation_mean: means.iter().map(|m| m[r].unwrap_or(f64::NAN)).collect(),
             observation_std: stds.iter().map(|s| s[r].unwrap_or(0.0)).collect(),
         })

@@ -202,51 +202,114 @@ fn numbers(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<Opti
     }
 }
 
-/// Per row, the numbers of `column`: one for a number column or a list element
-/// (`name[i]`), all of them for a list column. A null is an error naming the record.
+/// The numbers under each element of `array` (a number column, or lists of lists ... of
+/// numbers, to any depth): element i's are `leaves[offsets[i]..offsets[i + 1]]`. Nulls
+/// stay `None`; what is not a number or a list is `Err` with its type.
+fn leaf_offsets(
+    array: &dyn Array,
+) -> std::result::Result<(Vec<usize>, Vec<Option<f64>>), DataType> {
+    let nested = |child: &dyn Array, ranges: Vec<usize>| {
+        let (child_offsets, leaves) = leaf_offsets(child)?;
+        Ok((ranges.iter().map(|&c| child_offsets[c]).collect(), leaves))
+    };
+    match array.data_type() {
+        DataType::FixedSizeList(_, length) => {
+            let list = array.as_fixed_size_list();
+            let n = *length as usize;
+            nested(
+                list.values().as_ref(),
+                (0..=list.len()).map(|i| i * n).collect(),
+            )
+        }
+        DataType::List(_) => {
+            let list = array.as_list::<i32>();
+            let ranges = list.value_offsets().iter().map(|&o| o as usize).collect();
+            nested(list.values().as_ref(), ranges)
+        }
+        DataType::LargeList(_) => {
+            let list = array.as_list::<i64>();
+            let ranges = list.value_offsets().iter().map(|&o| o as usize).collect();
+            nested(list.values().as_ref(), ranges)
+        }
+        t if t.is_numeric() => {
+            let cast = arrow::compute::cast(array, &DataType::Float64).map_err(|_| t.clone())?;
+            let leaves = cast.as_primitive::<Float64Type>().iter().collect();
+            Ok(((0..=array.len()).collect(), leaves))
+        }
+        other => Err(other.clone()),
+    }
+}
+
+/// Per row, the numbers of `column`: one for a number column, all of them for a list
+/// column (a list of lists, such as an action chunk of several vectors per frame, gives
+/// them all in order), and with `name[i]` those of element i of the list (a number, or
+/// the i-th vector of a chunk). A null is an error naming the record.
 pub fn row_vectors(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<Vec<f64>>> {
     let values = array(path, batch, column)?;
     let null = |row: usize| Error::input(path, format!("record {row}: column '{column}' is null"));
-    let whole_list = column.index.is_none()
-        && matches!(
-            values.data_type(),
-            DataType::List(_) | DataType::FixedSizeList(_, _)
-        );
-    if !whole_list {
-        return numbers(path, batch, column)?
-            .into_iter()
-            .enumerate()
-            .map(|(row, v)| v.map(|v| vec![v]).ok_or_else(|| null(row)))
-            .collect();
-    }
-    let items = |array: &dyn Array| -> Result<Vec<Option<f64>>> {
-        let cast = arrow::compute::cast(array, &DataType::Float64)
-            .map_err(|e| Error::input(path, format!("column '{column}': {e}")))?;
-        Ok(cast.as_primitive::<Float64Type>().iter().collect())
+    let not_numbers = |t: DataType| {
+        Error::input(
+            path,
+            format!("column '{column}' holds {t}, expected numbers or lists of numbers"),
+        )
     };
-    let (offsets, flat): (Vec<usize>, Vec<Option<f64>>) = match values.data_type() {
-        DataType::FixedSizeList(_, length) => {
-            let list = values.as_fixed_size_list();
-            let n = *length as usize;
-            (
-                (0..=list.len()).map(|i| i * n).collect(),
-                items(list.values().as_ref())?,
-            )
-        }
-        _ => {
-            let list = values.as_list::<i32>();
-            (
-                list.value_offsets().iter().map(|&o| o as usize).collect(),
-                items(list.values().as_ref())?,
-            )
+    // Per row, which elements of the row's list (or the row itself) to take.
+    let (rows, elements): (Vec<std::ops::Range<usize>>, &dyn Array) = match column.index {
+        None => (
+            (0..values.len()).map(|r| r..r + 1).collect(),
+            values.as_ref(),
+        ),
+        Some(index) => {
+            let (ranges, child): (Vec<usize>, &dyn Array) = match values.data_type() {
+                DataType::FixedSizeList(_, n) => {
+                    let list = values.as_fixed_size_list();
+                    let n = *n as usize;
+                    (
+                        (0..=list.len()).map(|i| i * n).collect(),
+                        list.values().as_ref(),
+                    )
+                }
+                DataType::List(_) => {
+                    let list = values.as_list::<i32>();
+                    let ranges = list.value_offsets().iter().map(|&o| o as usize).collect();
+                    (ranges, list.values().as_ref())
+                }
+                other => {
+                    return Err(Error::input(
+                        path,
+                        format!(
+                            "column '{}' has type {other}; '{column}' needs a list column",
+                            column.name
+                        ),
+                    ));
+                }
+            };
+            let rows = (0..values.len())
+                .map(|row| {
+                    let length = ranges[row + 1] - ranges[row];
+                    if index >= length && !values.is_null(row) {
+                        return Err(Error::input(
+                            path,
+                            format!(
+                                "record {row}: column '{}' holds {length} values, no element {index}",
+                                column.name
+                            ),
+                        ));
+                    }
+                    Ok(ranges[row] + index..ranges[row] + index + 1)
+                })
+                .collect::<Result<_>>()?;
+            (rows, child)
         }
     };
-    (0..values.len())
-        .map(|row| {
+    let (offsets, leaves) = leaf_offsets(elements).map_err(not_numbers)?;
+    rows.into_iter()
+        .enumerate()
+        .map(|(row, taken)| {
             if values.is_null(row) {
                 return Err(null(row));
             }
-            flat[offsets[row]..offsets[row + 1]]
+            leaves[offsets[taken.start]..offsets[taken.end]]
                 .iter()
                 .map(|v| v.ok_or_else(|| null(row)))
                 .collect()
@@ -414,19 +477,55 @@ pub fn read_demonstrations(path: &Path) -> Result<Vec<Demonstration>> {
 
 /// The LeRobot names for the pose inside `observation.state`, when `meta/info.json` names
 /// its elements: x, y and yaw (or theta, heading).
-fn lerobot_columns(info: &serde_json::Value) -> Option<Columns> {
-    let names = info.pointer("/features/observation.state/names")?;
-    let names: Vec<&str> = match names {
-        serde_json::Value::Array(items) => items.iter().filter_map(|n| n.as_str()).collect(),
-        serde_json::Value::Object(map) => map
-            .values()
-            .next()?
-            .as_array()?
-            .iter()
-            .filter_map(|n| n.as_str())
-            .collect(),
+/// The element names `meta/info.json` gives a LeRobot feature (`observation.state`,
+/// `action`): a list, or a map holding one list (v2.0's `{"motors": [...]}`). `None` when
+/// it names none.
+fn feature_element_names(info: &serde_json::Value, feature: &str) -> Option<Vec<String>> {
+    let names = info.get("features")?.get(feature)?.get("names")?;
+    let list = match names {
+        serde_json::Value::Array(items) => items,
+        serde_json::Value::Object(map) => map.values().next()?.as_array()?,
         _ => return None,
     };
+    list.iter().map(|n| n.as_str().map(String::from)).collect()
+}
+
+/// The names of a LeRobot feature's elements, from `meta/info.json`: its `names`, or
+/// `feature[i]` for each element of its `shape` when it has none.
+pub fn lerobot_feature_names(folder: &Path, feature: &str) -> Result<Vec<String>> {
+    let info_path = folder.join("meta/info.json");
+    let info: serde_json::Value = serde_json::from_slice(&read_input(&info_path)?)
+        .map_err(|e| Error::input(&info_path, format!("not JSON: {e}")))?;
+    if let Some(names) = feature_element_names(&info, feature) {
+        return Ok(names);
+    }
+    let shape = info
+        .get("features")
+        .and_then(|f| f.get(feature))
+        .and_then(|f| f.get("shape"))
+        .and_then(|s| s.as_array())
+        .ok_or_else(|| {
+            Error::input(
+                &info_path,
+                format!("describes no feature '{feature}' (features.{feature}.shape)"),
+            )
+        })?;
+    let count = shape
+        .iter()
+        .map(|d| d.as_u64())
+        .product::<Option<u64>>()
+        .filter(|&n| (1..=1 << 16).contains(&n))
+        .ok_or_else(|| {
+            Error::input(
+                &info_path,
+                format!("features.{feature}.shape is not a list of sizes"),
+            )
+        })?;
+    Ok((0..count).map(|i| format!("{feature}[{i}]")).collect())
+}
+
+fn lerobot_columns(info: &serde_json::Value) -> Option<Columns> {
+    let names = feature_element_names(info, "observation.state")?;
     let element = |wanted: &[&str]| {
         names
             .iter()
@@ -545,5 +644,49 @@ mod tests {
             .with_overrides(&["z=h".into()])
             .unwrap_err();
         assert!(err.contains("unknown column role 'z'"), "{err}");
+    }
+
+    #[test]
+    fn row_vectors_take_numbers_lists_and_action_chunks() {
+        use arrow::array::{FixedSizeListArray, Float32Array, Int64Array, ListArray};
+        use arrow::buffer::OffsetBuffer;
+        use arrow::datatypes::{Field, Schema};
+        use std::sync::Arc;
+        // Two frames, each a chunk of two 3-vectors: List<FixedSizeList<f32, 3>>.
+        let item = Arc::new(Field::new("item", DataType::Float32, true));
+        let vectors = FixedSizeListArray::new(
+            item.clone(),
+            3,
+            Arc::new(Float32Array::from_iter_values((0..12).map(|v| v as f32))),
+            None,
+        );
+        let vector_field = Arc::new(Field::new("item", vectors.data_type().clone(), true));
+        let chunks = ListArray::new(
+            vector_field,
+            OffsetBuffer::from_lengths([2, 2]),
+            Arc::new(vectors),
+            None,
+        );
+        let schema = Schema::new(vec![
+            Field::new("action", chunks.data_type().clone(), true),
+            Field::new("step", DataType::Int64, true),
+        ]);
+        let batch = RecordBatch::try_new(
+            Arc::new(schema),
+            vec![Arc::new(chunks), Arc::new(Int64Array::from(vec![7, 8]))],
+        )
+        .unwrap();
+        let path = Path::new("chunks.parquet");
+        let rows = |text: &str| row_vectors(path, &batch, &text.parse().unwrap());
+        assert_eq!(rows("action").unwrap()[1], [6.0, 7.0, 8.0, 9.0, 10.0, 11.0]);
+        assert_eq!(rows("action[1]").unwrap()[0], [3.0, 4.0, 5.0]);
+        assert_eq!(rows("step").unwrap(), [[7.0], [8.0]]);
+        let err = rows("action[2]").unwrap_err().to_string();
+        assert!(
+            err.contains("record 0") && err.contains("no element 2"),
+            "{err}"
+        );
+        let err = rows("step[0]").unwrap_err().to_string();
+        assert!(err.contains("needs a list column"), "{err}");
     }
 }

@@ -415,6 +415,7 @@ fn create_dataset(out: &mut ArtifactBuilder, world: &World) -> Result<Dataset> {
         DatasetInfo {
             schema: "imitate.dagger-dataset/1".into(),
             observation_names: world.observation_names(),
+            action_names: Vec::new(),
             environment: world.name().into(),
             costs: None,
         },
@@ -537,7 +538,11 @@ impl Stage for DaggerParams {
         if let (true, World::Track(track)) = (self.forward, &world) {
             return self.run_forward(track, &learner, out, dataset, extra_deps);
         }
-        let mut aggregate = Aggregate::new(dataset.info.observation_names.len(), &learner);
+        let mut aggregate = Aggregate::new(
+            dataset.info.observation_names.len(),
+            dataset.info.action_dims(),
+            &learner,
+        );
         let (teacher, period) = world.teacher();
         let mut policies: Vec<Policy> = Vec::new();
         let mut metrics = Vec::new();
@@ -565,7 +570,7 @@ impl Stage for DaggerParams {
             // Train on what the dataset holds (as `imitate dagger train` would).
             let written = dataset.round_steps(number)?;
             for i in 0..written.len() {
-                aggregate.add(written.observation(i), written.labels[i]);
+                aggregate.add(written.observation(i), written.label(i));
             }
             let policy = aggregate.fit(&learner);
             let info = &dataset.rounds[number as usize];
