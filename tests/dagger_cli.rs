@@ -993,3 +993,125 @@ fn lerobot_datasets_with_26_joint_actions_train_a_policy_per_joint() {
         stderr(&wide)
     );
 }
+
+/// What onnxruntime gives for `rows` with the model at `model` (after `onnx.checker`).
+fn onnx_actions(
+    dir: &std::path::Path,
+    model: &std::path::Path,
+    rows: &[Vec<f64>],
+) -> Option<Vec<Vec<f64>>> {
+    let observations = dir.join("observations.json");
+    std::fs::write(&observations, serde_json::to_vec(rows).unwrap()).unwrap();
+    let lines = python_script("onnx_run.py", &[model, &observations])?;
+    Some(
+        lines
+            .iter()
+            .map(|l| {
+                l.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_f64().unwrap())
+                    .collect()
+            })
+            .collect(),
+    )
+}
+
+/// Rows of `dims` numbers spread like joint angles (a fixed sequence, not random).
+fn spread_rows(count: usize, dims: usize, scale: f64) -> Vec<Vec<f64>> {
+    (0..count)
+        .map(|i| {
+            (0..dims)
+                .map(|j| scale * ((i * dims + j) as f64 * 0.618_033_988_7).sin())
+                .collect()
+        })
+        .collect()
+}
+
+/// `imitate export POLICY` writes an ONNX model that onnxruntime runs to the actions the
+/// policy itself gives: ridge and trees on a 26-joint LeRobot dataset.
+#[test]
+fn exported_policies_run_in_onnxruntime_as_they_act() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(folders) = python_script("lerobot_writer.py", &[dir.path()]) else {
+        return;
+    };
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let path = folders[1]["folder"].as_str().unwrap();
+    assert!(
+        run(&["dagger", "init", "ds", "--lerobot", path])
+            .status
+            .success()
+    );
+    assert!(
+        run(&["dagger", "add", "ds", "--lerobot", path])
+            .status
+            .success()
+    );
+    let rows = spread_rows(32, 26, 40.0);
+    for learner in ["ridge", "tree"] {
+        let policy_dir = dir.path().join(learner);
+        let trained = run(&[
+            "dagger",
+            "train",
+            "ds",
+            "--out",
+            learner,
+            "--learner",
+            learner,
+        ]);
+        assert!(trained.status.success(), "{}", stderr(&trained));
+        let out = dir.path().join(format!("{learner}-onnx"));
+        let exported = run(&["export", learner, "--out", out.to_str().unwrap()]);
+        assert!(exported.status.success(), "{}", stderr(&exported));
+        let Some(theirs) = onnx_actions(dir.path(), &out.join("policy.onnx"), &rows) else {
+            return;
+        };
+        let (policy, _) = imitate::dagger::load_policy_artifact(&policy_dir).unwrap();
+        for (row, action) in rows.iter().zip(&theirs) {
+            let ours = policy.act_all(row);
+            assert_eq!(ours.len(), action.len());
+            for (a, b) in ours.iter().zip(action) {
+                // float32 arithmetic in the model.
+                assert!(
+                    (a - b).abs() <= 1e-4 * (1.0 + a.abs()),
+                    "{learner}: {a} vs {b}"
+                );
+            }
+        }
+    }
+    // A costmap format for a policy is a usage error.
+    let wrong = run(&["export", "ridge", "--out", "x", "--format", "png"]);
+    assert_eq!(wrong.status.code(), Some(2), "{}", stderr(&wrong));
+}
+
+/// Discrete policies (logistic regression, classification trees) export as their class
+/// scores and an ArgMax: the same class as the policy's, ties to the first.
+#[test]
+fn discrete_policies_export_to_the_same_classes() {
+    use imitate::dagger::{Aggregate, PolicyKind};
+    let dir = tempfile::tempdir().unwrap();
+    let rows = spread_rows(200, 3, 2.0);
+    let class = |x: &[f64]| f64::from(u8::from(x[0] > 0.5) + u8::from(x[0] + x[1] > 1.5));
+    let names: Vec<String> = ["a", "b", "c"].map(String::from).to_vec();
+    for kind in [PolicyKind::Logistic, PolicyKind::ClassTree] {
+        let learner = kind.learner(4, 1e-3, 3);
+        let mut data = Aggregate::new(3, 1, &learner);
+        for row in &rows {
+            data.add(row, &[class(row)]);
+        }
+        let policy = data.fit(&learner);
+        let model = dir.path().join(format!("{kind:?}.onnx"));
+        std::fs::write(
+            &model,
+            imitate::dagger::onnx::policy_model(&policy, &names).unwrap(),
+        )
+        .unwrap();
+        let Some(theirs) = onnx_actions(dir.path(), &model, &rows) else {
+            return;
+        };
+        for (row, action) in rows.iter().zip(&theirs) {
+            assert_eq!(action, &[policy.act(row)], "{kind:?} at {row:?}");
+        }
+    }
+}

@@ -1,7 +1,10 @@
-//! `imitate export COSTMAP --out DIR`: PNG with a colour bar, GeoTIFF, MCAP for Foxglove.
+//! `imitate export COSTMAP --out DIR`: PNG with a colour bar, GeoTIFF, MCAP for Foxglove;
+//! `imitate export POLICY --out DIR`: the policy as an ONNX model.
 
 use std::path::PathBuf;
 
+use crate::artifact::written_by_imitate;
+use crate::dagger::onnx::write_policy_model;
 use crate::error::{Error, Result};
 use crate::report::costmap_artifact::CostmapArtifact;
 use crate::report::export::{export_geotiff, export_mcap, export_png};
@@ -11,13 +14,16 @@ pub enum ExportFormat {
     Png,
     Geotiff,
     Mcap,
+    /// Policies: `policy.onnx`, for onnxruntime.
+    Onnx,
 }
 
 #[derive(Debug, clap::Args)]
 pub struct ExportArgs {
-    /// A costmap artifact folder.
+    /// A costmap or policy artifact folder.
     pub costmap: PathBuf,
-    /// The folder to write `<map>.png`, `<map>.tif`, `<map>.mcap` into.
+    /// The folder to write `<map>.png`, `<map>.tif`, `<map>.mcap` (or `policy.onnx`)
+    /// into.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Formats to write (repeat; default: all three).
@@ -29,6 +35,24 @@ pub struct ExportArgs {
 }
 
 pub fn run(args: ExportArgs) -> Result<()> {
+    if written_by_imitate(&args.costmap).as_deref() == Some("policy") {
+        if args.formats.iter().any(|&f| f != ExportFormat::Onnx) {
+            return Err(Error::Usage(
+                "a policy exports as --format onnx only".into(),
+            ));
+        }
+        std::fs::create_dir_all(&args.out)
+            .map_err(|e| Error::io(format!("creating {}", args.out.display()), e))?;
+        let path = args.out.join("policy.onnx");
+        write_policy_model(&args.costmap, &path)?;
+        outln!("{}", path.display());
+        return Ok(());
+    }
+    if args.formats.contains(&ExportFormat::Onnx) {
+        return Err(Error::Usage(
+            "--format onnx exports policy artifacts (from dagger train)".into(),
+        ));
+    }
     let artifact = CostmapArtifact::load(&args.costmap)?;
     let formats = if args.formats.is_empty() {
         vec![ExportFormat::Png, ExportFormat::Geotiff, ExportFormat::Mcap]
@@ -65,6 +89,8 @@ pub fn run(args: ExportArgs) -> Result<()> {
                     let result = export_mcap(&artifact, name, costs, &path);
                     (path, result)
                 }
+                // Refused above: costmaps have no ONNX form.
+                ExportFormat::Onnx => continue,
             };
             result?;
             outln!("{}", path.display());

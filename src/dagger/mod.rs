@@ -11,6 +11,7 @@
 pub mod dataset;
 pub mod demo_round;
 pub mod log_round;
+pub mod onnx;
 mod policy;
 pub mod query;
 
