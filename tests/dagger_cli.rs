@@ -1115,3 +1115,79 @@ fn discrete_policies_export_to_the_same_classes() {
         }
     }
 }
+
+/// The DAgger loop closed outside imitate: the user's own policy drove (its executed
+/// action in the table beside the teacher's label); the round counts the learner's
+/// steps and its disagreement with the teacher.
+#[test]
+fn a_round_driven_outside_imitate_is_added_from_its_table() {
+    use arrow::array::{ArrayRef, FixedSizeListArray, Float32Array, Int64Array, RecordBatch};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let dir = tempfile::tempdir().unwrap();
+    let item = Arc::new(Field::new("item", DataType::Float32, false));
+    let list = |values: Vec<f32>, n: i32| -> ArrayRef {
+        Arc::new(FixedSizeListArray::new(
+            item.clone(),
+            n,
+            Arc::new(Float32Array::from(values)),
+            None,
+        ))
+    };
+    let rows = 10;
+    let state: Vec<f32> = (0..rows).flat_map(|k| [k as f32, 1.0]).collect();
+    let label: Vec<f32> = (0..rows).flat_map(|k| [k as f32, -(k as f32)]).collect();
+    // The learner was off by 0.5 on the first number at odd rows; even rows it matched.
+    let executed: Vec<f32> = (0..rows)
+        .flat_map(|k| [k as f32 + 0.5 * (k % 2) as f32, -(k as f32)])
+        .collect();
+    let field =
+        |name: &str, n: i32| Field::new(name, DataType::FixedSizeList(item.clone(), n), false);
+    let schema = Schema::new(vec![
+        field("observation.state", 2),
+        field("action", 2),
+        field("action_executed", 2),
+        Field::new("episode_index", DataType::Int64, false),
+    ]);
+    let batch = RecordBatch::try_new(
+        Arc::new(schema),
+        vec![
+            list(state, 2),
+            list(label, 2),
+            list(executed, 2),
+            Arc::new(Int64Array::from(vec![0; rows])),
+        ],
+    )
+    .unwrap();
+    write_parquet(&dir.path().join("round.parquet"), &batch);
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let init = run(&[
+        "dagger",
+        "init",
+        "ds",
+        "--env",
+        "log",
+        "--observations",
+        "x,y",
+        "--actions",
+        "u,v",
+    ]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    let added = run(&[
+        "dagger",
+        "add",
+        "ds",
+        "--demonstrations",
+        "round.parquet",
+        "--executed",
+        "action_executed",
+    ]);
+    assert!(added.status.success(), "{}", stderr(&added));
+    let rounds = json(&run(&["dagger", "status", "ds", "--json"]));
+    let round = &rounds[0];
+    assert_eq!(round["beta"], 0.0);
+    assert_eq!(round["learner_steps"], 5);
+    let per = round["learner_disagreement_per_action"].as_array().unwrap();
+    assert!((per[0].as_f64().unwrap() - 0.5).abs() < 1e-6, "{round}");
+    assert_eq!(per[1], 0.0);
+}

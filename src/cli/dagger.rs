@@ -94,11 +94,11 @@ pub enum DaggerCommand {
         log: Option<PathBuf>,
         #[arg(long)]
         observation_topic: Option<String>,
-        /// The executed action (one number per message). Without it the log is an
+        /// The executed action (its message's numbers). Without it the log is an
         /// expert demonstration: the label topic is what the expert did.
         #[arg(long)]
         action_topic: Option<String>,
-        /// The teacher's label (one number per message).
+        /// The teacher's label (its message's numbers).
         #[arg(long)]
         label_topic: Option<String>,
         /// How far apart in time an observation and its action and label may be.
@@ -114,9 +114,16 @@ pub enum DaggerCommand {
         /// column gives all its elements, `name[i]` one).
         #[arg(long = "observation", value_name = "COLUMN", default_values_t = ["observation.state".to_string()])]
         observation_columns: Vec<String>,
-        /// With --demonstrations or --lerobot: the action column (one number per row).
+        /// With --demonstrations or --lerobot: the action column, the teacher's (a
+        /// number, a list, or `name[i]`).
         #[arg(long = "action", value_name = "COLUMN", default_value = "action")]
         action_column: String,
+        /// With --demonstrations: the action that was executed, when the learner (your
+        /// own policy, run outside imitate, e.g. its ONNX export) drove and the teacher
+        /// only labelled: the round is then a DAgger round (β 0), each row the
+        /// learner's step where it differs from the label.
+        #[arg(long = "executed", value_name = "COLUMN", conflicts_with = "lerobot")]
+        executed_column: Option<String>,
         /// With --demonstrations or --lerobot: the episode column.
         #[arg(
             long = "episode",
@@ -291,7 +298,7 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
     for file in files {
         digests.push(file_digest(file)?.0);
     }
-    let source = format!(
+    let mut source = format!(
         "demonstrations {} observation={} action={}",
         digests.join(","),
         columns
@@ -302,6 +309,9 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
             .join(","),
         columns.action
     );
+    if let Some(executed) = &columns.executed {
+        source.push_str(&format!(" executed={executed}"));
+    }
     if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
         outln!(
             "round {} already holds these demonstrations",
@@ -310,9 +320,11 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
         return Ok(());
     }
     let episodes = read_demo_round(files, columns, ds.info.action_dims())?;
+    // With executed actions the learner drove and the teacher only labelled.
+    let beta = if columns.executed.is_some() { 0.0 } else { 1.0 };
     let number = ds.append(&NewRound {
         source,
-        beta: 1.0,
+        beta,
         policy: String::new(),
         teacher: "demonstrations".into(),
         period: 0.0,
@@ -629,6 +641,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             lerobot,
             observation_columns,
             action_column,
+            executed_column,
             episode_column,
             ..
         } if !demonstrations.is_empty() || lerobot.is_some() => {
@@ -643,6 +656,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                     .map(|c| parse(c))
                     .collect::<Result<_>>()?,
                 action: parse(&action_column)?,
+                executed: executed_column.as_deref().map(parse).transpose()?,
             };
             let files = match &lerobot {
                 Some(folder) => lerobot_files(folder)?,

@@ -1,5 +1,6 @@
-//! Round 0 from expert demonstrations in tables: Parquet files or LeRobot folders (v2
-//! and v3), where every step's action is the expert's own. Observations come from one
+//! Rounds from tables: expert demonstrations in Parquet files or LeRobot folders (v2
+//! and v3), where every step's action is the expert's own, or rounds a policy drove
+//! outside imitate, whose table holds the executed action beside the teacher's label. Observations come from one
 //! or more columns and the action from one (a list column gives all its elements,
 //! `name[i]` one element, a number column itself); rows of an episode are consecutive,
 //! in time order.
@@ -16,7 +17,10 @@ use crate::io::tables::{Table, read_table};
 pub struct DemoColumns {
     pub episode: Column,
     pub observations: Vec<Column>,
+    /// The teacher's action: the label.
     pub action: Column,
+    /// The executed action, when the learner drove; `None` for demonstrations.
+    pub executed: Option<Column>,
 }
 
 impl Default for DemoColumns {
@@ -26,6 +30,7 @@ impl Default for DemoColumns {
             episode: Column::named("episode_index"),
             observations: vec![Column::named("observation.state")],
             action: Column::named("action"),
+            executed: None,
         }
     }
 }
@@ -47,6 +52,10 @@ pub fn read_demo_round(
             .map(|c| row_vectors(file, &batch, c))
             .collect::<Result<_>>()?;
         let action_rows = row_vectors(file, &batch, &columns.action)?;
+        let executed_rows = match &columns.executed {
+            Some(column) => Some(row_vectors(file, &batch, column)?),
+            None => None,
+        };
         for (row, id) in ids.iter().enumerate() {
             let action = &action_rows[row];
             if action.len() != actions {
@@ -70,11 +79,28 @@ pub fn read_demo_round(
                 ));
             }
             let observation: Vec<f64> = parts.iter().flat_map(|p| p[row].clone()).collect();
+            let executed = executed_rows.as_ref().map_or(action, |rows| &rows[row]);
+            if executed.len() != action.len() {
+                return Err(Error::input(
+                    file,
+                    format!(
+                        "record {row}: the executed action holds {} numbers, the label {}",
+                        executed.len(),
+                        action.len()
+                    ),
+                ));
+            }
+            // Where the executed action is the teacher's own, the teacher acted.
+            let actor = if executed == action {
+                Actor::Teacher
+            } else {
+                Actor::Learner
+            };
             let step = Step {
                 observation,
                 label: action.clone(),
-                executed: action.clone(),
-                actor: Actor::Teacher,
+                executed: executed.clone(),
+                actor,
                 failed: false,
             };
             match episodes.last_mut() {
