@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
+use crate::learn::{Cholesky, RegressionTree, TreeConfig};
 
 /// The kinds of policy a user chooses between.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -211,11 +211,11 @@ fn first_largest(scores: impl Iterator<Item = f64>) -> usize {
     best.1
 }
 
-/// Every label so far, per output of the action: the sufficient statistics, the
-/// labels' range, and the rows when the learner needs them.
+/// Every label so far: the sufficient statistics (for every output of the action), each
+/// output's label range, and the rows when the learner needs them.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Aggregate {
-    stats: Vec<PolicyData>,
+    stats: PolicyData,
     rows: Vec<f64>,
     /// Per output, its labels (kept with the rows).
     labels: Vec<Vec<f64>>,
@@ -230,7 +230,7 @@ impl Aggregate {
     pub fn new(dims: usize, outputs: usize, learner: &PolicyLearner) -> Self {
         let outputs = outputs.max(1);
         Aggregate {
-            stats: vec![PolicyData::new(dims); outputs],
+            stats: PolicyData::with_outputs(dims, outputs),
             rows: Vec::new(),
             labels: vec![Vec::new(); outputs],
             spans: vec![[f64::INFINITY, f64::NEG_INFINITY]; outputs],
@@ -241,9 +241,8 @@ impl Aggregate {
 
     /// Adds one step; `label` holds one number per output.
     pub fn add(&mut self, observation: &[f64], label: &[f64]) {
-        debug_assert_eq!(label.len(), self.stats.len());
+        self.stats.add_all(observation, label);
         for (j, &y) in label.iter().enumerate() {
-            self.stats[j].add(observation, y);
             let span = &mut self.spans[j];
             *span = [span[0].min(y), span[1].max(y)];
             if self.keep_rows {
@@ -257,7 +256,7 @@ impl Aggregate {
 
     /// How many steps were added.
     pub fn len(&self) -> usize {
-        self.stats[0].len()
+        self.stats.len()
     }
 
     pub fn is_empty(&self) -> bool {
@@ -267,23 +266,35 @@ impl Aggregate {
     /// The policy `learner` fits: one policy, or one per output for an action of
     /// several numbers.
     pub fn fit(&self, learner: &PolicyLearner) -> Policy {
-        if self.stats.len() == 1 {
-            return self.fit_output(0, learner);
-        }
-        Policy::Outputs {
-            members: (0..self.stats.len())
-                .map(|j| self.fit_output(j, learner))
+        let range = |j: usize| action_range(self.spans[j][0], self.spans[j][1]);
+        let mut members: Vec<Policy> = match learner {
+            // One factorisation for every output.
+            PolicyLearner::Ridge { lambda } => (self.stats.fit_all(*lambda).into_iter())
+                .enumerate()
+                .map(|(j, p)| {
+                    Policy::Linear(LinearPolicy {
+                        range: range(j),
+                        ..p
+                    })
+                })
                 .collect(),
+            _ => (0..self.spans.len())
+                .map(|j| self.fit_output(j, learner, range(j)))
+                .collect(),
+        };
+        if members.len() == 1 {
+            return members.swap_remove(0);
         }
+        Policy::Outputs { members }
     }
 
-    fn fit_output(&self, j: usize, learner: &PolicyLearner) -> Policy {
+    /// Output `j` by a learner that needs the rows.
+    fn fit_output(&self, j: usize, learner: &PolicyLearner, range: [f64; 2]) -> Policy {
         let labels = &self.labels[j];
-        let range = action_range(self.spans[j][0], self.spans[j][1]);
         match learner {
             PolicyLearner::Ridge { lambda } => Policy::Linear(LinearPolicy {
                 range,
-                ..self.stats[j].fit(*lambda)
+                ..self.stats.fit_all(*lambda).swap_remove(j)
             }),
             PolicyLearner::Logistic { classes, lambda } => Policy::Logistic(LogisticPolicy::fit(
                 &self.rows, self.dims, labels, *classes, *lambda,
@@ -425,32 +436,75 @@ impl LogisticPolicy {
     }
 }
 
-/// The statistics of (observation, label) pairs for `LinearPolicy::fit`.
+/// The statistics of (observation, label) pairs for `LinearPolicy::fit`: the moments of
+/// [1, x] (XᵀX) and, per output of the action, Xᵀy. Every output shares XᵀX, and the fit
+/// one factorisation of it.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PolicyData {
-    stats: RidgeAccumulator,
+    /// 1 + the observation's length.
+    dim: usize,
+    outputs: usize,
+    xtx: Vec<f64>,
+    /// Row-major, `outputs` per row of X.
+    xty: Vec<f64>,
+    count: usize,
 }
 
 impl PolicyData {
     pub fn new(observation_dim: usize) -> Self {
+        Self::with_outputs(observation_dim, 1)
+    }
+
+    /// For actions of `outputs` numbers.
+    pub fn with_outputs(observation_dim: usize, outputs: usize) -> Self {
+        let dim = observation_dim + 1;
         PolicyData {
-            stats: RidgeAccumulator::new(observation_dim + 1),
+            dim,
+            outputs,
+            xtx: vec![0.0; dim * dim],
+            xty: vec![0.0; dim * outputs],
+            count: 0,
         }
     }
 
     pub fn add(&mut self, observation: &[f64], label: f64) {
-        let mut row = Vec::with_capacity(observation.len() + 1);
-        row.push(1.0);
-        row.extend_from_slice(observation);
-        self.stats.add(&row, label, 1.0);
+        self.add_all(observation, &[label]);
+    }
+
+    /// Adds one step whose action holds one number per output.
+    pub fn add_all(&mut self, observation: &[f64], labels: &[f64]) {
+        debug_assert_eq!(observation.len() + 1, self.dim);
+        debug_assert_eq!(labels.len(), self.outputs);
+        let x = |i: usize| if i == 0 { 1.0 } else { observation[i - 1] };
+        for i in 0..self.dim {
+            let xi = x(i);
+            for (cell, &y) in self.xty[i * self.outputs..(i + 1) * self.outputs]
+                .iter_mut()
+                .zip(labels)
+            {
+                *cell += xi * y;
+            }
+            let row = &mut self.xtx[i * self.dim..(i + 1) * self.dim];
+            for (j, cell) in row.iter_mut().enumerate() {
+                *cell += xi * x(j);
+            }
+        }
+        self.count += 1;
     }
 
     pub fn merge(&mut self, other: &PolicyData) {
-        self.stats.merge(&other.stats);
+        debug_assert_eq!((other.dim, other.outputs), (self.dim, self.outputs));
+        for (a, b) in self.xtx.iter_mut().zip(&other.xtx) {
+            *a += b;
+        }
+        for (a, b) in self.xty.iter_mut().zip(&other.xty) {
+            *a += b;
+        }
+        self.count += other.count;
     }
 
     pub fn len(&self) -> usize {
-        self.stats.total_weight() as usize
+        self.count
     }
 
     pub fn is_empty(&self) -> bool {
@@ -458,12 +512,17 @@ impl PolicyData {
     }
 
     /// Ridge regression with penalty `lambda` on the standardised observations (the
-    /// intercept unpenalised): minimises mean (y − b − w·z)² + λ‖w‖².
+    /// intercept unpenalised) of the first output: see [`PolicyData::fit_all`].
     pub fn fit(&self, lambda: f64) -> LinearPolicy {
-        let d = self.stats.dim() - 1;
-        let n = self.stats.total_weight().max(f64::MIN_POSITIVE);
-        let (xtx, xty) = self.stats.moments();
-        let at = |i: usize, j: usize| xtx[i * (d + 1) + j] / n;
+        self.fit_all(lambda).swap_remove(0)
+    }
+
+    /// Per output, the ridge regression with penalty `lambda` on the standardised
+    /// observations (the intercept unpenalised): minimises mean (y − b − w·z)² + λ‖w‖².
+    pub fn fit_all(&self, lambda: f64) -> Vec<LinearPolicy> {
+        let d = self.dim - 1;
+        let n = (self.count as f64).max(f64::MIN_POSITIVE);
+        let at = |i: usize, j: usize| self.xtx[i * self.dim + j] / n;
         let mean: Vec<f64> = (1..=d).map(|j| at(0, j)).collect();
         let scale: Vec<f64> = (1..=d)
             .map(|j| {
@@ -472,26 +531,35 @@ impl PolicyData {
                 if sd > 1e-12 { sd } else { 1.0 }
             })
             .collect();
-        let y_mean = xty[0] / n;
-        // Centred, scaled normal equations: Cov(z) w = Cov(z, y).
+        // Centred, scaled normal equations: Cov(z) w = Cov(z, y), one Cov(z) for all.
         let mut a = vec![0.0; d * d];
-        let mut b = vec![0.0; d];
         for i in 0..d {
             for j in 0..d {
                 let cov = at(i + 1, j + 1) - mean[i] * mean[j];
                 a[i * d + j] = cov / (scale[i] * scale[j]);
             }
             a[i * d + i] += lambda;
-            b[i] = (xty[i + 1] / n - mean[i] * y_mean) / scale[i];
         }
-        let weights = crate::learn::solve_spd(&a, &b, d).unwrap_or_else(|| vec![0.0; d]);
-        LinearPolicy {
-            mean,
-            scale,
-            weights,
-            bias: y_mean,
-            range: UNIT_RANGE,
-        }
+        let factor = Cholesky::factor(&a, d);
+        (0..self.outputs)
+            .map(|k| {
+                let xty = |i: usize| self.xty[i * self.outputs + k] / n;
+                let y_mean = xty(0);
+                let b: Vec<f64> = (0..d)
+                    .map(|i| (xty(i + 1) - mean[i] * y_mean) / scale[i])
+                    .collect();
+                let weights = factor
+                    .as_ref()
+                    .map_or_else(|| vec![0.0; d], |f| f.solve(&b));
+                LinearPolicy {
+                    mean: mean.clone(),
+                    scale: scale.clone(),
+                    weights,
+                    bias: y_mean,
+                    range: UNIT_RANGE,
+                }
+            })
+            .collect()
     }
 }
 
@@ -581,6 +649,24 @@ mod tests {
             let json = serde_json::to_string(&members[2]).unwrap();
             assert!(!json.contains("range"), "[−1, 1] is left out: {json}");
         }
+    }
+
+    #[test]
+    fn one_factorisation_for_every_output_fits_as_each_alone() {
+        let (mut joint, mut alone) = (
+            PolicyData::with_outputs(2, 2),
+            [PolicyData::new(2), PolicyData::new(2)],
+        );
+        for k in 0..50 {
+            let x = [(k as f64 * 0.3).sin(), (k as f64 * 0.7).cos()];
+            let y = [x[0] - 2.0 * x[1], 5.0 + x[1]];
+            joint.add_all(&x, &y);
+            alone[0].add(&x, y[0]);
+            alone[1].add(&x, y[1]);
+        }
+        let fits = joint.fit_all(1e-3);
+        assert_eq!(fits[0], alone[0].fit(1e-3));
+        assert_eq!(fits[1], alone[1].fit(1e-3));
     }
 
     #[test]

@@ -3,5 +3,5 @@
 mod ridge;
 mod tree;
 
-pub use ridge::{RidgeAccumulator, solve_spd};
+pub use ridge::{Cholesky, RidgeAccumulator, solve_spd};
 pub use tree::{Node, RegressionTree, TreeConfig};

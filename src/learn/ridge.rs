@@ -77,38 +77,57 @@ impl RidgeAccumulator {
     }
 }
 
+/// The Cholesky factor L (A = L Lᵀ) of a symmetric positive definite matrix, to solve
+/// A x = b for as many right-hand sides as needed with one factorisation.
+pub struct Cholesky {
+    dim: usize,
+    l: Vec<f64>,
+}
+
+impl Cholesky {
+    /// Factors the `dim`×`dim` row-major `a`; `None` when it is not positive definite.
+    pub fn factor(a: &[f64], dim: usize) -> Option<Self> {
+        let mut l = vec![0.0; dim * dim];
+        for i in 0..dim {
+            for j in 0..=i {
+                let mut sum = a[i * dim + j];
+                for k in 0..j {
+                    sum -= l[i * dim + k] * l[j * dim + k];
+                }
+                if i == j {
+                    if sum.is_nan() || sum <= 0.0 {
+                        return None;
+                    }
+                    l[i * dim + i] = sum.sqrt();
+                } else {
+                    l[i * dim + j] = sum / l[j * dim + j];
+                }
+            }
+        }
+        Some(Cholesky { dim, l })
+    }
+
+    /// x with A x = b: forward substitution L z = b, then back substitution Lᵀ x = z.
+    pub fn solve(&self, b: &[f64]) -> Vec<f64> {
+        let (dim, l) = (self.dim, &self.l);
+        let mut z = vec![0.0; dim];
+        for i in 0..dim {
+            let s: f64 = (0..i).map(|k| l[i * dim + k] * z[k]).sum();
+            z[i] = (b[i] - s) / l[i * dim + i];
+        }
+        let mut x = vec![0.0; dim];
+        for i in (0..dim).rev() {
+            let s: f64 = (i + 1..dim).map(|k| l[k * dim + i] * x[k]).sum();
+            x[i] = (z[i] - s) / l[i * dim + i];
+        }
+        x
+    }
+}
+
 /// Solves A x = b for a symmetric positive definite `dim`×`dim` matrix A (row-major) by
 /// Cholesky factorisation. `None` when A is not positive definite.
 pub fn solve_spd(a: &[f64], b: &[f64], dim: usize) -> Option<Vec<f64>> {
-    let mut l = vec![0.0; dim * dim];
-    for i in 0..dim {
-        for j in 0..=i {
-            let mut sum = a[i * dim + j];
-            for k in 0..j {
-                sum -= l[i * dim + k] * l[j * dim + k];
-            }
-            if i == j {
-                if sum.is_nan() || sum <= 0.0 {
-                    return None;
-                }
-                l[i * dim + i] = sum.sqrt();
-            } else {
-                l[i * dim + j] = sum / l[j * dim + j];
-            }
-        }
-    }
-    // Forward substitution L z = b, then back substitution Lᵀ x = z.
-    let mut z = vec![0.0; dim];
-    for i in 0..dim {
-        let s: f64 = (0..i).map(|k| l[i * dim + k] * z[k]).sum();
-        z[i] = (b[i] - s) / l[i * dim + i];
-    }
-    let mut x = vec![0.0; dim];
-    for i in (0..dim).rev() {
-        let s: f64 = (i + 1..dim).map(|k| l[k * dim + i] * x[k]).sum();
-        x[i] = (z[i] - s) / l[i * dim + i];
-    }
-    Some(x)
+    Cholesky::factor(a, dim).map(|c| c.solve(b))
 }
 
 #[cfg(test)]
