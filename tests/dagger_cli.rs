@@ -1191,3 +1191,112 @@ fn a_round_driven_outside_imitate_is_added_from_its_table() {
     assert!((per[0].as_f64().unwrap() - 0.5).abs() < 1e-6, "{round}");
     assert_eq!(per[1], 0.0);
 }
+
+/// A table of two-number observations and actions that are not linear in them:
+/// u = 40·a·b degrees, v = 30·|a| − 10.
+fn nonlinear_table(path: &std::path::Path, rows: usize) {
+    use arrow::array::{ArrayRef, FixedSizeListArray, Float32Array, Int64Array, RecordBatch};
+    use arrow::datatypes::{DataType, Field, Schema};
+    use std::sync::Arc;
+    let item = Arc::new(Field::new("item", DataType::Float32, false));
+    let list = |values: Vec<f32>| -> ArrayRef {
+        Arc::new(FixedSizeListArray::new(
+            item.clone(),
+            2,
+            Arc::new(Float32Array::from(values)),
+            None,
+        ))
+    };
+    let state: Vec<f32> = (0..rows)
+        .flat_map(|k| {
+            let t = k as f32;
+            [(t * 0.618).sin(), (t * 0.377).cos()]
+        })
+        .collect();
+    let action: Vec<f32> = state
+        .chunks(2)
+        .flat_map(|x| [40.0 * x[0] * x[1], 30.0 * x[0].abs() - 10.0])
+        .collect();
+    let field = |name: &str| Field::new(name, DataType::FixedSizeList(item.clone(), 2), false);
+    let schema = Schema::new(vec![
+        field("observation.state"),
+        field("action"),
+        Field::new("episode_index", DataType::Int64, false),
+    ]);
+    let episodes: Vec<i64> = (0..rows as i64).map(|k| k / 100).collect();
+    let batch = RecordBatch::try_new(
+        Arc::new(schema),
+        vec![
+            list(state),
+            list(action),
+            Arc::new(Int64Array::from(episodes)),
+        ],
+    )
+    .unwrap();
+    write_parquet(path, &batch);
+}
+
+/// The MLP learner fits what ridge cannot, reproducibly, and its ONNX export runs.
+#[test]
+fn an_mlp_policy_learns_a_nonlinear_action_reproducibly_and_exports() {
+    let dir = tempfile::tempdir().unwrap();
+    nonlinear_table(&dir.path().join("demos.parquet"), 600);
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let init = run(&[
+        "dagger",
+        "init",
+        "ds",
+        "--env",
+        "log",
+        "--observations",
+        "a,b",
+        "--actions",
+        "u,v",
+    ]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    let added = run(&["dagger", "add", "ds", "--demonstrations", "demos.parquet"]);
+    assert!(added.status.success(), "{}", stderr(&added));
+    let rmse = |policy: &str| -> Vec<f64> {
+        let bytes = std::fs::read(dir.path().join(policy).join("metrics.json")).unwrap();
+        let metrics: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+        metrics["training_rmse_per_action"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect()
+    };
+    let mlp = ["--learner", "mlp", "--hidden", "32,32", "--epochs", "150"];
+    for out in ["mlp", "mlp-again"] {
+        let trained = run(&[&["dagger", "train", "ds", "--out", out][..], &mlp].concat());
+        assert!(trained.status.success(), "{}", stderr(&trained));
+    }
+    let ridge = run(&["dagger", "train", "ds", "--out", "ridge"]);
+    assert!(ridge.status.success(), "{}", stderr(&ridge));
+    let (ours, line) = (rmse("mlp"), rmse("ridge"));
+    for j in 0..2 {
+        assert!(
+            ours[j] < 0.25 * line[j] && ours[j] < 2.0,
+            "{ours:?} vs ridge {line:?}"
+        );
+    }
+    let read = |out: &str| std::fs::read(dir.path().join(out).join("policy.json")).unwrap();
+    assert_eq!(
+        read("mlp"),
+        read("mlp-again"),
+        "the same seed, the same network"
+    );
+
+    let exported = run(&["export", "mlp", "--out", "onnx"]);
+    assert!(exported.status.success(), "{}", stderr(&exported));
+    let rows = spread_rows(16, 2, 1.0);
+    let Some(theirs) = onnx_actions(dir.path(), &dir.path().join("onnx/policy.onnx"), &rows) else {
+        return;
+    };
+    let (policy, _) = imitate::dagger::load_policy_artifact(&dir.path().join("mlp")).unwrap();
+    for (row, action) in rows.iter().zip(&theirs) {
+        for (a, b) in policy.act_all(row).iter().zip(action) {
+            assert!((a - b).abs() <= 1e-3 * (1.0 + a.abs()), "{a} vs {b}");
+        }
+    }
+}

@@ -17,7 +17,7 @@ use crate::dagger::dataset::{CostsSource, Dataset, DatasetInfo, NewRound, RoundI
 use crate::dagger::demo_round::{DemoColumns, read_demo_round};
 use crate::dagger::log_round::{LogTopics, read_log_round};
 use crate::dagger::query::RoundStatistics;
-use crate::dagger::{PolicyKind, gridnav_round, load_policy_artifact, track_round};
+use crate::dagger::{PolicyKind, PolicyLearner, gridnav_round, load_policy_artifact, track_round};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
 use crate::io::demo_tables::{Column, lerobot_feature_names, lerobot_files};
@@ -137,12 +137,8 @@ pub enum DaggerCommand {
         dataset: PathBuf,
         #[arg(long, value_name = "DIR")]
         out: PathBuf,
-        #[arg(long, value_enum, default_value = "ridge")]
-        learner: PolicyKind,
-        #[arg(long, default_value_t = 1e-3)]
-        lambda: f64,
-        #[arg(long, default_value_t = 3)]
-        depth: usize,
+        #[command(flatten)]
+        options: TrainOptions,
     },
     /// Drive a policy artifact on the track and report falls per lap, or with
     /// --dataset of a gridnav dataset, on its costmap between random start/goal pairs
@@ -385,7 +381,30 @@ fn add_log(dataset: &Path, log: &Path, topics: &LogTopics) -> Result<()> {
     Ok(())
 }
 
-fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: usize) -> Result<()> {
+/// What `dagger train` fits, as the user asked.
+#[derive(Debug, clap::Args)]
+pub struct TrainOptions {
+    #[arg(long, value_enum, default_value = "ridge")]
+    learner: PolicyKind,
+    /// Ridge and logistic: the penalty on standardised observations; mlp: the weight
+    /// decay.
+    #[arg(long, default_value_t = 1e-3)]
+    lambda: f64,
+    #[arg(long, default_value_t = 3)]
+    depth: usize,
+    /// mlp: the hidden layers' widths.
+    #[arg(long, value_delimiter = ',', default_value = "64,64")]
+    hidden: Vec<usize>,
+    /// mlp: passes over the data.
+    #[arg(long, default_value_t = 200)]
+    epochs: usize,
+    /// mlp: the seed of the initial weights and the minibatch order.
+    #[arg(long, default_value_t = 0)]
+    seed: u64,
+}
+
+fn train(dataset: &Path, out: &Path, options: &TrainOptions) -> Result<()> {
+    let (learner, lambda, depth) = (options.learner, options.lambda, options.depth);
     crate::artifact::check_replaceable(out)?;
     let ds = Dataset::open(dataset)?;
     if ds.steps() == 0 {
@@ -407,7 +426,17 @@ fn train(dataset: &Path, out: &Path, learner: PolicyKind, lambda: f64, depth: us
     } else {
         0
     };
-    let learner = learner.learner(depth, lambda, classes);
+    let mut learner = learner.learner(depth, lambda, classes);
+    if let PolicyLearner::Mlp(config) = &mut learner {
+        if options.hidden.contains(&0) || options.epochs == 0 {
+            return Err(Error::Usage(
+                "--hidden widths and --epochs must be at least 1".into(),
+            ));
+        }
+        config.hidden = options.hidden.clone();
+        config.epochs = options.epochs;
+        config.seed = options.seed;
+    }
     // Ridge keeps only the sufficient statistics; a tree needs the rows.
     let policy = ds.aggregate(&learner)?.fit(&learner);
     let mut artifact = ArtifactBuilder::new(out)?;
@@ -676,10 +705,8 @@ pub fn run(command: DaggerCommand) -> Result<()> {
         DaggerCommand::Train {
             dataset,
             out,
-            learner,
-            lambda,
-            depth,
-        } => train(&dataset, &out, learner, lambda, depth),
+            options,
+        } => train(&dataset, &out, &options),
         DaggerCommand::Rollout {
             policy,
             dataset: Some(dataset),

@@ -29,6 +29,11 @@ fn describe_policy(policy: &Policy) -> Value {
             "kind": "mixture",
             "members": members.iter().map(describe_policy).collect::<Vec<_>>(),
         }),
+        Policy::Mlp(p) => json!({
+            "kind": "mlp",
+            "layers": p.network.layers.iter().map(|l| l.outputs).collect::<Vec<_>>(),
+            "inputs": p.mean.len(),
+        }),
         Policy::Outputs { members } => json!({
             "kind": "outputs",
             "outputs": members.iter().map(describe_policy).collect::<Vec<_>>(),

@@ -20,8 +20,8 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 pub use policy::{
-    Aggregate, LinearPolicy, LogisticPolicy, Policy, PolicyData, PolicyKind, PolicyLearner,
-    load_policy_artifact,
+    Aggregate, LinearPolicy, LogisticPolicy, MlpPolicy, Policy, PolicyData, PolicyKind,
+    PolicyLearner, load_policy_artifact,
 };
 
 use rayon::prelude::*;

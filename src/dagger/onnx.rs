@@ -5,6 +5,8 @@
 //! - linear policies: the standardisation, one `Gemm` for every output, the clamp to
 //!   each output's range (`Max`, `Min`);
 //! - trees: `ai.onnx.ml.TreeEnsembleRegressor`, one tree per output, then the clamp;
+//! - networks: the standardisation, a `Gemm` per layer with `Relu` between, the
+//!   targets' scale and mean, the clamp;
 //! - logistic regression and classification trees (discrete actions): the class scores
 //!   (`Gemm` or a tree ensemble), `ArgMax` (the first of equal scores, as `act`), the
 //!   class index as a float in `action` [N, 1].
@@ -19,7 +21,7 @@
 
 use prost::Message;
 
-use super::policy::{LinearPolicy, LogisticPolicy, Policy};
+use super::policy::{LinearPolicy, LogisticPolicy, MlpPolicy, Policy};
 use crate::learn::{Node, RegressionTree};
 
 /// ONNX IR version 8 and opsets 17 (ai.onnx) and 3 (ai.onnx.ml): what onnxruntime
@@ -421,6 +423,7 @@ pub fn policy_model(policy: &Policy, observation_names: &[String]) -> Result<Vec
             let scores = logistic_scores(&mut graph, p);
             (graph.class_of(&scores, "action"), 1)
         }
+        [Policy::Mlp(p)] => (mlp(&mut graph, p), p.ranges.len()),
         [Policy::ClassTrees { trees }] => {
             let trees: Vec<&RegressionTree> = trees.iter().collect();
             let scores = graph.trees("observation", &trees, "scores");
@@ -531,6 +534,42 @@ pub fn write_policy_model(
     let bytes = policy_model(&policy, &names)
         .map_err(|e| Error::input(dir, format!("cannot be exported as ONNX: {e}")))?;
     crate::io::fs::write_bytes_atomic(path, &bytes)
+}
+
+/// The network's layers on the standardised observation, then the targets' scale.
+fn mlp(graph: &mut Graph, p: &MlpPolicy) -> String {
+    let mut x = graph.standardise("observation", &p.mean, &p.scale);
+    let last = p.network.layers.len() - 1;
+    for (k, layer) in p.network.layers.iter().enumerate() {
+        let weights = graph.constant(
+            &format!("layer{k}_weights"),
+            vec![layer.outputs as i64, layer.inputs as i64],
+            layer.weights.iter().map(|&v| v as f32).collect(),
+        );
+        let bias = graph.constant(
+            &format!("layer{k}_bias"),
+            vec![layer.outputs as i64],
+            layer.bias.iter().map(|&v| v as f32).collect(),
+        );
+        let out = format!("layer{k}");
+        x = graph.node(
+            "Gemm",
+            "",
+            &[&x, &weights, &bias],
+            &out,
+            vec![int("transB", 1)],
+        );
+        if k < last {
+            x = graph.node("Relu", "", &[&x], &format!("layer{k}_relu"), vec![]);
+        }
+    }
+    let a = p.target_scale.len() as i64;
+    let to_f32 = |v: &[f64]| v.iter().map(|&v| v as f32).collect::<Vec<f32>>();
+    let scale = graph.constant("target_scale", vec![a], to_f32(&p.target_scale));
+    let mean = graph.constant("target_mean", vec![a], to_f32(&p.target_mean));
+    let scaled = graph.node("Mul", "", &[&x, &scale], "scaled", vec![]);
+    let y = graph.node("Add", "", &[&scaled, &mean], "unclamped", vec![]);
+    graph.clamp(&y, &p.ranges, "action")
 }
 
 /// Per class: intercept + w · standardised x.

@@ -12,7 +12,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::learn::{Cholesky, RegressionTree, TreeConfig};
+use crate::learn::{Cholesky, Mlp, MlpConfig, RegressionTree, TreeConfig};
 
 /// The kinds of policy a user chooses between.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -26,6 +26,8 @@ pub enum PolicyKind {
     Logistic,
     /// Classification trees for discrete actions: one tree per class.
     ClassTree,
+    /// A small neural network (ReLU layers), every action number at once.
+    Mlp,
 }
 
 impl PolicyKind {
@@ -46,6 +48,10 @@ impl PolicyKind {
                     ..TreeConfig::default()
                 },
             },
+            PolicyKind::Mlp => PolicyLearner::Mlp(MlpConfig {
+                weight_decay: lambda,
+                ..MlpConfig::default()
+            }),
         }
     }
 
@@ -86,6 +92,8 @@ pub enum PolicyLearner {
     /// One regression tree per class fitted to the class's indicator: squared error on
     /// a one-hot target is the Gini impurity, so each is a one-vs-rest CART.
     ClassTrees { classes: usize, config: TreeConfig },
+    /// A multilayer perceptron on standardised observations and actions.
+    Mlp(MlpConfig),
 }
 
 /// The range actions are clamped to unless the labels went beyond it.
@@ -139,6 +147,7 @@ pub enum Policy {
     Outputs {
         members: Vec<Policy>,
     },
+    Mlp(MlpPolicy),
 }
 
 impl Policy {
@@ -148,6 +157,7 @@ impl Policy {
     pub fn act(&self, x: &[f64]) -> f64 {
         match self {
             Policy::Linear(p) => p.act(x),
+            Policy::Mlp(p) => p.act_all(x).first().copied().unwrap_or(0.0),
             Policy::Tree { tree, range } => tree.predict(x).clamp(range[0], range[1]),
             Policy::Logistic(p) => p.most_probable(x) as f64,
             Policy::ClassTrees { trees } => {
@@ -165,6 +175,7 @@ impl Policy {
     pub fn act_all(&self, x: &[f64]) -> Vec<f64> {
         match self {
             Policy::Outputs { members } => members.iter().map(|m| m.act(x)).collect(),
+            Policy::Mlp(p) => p.act_all(x),
             Policy::Mixture { members } => members.first().map_or(Vec::new(), |m| m.act_all(x)),
             other => vec![other.act(x)],
         }
@@ -174,6 +185,7 @@ impl Policy {
     pub fn outputs(&self) -> usize {
         match self {
             Policy::Outputs { members } => members.len(),
+            Policy::Mlp(p) => p.ranges.len(),
             Policy::Mixture { members } => members.first().map_or(1, Policy::outputs),
             _ => 1,
         }
@@ -267,6 +279,9 @@ impl Aggregate {
     /// several numbers.
     pub fn fit(&self, learner: &PolicyLearner) -> Policy {
         let range = |j: usize| action_range(self.spans[j][0], self.spans[j][1]);
+        if let PolicyLearner::Mlp(config) = learner {
+            return Policy::Mlp(self.fit_mlp(config));
+        }
         let mut members: Vec<Policy> = match learner {
             // One factorisation for every output.
             PolicyLearner::Ridge { lambda } => (self.stats.fit_all(*lambda).into_iter())
@@ -286,6 +301,44 @@ impl Aggregate {
             return members.swap_remove(0);
         }
         Policy::Outputs { members }
+    }
+
+    /// One network for every output, on standardised observations and labels.
+    fn fit_mlp(&self, config: &MlpConfig) -> MlpPolicy {
+        let n = self.len();
+        let standardise = |values: &mut dyn Iterator<Item = f64>| -> (f64, f64) {
+            let values: Vec<f64> = values.collect();
+            let mean = values.iter().sum::<f64>() / n.max(1) as f64;
+            let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n.max(1) as f64;
+            let sd = variance.sqrt();
+            (mean, if sd > 1e-12 { sd } else { 1.0 })
+        };
+        let (mean, scale): (Vec<f64>, Vec<f64>) = (0..self.dims)
+            .map(|j| standardise(&mut self.rows.iter().skip(j).step_by(self.dims).copied()))
+            .unzip();
+        let (target_mean, target_scale): (Vec<f64>, Vec<f64>) = (self.labels.iter())
+            .map(|labels| standardise(&mut labels.iter().copied()))
+            .unzip();
+        let outputs = self.labels.len();
+        let rows: Vec<f64> = (self.rows.iter().enumerate())
+            .map(|(i, v)| (v - mean[i % self.dims]) / scale[i % self.dims])
+            .collect();
+        let targets: Vec<f64> = (0..n * outputs)
+            .map(|i| {
+                let (row, j) = (i / outputs, i % outputs);
+                (self.labels[j][row] - target_mean[j]) / target_scale[j]
+            })
+            .collect();
+        MlpPolicy {
+            network: Mlp::fit(&rows, self.dims, &targets, outputs, config),
+            mean,
+            scale,
+            target_mean,
+            target_scale,
+            ranges: (0..outputs)
+                .map(|j| action_range(self.spans[j][0], self.spans[j][1]))
+                .collect(),
+        }
     }
 
     /// Output `j` by a learner that needs the rows.
@@ -319,7 +372,34 @@ impl Aggregate {
                     range,
                 }
             }
+            PolicyLearner::Mlp(config) => Policy::Mlp(self.fit_mlp(config)),
         }
+    }
+}
+
+/// a(x) = clamp(target_mean + target_scale · net((x − mean) / scale), ranges), every
+/// number of the action from one network.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MlpPolicy {
+    pub mean: Vec<f64>,
+    pub scale: Vec<f64>,
+    pub target_mean: Vec<f64>,
+    pub target_scale: Vec<f64>,
+    pub network: Mlp,
+    pub ranges: Vec<[f64; 2]>,
+}
+
+impl MlpPolicy {
+    pub fn act_all(&self, x: &[f64]) -> Vec<f64> {
+        let z: Vec<f64> = (x.iter().zip(&self.mean).zip(&self.scale))
+            .map(|((v, m), s)| (v - m) / s)
+            .collect();
+        (self.network.forward(&z).into_iter().enumerate())
+            .map(|(j, y)| {
+                let r = self.ranges[j];
+                (self.target_mean[j] + self.target_scale[j] * y).clamp(r[0], r[1])
+            })
+            .collect()
     }
 }
 

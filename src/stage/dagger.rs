@@ -331,7 +331,7 @@ impl DaggerParams {
                 return bad("costs and map go with env gridnav");
             }
             "track" if self.learner.discrete() => {
-                return bad("the track's steering is continuous: learner ridge or tree");
+                return bad("the track's steering is continuous: learner ridge, tree or mlp");
             }
             "gridnav" if self.costs.is_none() => {
                 return bad("env gridnav needs costs (a costmap table or artifact)");
