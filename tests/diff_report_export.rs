@@ -268,6 +268,55 @@ fn exports_read_back_through_our_readers() {
     }
 }
 
+/// A costmap as a Nav2 map: the YAML and PGM map_server reads, read back by our reader
+/// (as `ingest --map F.yaml` does) on the costmap's grid, occupancy rising with cost.
+#[test]
+fn costmaps_export_as_nav2_maps_that_read_back() {
+    let out = imitate(
+        workspace(),
+        &[
+            "export",
+            "costmap-40",
+            "--out",
+            "nav2",
+            "--map",
+            "terrain-001",
+            "--format",
+            "nav2",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let dir = workspace().join("nav2");
+    assert!(dir.join("terrain-001.pgm").exists());
+    let yaml = std::fs::read_to_string(dir.join("terrain-001.yaml")).unwrap();
+    assert!(
+        yaml.contains("mode: scale") && yaml.contains("image: terrain-001.pgm"),
+        "{yaml}"
+    );
+    let (_, costs) = imitate::io::tables::read_costmap(
+        &workspace().join("costmap-40/costmaps/terrain-001.parquet"),
+    )
+    .unwrap();
+    let map = imitate::io::nav2::read_nav2_map(&dir.join("terrain-001.yaml"), "t").unwrap();
+    assert_eq!(
+        (map.geo.width, map.geo.height),
+        (costs.geo.width, costs.geo.height)
+    );
+    assert_eq!(map.geo.origin, costs.geo.origin);
+    assert_eq!(map.geo.resolution, costs.geo.resolution);
+    let occupancy = &map.layers[0].values;
+    let mut order: Vec<usize> = (0..occupancy.len()).collect();
+    order.sort_by(|&a, &b| costs.data[a].total_cmp(&costs.data[b]));
+    let (cheap, dear) = (order[0], order[order.len() - 1]);
+    assert!(
+        occupancy[cheap] < occupancy[dear],
+        "{} vs {}",
+        occupancy[cheap],
+        occupancy[dear]
+    );
+    assert!(occupancy.iter().all(|v| (0.0..=100.0).contains(v)));
+}
+
 #[test]
 fn exported_logs_read_in_python() {
     let probe = std::process::Command::new("python3")

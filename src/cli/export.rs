@@ -1,4 +1,5 @@
-//! `imitate export COSTMAP --out DIR`: PNG with a colour bar, GeoTIFF, MCAP for Foxglove;
+//! `imitate export COSTMAP --out DIR`: PNG with a colour bar, GeoTIFF, MCAP for Foxglove,
+//! a Nav2 map (YAML and PGM);
 //! `imitate export POLICY --out DIR`: the policy as an ONNX model.
 
 use std::path::PathBuf;
@@ -7,13 +8,15 @@ use crate::artifact::written_by_imitate;
 use crate::dagger::onnx::write_policy_model;
 use crate::error::{Error, Result};
 use crate::report::costmap_artifact::CostmapArtifact;
-use crate::report::export::{export_geotiff, export_mcap, export_png};
+use crate::report::export::{export_geotiff, export_mcap, export_nav2, export_png};
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ExportFormat {
     Png,
     Geotiff,
     Mcap,
+    /// A ROS 2 navigation map: `<map>.yaml` and `<map>.pgm` for Nav2's map_server.
+    Nav2,
     /// Policies: `policy.onnx`, for onnxruntime.
     Onnx,
 }
@@ -26,7 +29,7 @@ pub struct ExportArgs {
     /// into.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
-    /// Formats to write (repeat; default: all three).
+    /// Formats to write (repeat; default: png, geotiff and mcap).
     #[arg(long = "format", value_enum)]
     pub formats: Vec<ExportFormat>,
     /// Only this map (repeat; default: every map of the artifact).
@@ -87,6 +90,11 @@ pub fn run(args: ExportArgs) -> Result<()> {
                 ExportFormat::Mcap => {
                     let path = args.out.join(format!("{name}.mcap"));
                     let result = export_mcap(&artifact, name, costs, &path);
+                    (path, result)
+                }
+                ExportFormat::Nav2 => {
+                    let path = args.out.join(format!("{name}.yaml"));
+                    let result = export_nav2(costs, &path);
                     (path, result)
                 }
                 // Refused above: costmaps have no ONNX form.

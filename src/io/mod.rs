@@ -7,6 +7,7 @@ pub mod leftovers;
 pub mod mcap;
 pub mod mdp_tables;
 pub mod movingai;
+pub mod nav2;
 pub mod parquet_check;
 pub mod png;
 pub mod tables;

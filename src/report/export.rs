@@ -33,6 +33,12 @@ pub fn export_geotiff(costs: &Grid<f32>, path: &Path) -> Result<()> {
     write_geotiff(path, &costs.geo, &values)
 }
 
+/// The costs as a Nav2 `map_server` map: `<map>.yaml` and `<map>.pgm`, the occupancy
+/// of [`occupancy`] read back by `map_server` in `scale` mode.
+pub fn export_nav2(costs: &Grid<f32>, yaml_path: &Path) -> Result<()> {
+    crate::io::nav2::write_nav2_map(yaml_path, &costs.geo, &occupancy(costs))
+}
+
 /// Occupancy 0–100 spanning the 2nd–98th percentile of log-cost; blocked cells 100.
 fn occupancy(costs: &Grid<f32>) -> Vec<i8> {
     let (lo, hi) = log_cost_range(&[costs]);

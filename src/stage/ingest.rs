@@ -18,6 +18,7 @@ use crate::io::geotiff::read_geotiff;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
+use crate::io::nav2::read_nav2_map;
 use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, write_paths};
 
 pub const KIND: &str = "ingest";
@@ -121,9 +122,13 @@ fn load_map(path: &Path) -> Result<Map> {
         "parquet" => read_map(path),
         "tif" | "tiff" => read_geotiff(path, &file_stem(path)),
         "map" => movingai::read_map_layer(path, &file_stem(path)),
+        "yaml" | "yml" => read_nav2_map(path, &file_stem(path)),
         other => Err(Error::input(
             path,
-            format!("maps are .parquet, .tif/.tiff or .map files, not '.{other}'"),
+            format!(
+                "maps are .parquet, .tif/.tiff, .map (MovingAI) or .yaml (Nav2) files, \
+                 not '.{other}'"
+            ),
         )),
     }
 }
