@@ -233,6 +233,7 @@ fn exports_read_back_through_our_readers() {
     // The MCAP: the foxglove.Grid holds the exact costs, the paths the demonstrations.
     let log = dir.join("terrain-001.mcap");
     let mut grid = None;
+    let mut grid_map = None;
     let mut demonstrations = Vec::new();
     let mut decoders = imitate::io::mcap::Decoders::default();
     imitate::io::mcap::scan(&log, |event| {
@@ -242,6 +243,12 @@ fn exports_read_back_through_our_readers() {
                 "/costmap" => {
                     grid =
                         Some(imitate::io::mcap::ros2::grid("foxglove.Grid", &value, "g").unwrap())
+                }
+                "/grid_map" => {
+                    grid_map = Some(
+                        imitate::io::mcap::ros2::grid("grid_map_msgs/msg/GridMap", &value, "g")
+                            .unwrap(),
+                    )
                 }
                 "/demonstrations" => demonstrations
                     .push(imitate::io::mcap::ros2::poses("nav_msgs/msg/Path", &value, 0).unwrap()),
@@ -255,6 +262,22 @@ fn exports_read_back_through_our_readers() {
     assert_eq!(grid.geo, costs.geo);
     assert_eq!(grid.layers[0].name, "cost");
     assert_eq!(grid.layers[0].values, costs.data);
+    // grid_map_msgs/GridMap, the layer format of ROS navigation stacks: the same costs.
+    let grid_map = grid_map.expect("a /grid_map message");
+    assert_eq!(grid_map.geo.origin, costs.geo.origin);
+    assert_eq!(grid_map.layers[0].name, "cost");
+    let finite: Vec<f32> = costs
+        .data
+        .iter()
+        .map(|&c| if c.is_finite() { c } else { f32::NAN })
+        .collect();
+    assert!(
+        grid_map.layers[0]
+            .values
+            .iter()
+            .zip(&finite)
+            .all(|(a, b)| a == b || (a.is_nan() && b.is_nan()))
+    );
     let paths =
         imitate::io::tables::read_paths(&workspace().join("costmap-40/paths.parquet")).unwrap();
     let on_map: Vec<_> = paths.iter().filter(|p| p.map == "terrain-001").collect();

@@ -89,6 +89,11 @@ pub fn export_mcap(
             &foxglove::file_descriptor_set(),
             "protobuf",
         )?;
+        let grid_map_channel = log.channel(
+            "/grid_map",
+            "grid_map_msgs/msg/GridMap",
+            &ros2::schemas::grid_map(),
+        )?;
         let path_schema = ros2::schemas::path();
         let demo_channel = log.channel("/demonstrations", "nav_msgs/msg/Path", &path_schema)?;
         let plan_channel = log.channel("/plans", "nav_msgs/msg/Path", &path_schema)?;
@@ -103,6 +108,27 @@ pub fn export_mcap(
             &[("cost", &costs.data), ("log_cost", &log_costs)],
         );
         log.write_raw(grid_channel, 0, &grid)?;
+        // grid_map marks cells without a value NaN: blocked cells are those.
+        let valued = |values: &[f32]| -> Vec<f32> {
+            (values.iter().zip(&costs.data))
+                .map(|(&v, c)| if c.is_finite() { v } else { f32::NAN })
+                .collect()
+        };
+        let layers = crate::grid::Map {
+            name: map.to_string(),
+            geo: costs.geo.clone(),
+            layers: vec![
+                crate::grid::Layer {
+                    name: "cost".into(),
+                    values: valued(&costs.data),
+                },
+                crate::grid::Layer {
+                    name: "log_cost".into(),
+                    values: valued(&log_costs),
+                },
+            ],
+        };
+        log.write(grid_map_channel, 0, &ros2::grid_map(0, &layers))?;
         for (k, example) in examples.iter().enumerate() {
             let t = (k as u64 + 1) * 1_000_000_000;
             log.write(
