@@ -945,6 +945,26 @@ fn lerobot_datasets_with_26_joint_actions_train_a_policy_per_joint() {
                 assert!((a - b).abs() < 0.5, "{path} joint {j}: {a} vs {b}");
             }
         }
+        // A third of the episodes held out: the rule holds on them too.
+        let validated = format!("{policy_dir}-validated");
+        let out = run(&[
+            "dagger",
+            "train",
+            &ds,
+            "--out",
+            &validated,
+            "--validation",
+            "0.34",
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let bytes = std::fs::read(dir.path().join(&validated).join("metrics.json")).unwrap();
+        let metrics: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+        let errors = metrics["validation_rmse_per_action"].as_array().unwrap();
+        let mut errors: Vec<f64> = errors.iter().map(|e| e.as_f64().unwrap()).collect();
+        assert_eq!(errors.len(), 26);
+        errors.sort_by(f64::total_cmp);
+        // Joints move by tens of degrees (their spread is about 40°).
+        assert!(errors[13] < 1.0 && errors[25] < 20.0, "{errors:?}");
         // Trees learn every joint too; a discrete learner is refused, naming the joints.
         let tree = run(&["dagger", "train", &ds, "--out", "tree", "--learner", "tree"]);
         assert!(tree.status.success(), "{}", stderr(&tree));

@@ -401,6 +401,16 @@ pub struct TrainOptions {
     /// mlp: the seed of the initial weights and the minibatch order.
     #[arg(long, default_value_t = 0)]
     seed: u64,
+    /// The share of episodes held out (spread evenly over the dataset) to report the
+    /// policy's error per action number on episodes it was not fitted on.
+    #[arg(long, default_value_t = 0.0)]
+    validation: f64,
+}
+
+/// Whether episode `e` (numbered across the dataset) is held out when a `share` of the
+/// episodes are: evenly spread, the same ones on every run (with 0.2: 4, 9, 14, ...).
+fn held_out(e: u64, share: f64) -> bool {
+    ((e + 1) as f64 * share).floor() > (e as f64 * share).floor()
 }
 
 fn train(dataset: &Path, out: &Path, options: &TrainOptions) -> Result<()> {
@@ -437,8 +447,24 @@ fn train(dataset: &Path, out: &Path, options: &TrainOptions) -> Result<()> {
         config.epochs = options.epochs;
         config.seed = options.seed;
     }
+    let share = options.validation;
+    if !(0.0..1.0).contains(&share) {
+        return Err(Error::Usage(format!(
+            "--validation {share}: a share of the episodes, at least 0 and below 1"
+        )));
+    }
+    let fitted_on = |e: u64| !held_out(e, share);
     // Ridge keeps only the sufficient statistics; a tree needs the rows.
-    let policy = ds.aggregate(&learner)?.fit(&learner);
+    let data = ds.aggregate_episodes(&learner, fitted_on)?;
+    if data.is_empty() {
+        return Err(Error::input(
+            dataset,
+            format!(
+                "holds no steps to train on once a share of {share} of its episodes is held out"
+            ),
+        ));
+    }
+    let policy = data.fit(&learner);
     let mut artifact = ArtifactBuilder::new(out)?;
     write_bytes_atomic(
         &artifact.file("policy.json", "policy")?,
@@ -451,7 +477,15 @@ fn train(dataset: &Path, out: &Path, options: &TrainOptions) -> Result<()> {
     });
     if !ds.info.action_names.is_empty() {
         metrics["action_names"] = serde_json::json!(ds.info.action_names);
-        metrics["training_rmse_per_action"] = serde_json::json!(ds.errors_per_action(&policy)?);
+    }
+    if !ds.info.action_names.is_empty() || share > 0.0 {
+        metrics["training_rmse_per_action"] =
+            serde_json::json!(ds.errors_per_action(&policy, fitted_on)?);
+    }
+    if share > 0.0 {
+        metrics["validation_share"] = serde_json::json!(share);
+        metrics["validation_rmse_per_action"] =
+            serde_json::json!(ds.errors_per_action(&policy, |e| held_out(e, share))?);
     }
     write_bytes_atomic(
         &artifact.file("metrics.json", "metrics")?,
@@ -785,5 +819,18 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             });
             Ok(())
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::held_out;
+
+    #[test]
+    fn held_out_episodes_are_spread_evenly_and_stable() {
+        let picked = |share: f64| (0..10).filter(|&e| held_out(e, share)).collect::<Vec<_>>();
+        assert_eq!(picked(0.2), [4, 9]);
+        assert_eq!(picked(0.5), [1, 3, 5, 7, 9]);
+        assert!(picked(0.0).is_empty());
     }
 }

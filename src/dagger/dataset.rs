@@ -414,34 +414,59 @@ impl Dataset {
 
     /// Every (observation, label) pair in the dataset, aggregated for `learner`.
     pub fn aggregate(&self, learner: &PolicyLearner) -> Result<Aggregate> {
+        self.aggregate_episodes(learner, |_| true)
+    }
+
+    /// The pairs of the episodes `keep` accepts (by the episode's number across the
+    /// dataset: round by round, in order), aggregated for `learner`.
+    pub fn aggregate_episodes(
+        &self,
+        learner: &PolicyLearner,
+        keep: impl Fn(u64) -> bool,
+    ) -> Result<Aggregate> {
         let mut data = Aggregate::new(
             self.info.observation_names.len(),
             self.info.action_dims(),
             learner,
         );
-        self.for_each_round(|_, steps| {
-            for i in 0..steps.len() {
-                data.add(steps.observation(i), steps.label(i));
-            }
-            Ok(())
-        })?;
+        self.for_each_step(&keep, |observation, label| data.add(observation, label))?;
         Ok(data)
     }
 
-    /// Per number of the action: the root mean square of `policy`'s action minus the
-    /// teacher's label over every step of the dataset.
-    pub fn errors_per_action(&self, policy: &super::Policy) -> Result<Vec<f64>> {
-        let mut squares = vec![0.0; self.info.action_dims()];
-        let mut count = 0usize;
-        self.for_each_round(|_, steps| {
+    /// Visits the steps of the episodes `keep` accepts, by episode number across the
+    /// dataset.
+    fn for_each_step(
+        &self,
+        keep: &impl Fn(u64) -> bool,
+        mut visit: impl FnMut(&[f64], &[f64]),
+    ) -> Result<()> {
+        let mut first_episode = 0u64;
+        self.for_each_round(|info, steps| {
             for i in 0..steps.len() {
-                let action = policy.act_all(steps.observation(i));
-                for ((total, a), y) in squares.iter_mut().zip(action).zip(steps.label(i)) {
-                    *total += (a - y) * (a - y);
+                if keep(first_episode + steps.episode(i)) {
+                    visit(steps.observation(i), steps.label(i));
                 }
             }
-            count += steps.len();
+            first_episode += info.episodes;
             Ok(())
+        })
+    }
+
+    /// Per number of the action: the root mean square of `policy`'s action minus the
+    /// teacher's label over the steps of the episodes `keep` accepts.
+    pub fn errors_per_action(
+        &self,
+        policy: &super::Policy,
+        keep: impl Fn(u64) -> bool,
+    ) -> Result<Vec<f64>> {
+        let mut squares = vec![0.0; self.info.action_dims()];
+        let mut count = 0usize;
+        self.for_each_step(&keep, |observation, label| {
+            let action = policy.act_all(observation);
+            for ((total, a), y) in squares.iter_mut().zip(action).zip(label) {
+                *total += (a - y) * (a - y);
+            }
+            count += 1;
         })?;
         Ok(squares
             .into_iter()
@@ -627,6 +652,8 @@ pub struct RoundSteps {
     observations: Vec<f64>,
     /// `actions` numbers per step.
     labels: Vec<f64>,
+    /// Per step, its episode within the round.
+    episodes: Vec<i64>,
 }
 
 impl RoundSteps {
@@ -649,8 +676,17 @@ impl RoundSteps {
         };
         let observations = list("observation.state")?;
         let labels = list("action")?;
+        let episodes = batch
+            .column_by_name("episode_index")
+            .and_then(|c| c.as_any().downcast_ref::<Int64Array>())
+            .ok_or_else(|| Error::input(path, "has no int64 column 'episode_index'"))?
+            .values()
+            .to_vec();
         let steps = labels.len() / actions;
-        if labels.len() != steps * actions || observations.len() != steps * dims {
+        if labels.len() != steps * actions
+            || observations.len() != steps * dims
+            || episodes.len() != steps
+        {
             return Err(Error::input(
                 path,
                 format!("steps are not {dims} observation values and {actions} action values each"),
@@ -661,6 +697,7 @@ impl RoundSteps {
             actions,
             observations,
             labels,
+            episodes,
         })
     }
 
@@ -679,6 +716,11 @@ impl RoundSteps {
     /// The teacher's action at step `i`, one number per output.
     pub fn label(&self, i: usize) -> &[f64] {
         &self.labels[i * self.actions..(i + 1) * self.actions]
+    }
+
+    /// The episode of step `i` within its round.
+    pub fn episode(&self, i: usize) -> u64 {
+        self.episodes[i].max(0) as u64
     }
 }
 
