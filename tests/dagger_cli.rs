@@ -405,6 +405,39 @@ fn a_ros1_log_gives_the_round_its_ros2_twin_gives() {
     robot_log(&dir.path().join("ros2.mcap"), true, false);
     robot_log(&dir.path().join("ros1.mcap"), true, true);
     let run = |args: &[&str]| imitate(dir.path(), args);
+    // Several logs in one command: a round each.
+    let init = run(&[
+        "dagger",
+        "init",
+        "both",
+        "--env",
+        "log",
+        "--observations",
+        "a,b,c,d,e",
+    ]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    let added = run(&[
+        "dagger",
+        "add",
+        "both",
+        "--log",
+        "ros2.mcap",
+        "ros1.mcap",
+        "--observation-topic",
+        "/lane_state",
+        "--action-topic",
+        "/steering",
+        "--label-topic",
+        "/teacher/steering",
+    ]);
+    assert!(added.status.success(), "{}", stderr(&added));
+    assert_eq!(
+        json(&run(&["dagger", "status", "both", "--json"]))
+            .as_array()
+            .unwrap()
+            .len(),
+        2
+    );
     let mut trained = Vec::new();
     for log in ["ros2", "ros1"] {
         let init = run(&[
@@ -985,6 +1018,30 @@ fn lerobot_datasets_with_26_joint_actions_train_a_policy_per_joint() {
         );
         assert!(!dir.path().join("l").exists());
     }
+    // Several folders in one command: one round of all their episodes. The camera is
+    // named as not used.
+    let both = run(&[
+        "dagger",
+        "init",
+        "both",
+        "--lerobot",
+        folders[0]["folder"].as_str().unwrap(),
+    ]);
+    assert!(both.status.success(), "{}", stderr(&both));
+    assert!(
+        stderr(&both).contains("observation.images.head (video) is not used"),
+        "{}",
+        stderr(&both)
+    );
+    let (a, b) = (
+        folders[0]["folder"].as_str().unwrap(),
+        folders[1]["folder"].as_str().unwrap(),
+    );
+    let added = run(&["dagger", "add", "both", "--lerobot", a, b]);
+    assert!(added.status.success(), "{}", stderr(&added));
+    let total = folders[0]["frames"].as_u64().unwrap() + folders[1]["frames"].as_u64().unwrap();
+    let expected = format!("{total} steps in 7 episodes");
+    assert!(stdout(&added).contains(&expected), "{}", stdout(&added));
     // A dataset of one-number actions refuses the 26-number ones, saying how to take them.
     let init = run(&[
         "dagger",

@@ -20,7 +20,9 @@ use crate::dagger::query::RoundStatistics;
 use crate::dagger::{PolicyKind, PolicyLearner, gridnav_round, load_policy_artifact, track_round};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::io::demo_tables::{Column, lerobot_feature_names, lerobot_files};
+use crate::io::demo_tables::{
+    Column, lerobot_feature_names, lerobot_files, lerobot_picture_features,
+};
 use crate::io::fs::{file_digest, to_json_bytes, write_bytes_atomic};
 use crate::sim::gridnav::{self, Evaluation, evaluate, random_episode};
 use crate::sim::track::OBSERVATION_NAMES;
@@ -88,10 +90,10 @@ pub enum DaggerCommand {
         laps: usize,
         #[arg(long, default_value_t = 0)]
         seed: u64,
-        /// Instead of the simulator: a robot log (MCAP) where the learner drove and
-        /// the teacher's labels were recorded on --label-topic.
-        #[arg(long, value_name = "FILE", requires_all = ["observation_topic", "label_topic"])]
-        log: Option<PathBuf>,
+        /// Instead of the simulator: robot logs (MCAP) where the learner drove and the
+        /// teacher's labels were recorded on --label-topic; each log is a round.
+        #[arg(long, value_name = "FILE", num_args = 1.., requires_all = ["observation_topic", "label_topic"])]
+        log: Vec<PathBuf>,
         #[arg(long)]
         observation_topic: Option<String>,
         /// The executed action (its message's numbers). Without it the log is an
@@ -107,9 +109,10 @@ pub enum DaggerCommand {
         /// Instead: expert demonstrations from Parquet tables (a round the teacher drove).
         #[arg(long = "demonstrations", value_name = "FILE", conflicts_with_all = ["log", "lerobot"])]
         demonstrations: Vec<PathBuf>,
-        /// Instead: expert demonstrations from a LeRobot dataset folder (v2 or v3).
-        #[arg(long, value_name = "DIR", conflicts_with = "log")]
-        lerobot: Option<PathBuf>,
+        /// Instead: expert demonstrations from LeRobot dataset folders (v2 or v3), one
+        /// round of all their episodes.
+        #[arg(long, value_name = "DIR", num_args = 1.., conflicts_with = "log")]
+        lerobot: Vec<PathBuf>,
         /// With --demonstrations or --lerobot: observation columns, in order (a list
         /// column gives all its elements, `name[i]` one).
         #[arg(long = "observation", value_name = "COLUMN", default_values_t = ["observation.state".to_string()])]
@@ -288,10 +291,16 @@ fn add(
 }
 
 /// Appends expert demonstrations from tables as a round the teacher drove.
-fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) -> Result<()> {
+/// Appends one round of the tables in `groups` (files whose episode ids are shared: one
+/// table set, or one LeRobot folder).
+fn add_demonstrations(
+    dataset: &Path,
+    groups: &[Vec<PathBuf>],
+    columns: &DemoColumns,
+) -> Result<()> {
     let mut ds = Dataset::open(dataset)?;
     let mut digests = Vec::new();
-    for file in files {
+    for file in groups.iter().flatten() {
         digests.push(file_digest(file)?.0);
     }
     let mut source = format!(
@@ -315,7 +324,10 @@ fn add_demonstrations(dataset: &Path, files: &[PathBuf], columns: &DemoColumns) 
         );
         return Ok(());
     }
-    let episodes = read_demo_round(files, columns, ds.info.action_dims())?;
+    let mut episodes = Vec::new();
+    for files in groups {
+        episodes.extend(read_demo_round(files, columns, ds.info.action_dims())?);
+    }
     // With executed actions the learner drove and the teacher only labelled.
     let beta = if columns.executed.is_some() { 0.0 } else { 1.0 };
     let number = ds.append(&NewRound {
@@ -656,10 +668,19 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                 None => None,
             };
             let (names, actions) = match &lerobot {
-                Some(folder) => (
-                    lerobot_feature_names(folder, "observation.state")?,
-                    lerobot_feature_names(folder, "action")?,
-                ),
+                Some(folder) => {
+                    for (feature, dtype) in lerobot_picture_features(folder)? {
+                        tracing::warn!(
+                            "{}: feature {feature} ({dtype}) is not used: policies here \
+                             see observation.state",
+                            folder.display()
+                        );
+                    }
+                    (
+                        lerobot_feature_names(folder, "observation.state")?,
+                        lerobot_feature_names(folder, "action")?,
+                    )
+                }
                 None => (names, actions),
             };
             // One action is the simulators' case and keeps no names.
@@ -683,20 +704,21 @@ pub fn run(command: DaggerCommand) -> Result<()> {
         }
         DaggerCommand::Add {
             dataset,
-            log: Some(log),
+            log,
             observation_topic,
             action_topic,
             label_topic,
             tolerance_ms,
             ..
-        } => {
+        } if !log.is_empty() => {
             let topics = LogTopics {
                 observation: observation_topic.unwrap_or_default(),
                 action: action_topic,
                 label: label_topic.unwrap_or_default(),
                 tolerance_ns: (tolerance_ms.max(0.0) * 1e6) as u64,
             };
-            add_log(&dataset, &log, &topics)
+            log.iter()
+                .try_for_each(|log| add_log(&dataset, log, &topics))
         }
         DaggerCommand::Add {
             dataset,
@@ -707,7 +729,7 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             executed_column,
             episode_column,
             ..
-        } if !demonstrations.is_empty() || lerobot.is_some() => {
+        } if !demonstrations.is_empty() || !lerobot.is_empty() => {
             let parse = |text: &str| {
                 text.parse::<Column>()
                     .map_err(|e| Error::Usage(format!("column '{text}': {e}")))
@@ -721,11 +743,16 @@ pub fn run(command: DaggerCommand) -> Result<()> {
                 action: parse(&action_column)?,
                 executed: executed_column.as_deref().map(parse).transpose()?,
             };
-            let files = match &lerobot {
-                Some(folder) => lerobot_files(folder)?,
-                None => demonstrations,
+            // Episode ids are a folder's own: each LeRobot folder is read apart.
+            let groups = if lerobot.is_empty() {
+                vec![demonstrations]
+            } else {
+                lerobot
+                    .iter()
+                    .map(|folder| lerobot_files(folder))
+                    .collect::<Result<Vec<_>>>()?
             };
-            add_demonstrations(&dataset, &files, &columns)
+            add_demonstrations(&dataset, &groups, &columns)
         }
         DaggerCommand::Add {
             dataset,

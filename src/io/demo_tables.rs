@@ -524,6 +524,23 @@ pub fn lerobot_feature_names(folder: &Path, feature: &str) -> Result<Vec<String>
     Ok((0..count).map(|i| format!("{feature}[{i}]")).collect())
 }
 
+/// The features of a LeRobot folder's `meta/info.json` that are images or videos (not in
+/// the tables), with their dtype.
+pub fn lerobot_picture_features(folder: &Path) -> Result<Vec<(String, String)>> {
+    let info_path = folder.join("meta/info.json");
+    let info: serde_json::Value = serde_json::from_slice(&read_input(&info_path)?)
+        .map_err(|e| Error::input(&info_path, format!("not JSON: {e}")))?;
+    let features = info.get("features").and_then(|f| f.as_object());
+    Ok(features
+        .into_iter()
+        .flatten()
+        .filter_map(|(name, feature)| {
+            let dtype = feature.get("dtype")?.as_str()?;
+            matches!(dtype, "video" | "image").then(|| (name.clone(), dtype.to_string()))
+        })
+        .collect())
+}
+
 fn lerobot_columns(info: &serde_json::Value) -> Option<Columns> {
     let names = feature_element_names(info, "observation.state")?;
     let element = |wanted: &[&str]| {
