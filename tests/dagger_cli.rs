@@ -299,24 +299,23 @@ fn robot_log(path: &std::path::Path, with_labels: bool, ros1: bool) {
 
 /// `dagger add DATASET --log LOG` with the topics of [`robot_log`].
 fn add_robot_log(dir: &std::path::Path, dataset: &str, log: &str) -> std::process::Output {
-    imitate(
-        dir,
-        &[
-            "dagger",
-            "add",
-            dataset,
-            "--log",
-            log,
-            "--observation-topic",
-            "/lane_state",
-            "--action-topic",
-            "/steering",
-            "--label-topic",
-            "/teacher/steering",
-            "--tolerance-ms",
-            "20",
-        ],
-    )
+    add_robot_logs(dir, dataset, &[log])
+}
+
+/// `dagger add DATASET --log LOG...`: a round per log.
+fn add_robot_logs(dir: &std::path::Path, dataset: &str, logs: &[&str]) -> std::process::Output {
+    let topics = [
+        "--observation-topic",
+        "/lane_state",
+        "--action-topic",
+        "/steering",
+        "--label-topic",
+        "/teacher/steering",
+        "--tolerance-ms",
+        "20",
+    ];
+    let args = [&["dagger", "add", dataset, "--log"], logs, &topics[..]].concat();
+    imitate(dir, &args)
 }
 
 #[test]
@@ -416,20 +415,7 @@ fn a_ros1_log_gives_the_round_its_ros2_twin_gives() {
         "a,b,c,d,e",
     ]);
     assert!(init.status.success(), "{}", stderr(&init));
-    let added = run(&[
-        "dagger",
-        "add",
-        "both",
-        "--log",
-        "ros2.mcap",
-        "ros1.mcap",
-        "--observation-topic",
-        "/lane_state",
-        "--action-topic",
-        "/steering",
-        "--label-topic",
-        "/teacher/steering",
-    ]);
+    let added = add_robot_logs(dir.path(), "both", &["ros2.mcap", "ros1.mcap"]);
     assert!(added.status.success(), "{}", stderr(&added));
     assert_eq!(
         json(&run(&["dagger", "status", "both", "--json"]))
