@@ -207,7 +207,13 @@ fn exported(dir: &str) -> PathBuf {
             &["export", "costmap-40", "--out", dir, "--map", "terrain-001"],
         );
         assert!(out.status.success(), "{}", stderr(&out));
-        assert_eq!(stdout(&out).lines().count(), 3, "{}", stdout(&out));
+        // An artifact: its manifest lists the three files.
+        assert!(stdout(&out).starts_with("export\t"), "{}", stdout(&out));
+        let manifest =
+            std::fs::read_to_string(workspace().join(dir).join("manifest.json")).unwrap();
+        for file in ["terrain-001.png", "terrain-001.tif", "terrain-001.mcap"] {
+            assert!(manifest.contains(file), "{manifest}");
+        }
     }
     out_dir
 }

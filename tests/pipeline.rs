@@ -427,3 +427,34 @@ fn declared_deps_join_the_lineage_and_declared_outs_are_checked() {
         ],
     );
 }
+
+#[test]
+fn exports_are_stages_that_rerun_only_when_their_costmap_changes() {
+    let yaml = std::fs::read_to_string(repo().join(PIPELINE)).unwrap()
+        + "  export:
+    uses: export
+    with:
+      artifact: out/quickstart/costmap
+      formats: [png, nav2]
+      maps: [terrain-000]
+      out: out/quickstart/export
+";
+    let ws = quickstart_workspace();
+    std::fs::write(ws.path().join(PIPELINE), &yaml).unwrap();
+    let first = run(ws.path(), &[]);
+    let export = ws.path().join("out/quickstart/export");
+    for file in [
+        "terrain-000.png",
+        "terrain-000.yaml",
+        "terrain-000.pgm",
+        "manifest.json",
+    ] {
+        assert!(export.join(file).is_file(), "{file}: {}", stderr(&first));
+    }
+    let again = run(ws.path(), &[]);
+    assert!(
+        lines(&again).contains(&"export: up to date".to_string()),
+        "{}",
+        stderr(&again)
+    );
+}

@@ -28,7 +28,6 @@ mod bench_verify;
 mod cache;
 mod dagger;
 mod diff;
-mod export;
 mod forecast;
 mod inspect_artifact;
 mod log;
@@ -44,7 +43,7 @@ use clap::{Parser, Subcommand};
 
 use crate::error::{Error, Result};
 use crate::pipeline::RunOptions;
-use crate::stage::{Stage, StageReport, features, ingest, ioc, learch};
+use crate::stage::{Stage, StageReport, export, features, ingest, ioc, learch};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -124,8 +123,9 @@ pub enum Command {
     /// Check artifacts and DAgger datasets against their manifests (every file's size and
     /// digest), and MCAP files against their chunk CRCs; exit 2 naming what is damaged.
     Verify(verify::VerifyArgs),
-    /// A costmap artifact as PNG (with a colour bar), GeoTIFF and MCAP (for Foxglove).
-    Export(export::ExportArgs),
+    /// A costmap artifact as PNG (with a colour bar), GeoTIFF, MCAP (for Foxglove) and
+    /// Nav2 maps, or a policy artifact as an ONNX model: an artifact of those files.
+    Export(export::ExportParams),
     /// A report on a costmap artifact: markdown and self-contained HTML with previews,
     /// learning curves and metrics.
     Report(report::ReportArgs),
@@ -238,7 +238,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Diff(args) => diff::run(args),
         Command::Verify(args) => verify::run(args),
         Command::Cache(command) => cache::run(command),
-        Command::Export(args) => export::run(args),
+        Command::Export(args) => run_stage(&args),
         Command::Report(args) => report::run(args),
     }
 }

@@ -4,6 +4,7 @@
 //! `build`; stages never know the runner.
 
 pub mod dagger;
+pub mod export;
 pub mod features;
 pub mod ingest;
 pub mod ioc;
@@ -63,6 +64,9 @@ const REGISTRY: &[(&str, Constructor)] = &[
     }),
     (dagger::KIND, |p| {
         Ok(Box::new(parse::<dagger::DaggerParams>(dagger::KIND, p)?))
+    }),
+    (export::KIND, |p| {
+        Ok(Box::new(parse::<export::ExportParams>(export::KIND, p)?))
     }),
 ];
 
