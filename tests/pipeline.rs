@@ -429,7 +429,7 @@ fn declared_deps_join_the_lineage_and_declared_outs_are_checked() {
 }
 
 #[test]
-fn exports_are_stages_that_rerun_only_when_their_costmap_changes() {
+fn exports_and_reports_are_stages_that_rerun_only_when_their_costmap_changes() {
     let yaml = std::fs::read_to_string(repo().join(PIPELINE)).unwrap()
         + "  export:
     uses: export
@@ -438,6 +438,11 @@ fn exports_are_stages_that_rerun_only_when_their_costmap_changes() {
       formats: [png, nav2]
       maps: [terrain-000]
       out: out/quickstart/export
+  report:
+    uses: report
+    with:
+      artifact: out/quickstart/costmap
+      out: out/quickstart/report
 ";
     let ws = quickstart_workspace();
     std::fs::write(ws.path().join(PIPELINE), &yaml).unwrap();
@@ -451,10 +456,14 @@ fn exports_are_stages_that_rerun_only_when_their_costmap_changes() {
     ] {
         assert!(export.join(file).is_file(), "{file}: {}", stderr(&first));
     }
-    let again = run(ws.path(), &[]);
     assert!(
-        lines(&again).contains(&"export: up to date".to_string()),
-        "{}",
-        stderr(&again)
+        ws.path()
+            .join("out/quickstart/report/report.html")
+            .is_file()
     );
+    let again = run(ws.path(), &[]);
+    for stage in ["export", "report"] {
+        let line = format!("{stage}: up to date");
+        assert!(lines(&again).contains(&line), "{}", stderr(&again));
+    }
 }

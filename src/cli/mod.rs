@@ -33,7 +33,6 @@ mod inspect_artifact;
 mod log;
 mod mcap;
 mod plan;
-mod report;
 mod testdata;
 mod verify;
 
@@ -43,7 +42,7 @@ use clap::{Parser, Subcommand};
 
 use crate::error::{Error, Result};
 use crate::pipeline::RunOptions;
-use crate::stage::{Stage, StageReport, export, features, ingest, ioc, learch};
+use crate::stage::{Stage, StageReport, export, features, ingest, ioc, learch, report};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -128,7 +127,7 @@ pub enum Command {
     Export(export::ExportParams),
     /// A report on a costmap artifact: markdown and self-contained HTML with previews,
     /// learning curves and metrics.
-    Report(report::ReportArgs),
+    Report(report::ReportParams),
     /// Plan the cheapest path between two points on a costmap.
     Plan(plan::PlanArgs),
     /// Forecast where a partly walked path goes: the posterior over candidate
@@ -239,7 +238,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Verify(args) => verify::run(args),
         Command::Cache(command) => cache::run(command),
         Command::Export(args) => run_stage(&args),
-        Command::Report(args) => report::run(args),
+        Command::Report(args) => run_stage(&args),
     }
 }
 

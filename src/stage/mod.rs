@@ -9,6 +9,7 @@ pub mod features;
 pub mod ingest;
 pub mod ioc;
 pub mod learch;
+pub mod report;
 
 use std::path::{Path, PathBuf};
 
@@ -67,6 +68,9 @@ const REGISTRY: &[(&str, Constructor)] = &[
     }),
     (export::KIND, |p| {
         Ok(Box::new(parse::<export::ExportParams>(export::KIND, p)?))
+    }),
+    (report::KIND, |p| {
+        Ok(Box::new(parse::<report::ReportParams>(report::KIND, p)?))
     }),
 ];
 

@@ -1,25 +1,65 @@
-//! `imitate report COSTMAP --out DIR`: a report people read: `report.md` (pictures as
-//! files beside it) and a self-contained `report.html` (pictures inline), with the
-//! previews, learning curves and the metrics table.
+//! `report` (and `imitate report COSTMAP --out DIR`): a report people read, as an
+//! artifact: `report.md` (pictures as files beside it) and a self-contained
+//! `report.html` (pictures inline), with the previews, learning curves and the metrics
+//! table. In a pipeline it reruns only when its costmap changed.
 
 use std::fmt::Write as _;
 use std::path::PathBuf;
 
 use base64::Engine;
+use serde::{Deserialize, Serialize};
 
+use super::{Stage, StageReport, commit_artifact, resolved};
+use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, read_input};
 use crate::io::fs::write_bytes_atomic;
 use crate::io::png::write_png;
 use crate::report::costmap_artifact::CostmapArtifact;
 use crate::report::picture::{line_plot, side_by_side};
 
-#[derive(Debug, clap::Args)]
-pub struct ReportArgs {
+pub const KIND: &str = "report";
+const VERSION: u32 = 1;
+
+/// Parameters of `imitate report` and of `uses: report`.
+#[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReportParams {
     /// A costmap artifact folder.
+    #[serde(rename = "artifact")]
     pub costmap: PathBuf,
-    /// The folder to write report.md, report.html and the pictures into.
+    /// The artifact folder to write report.md, report.html and the pictures into.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
+}
+
+impl Stage for ReportParams {
+    fn kind(&self) -> &'static str {
+        KIND
+    }
+
+    fn version(&self) -> u32 {
+        VERSION
+    }
+
+    fn params(&self) -> serde_json::Value {
+        resolved(self)
+    }
+
+    fn deps(&self) -> Vec<PathBuf> {
+        vec![self.costmap.clone()]
+    }
+
+    fn out(&self) -> PathBuf {
+        self.out.clone()
+    }
+
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
+        let mut out = ArtifactBuilder::new(&self.out)?;
+        let pictures = write_report(&self.costmap, &mut out)?;
+        let metrics = serde_json::json!({ "pictures": pictures });
+        let summary = format!("report.md, report.html and {pictures} pictures");
+        commit_artifact(self, extra_deps, out, "report", metrics, summary)
+    }
 }
 
 const LOSS_COLOUR: [u8; 3] = [200, 40, 40];
@@ -58,8 +98,10 @@ fn number(value: Option<&serde_json::Value>) -> String {
     }
 }
 
-pub fn run(args: ReportArgs) -> Result<()> {
-    let artifact = CostmapArtifact::load(&args.costmap)?;
+/// Writes the report of the costmap artifact `costmap` into `out`; returns how many
+/// pictures it holds.
+fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<usize> {
+    let artifact = CostmapArtifact::load(costmap)?;
     let manifest = &artifact.manifest;
     let (loss, agreement) = curves(&artifact);
     let mut pictures: Vec<(String, PathBuf, String)> = Vec::new();
@@ -71,7 +113,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
             ],
             12,
         );
-        let path = args.out.join("learning-curves.png");
+        let path = out.file("learning-curves.png", "picture")?;
         write_png(&path, &plot)?;
         pictures.push((
             "Learning curves".into(),
@@ -91,7 +133,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
             .file_stem()
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
-        let target = args.out.join(format!("preview-{name}.png"));
+        let target = out.file(&format!("preview-{name}.png"), "picture")?;
         let bytes = read_input(&artifact.dir.join(&file.path))?;
         write_bytes_atomic(&target, &bytes)?;
         pictures.push((
@@ -128,7 +170,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
     let _ = writeln!(
         md,
         "# Costmap report: {}\n\nArtifact `{}` ({}), made by `{}` v{} with imitate {}.\n\nParameters: `{params}`\n",
-        args.costmap.display(),
+        costmap.display(),
         manifest.digest,
         manifest.kind,
         lineage.stage,
@@ -156,7 +198,7 @@ pub fn run(args: ReportArgs) -> Result<()> {
          img{{image-rendering:pixelated;max-width:100%}}</style>\
          <h1>Costmap report: {}</h1><p>Artifact <code>{}</code> ({}), made by <code>{}</code> v{} \
          with imitate {}.</p><p>Parameters: <code>{}</code></p><table><tr><th>set</th>",
-        escape(&args.costmap.display().to_string()),
+        escape(&costmap.display().to_string()),
         manifest.digest,
         escape(&manifest.kind),
         escape(&lineage.stage),
@@ -193,11 +235,9 @@ pub fn run(args: ReportArgs) -> Result<()> {
             escape(caption)
         );
     }
-    write_bytes_atomic(&args.out.join("report.md"), md.as_bytes())?;
-    write_bytes_atomic(&args.out.join("report.html"), html.as_bytes())?;
-    outln!("{}", args.out.join("report.md").display());
-    outln!("{}", args.out.join("report.html").display());
-    Ok(())
+    write_bytes_atomic(&out.file("report.md", "report")?, md.as_bytes())?;
+    write_bytes_atomic(&out.file("report.html", "report")?, html.as_bytes())?;
+    Ok(pictures.len())
 }
 
 fn escape(text: &str) -> String {
