@@ -28,7 +28,6 @@ mod bench_verify;
 mod cache;
 mod dagger;
 mod diff;
-mod forecast;
 mod inspect_artifact;
 mod log;
 mod mcap;
@@ -42,7 +41,7 @@ use clap::{Parser, Subcommand};
 
 use crate::error::{Error, Result};
 use crate::pipeline::RunOptions;
-use crate::stage::{Stage, StageReport, export, features, ingest, ioc, learch, report};
+use crate::stage::{Stage, StageReport, export, features, forecast, ingest, ioc, learch, report};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -132,7 +131,7 @@ pub enum Command {
     Plan(plan::PlanArgs),
     /// Forecast where a partly walked path goes: the posterior over candidate
     /// destinations and the expected visitation, under a MaxEnt costmap.
-    Forecast(forecast::ForecastArgs),
+    Forecast(forecast::ForecastParams),
     /// DAgger rounds on disk: init a dataset, add rounds driven by the teacher or a
     /// policy (labelled by the teacher), train a policy artifact, roll it out, status.
     #[command(subcommand)]
@@ -230,7 +229,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Dagger(command) => dagger::run(command),
         Command::Bench(command) => bench::run(command),
         Command::Plan(args) => plan::run(args),
-        Command::Forecast(args) => forecast::run(args),
+        Command::Forecast(args) => run_stage(&args),
         Command::Log(args) => log::run(args),
         Command::Inspect(args) => mcap::inspect_command(args),
         Command::Cat(args) => mcap::cat_command(args),

@@ -11,11 +11,13 @@ mod demo;
 mod geodesy;
 mod map;
 mod path;
+mod points;
 
 pub use demo::{Demonstration, Pose};
 
 pub use map::{Layer, Map, check_map_name};
 pub use path::{CellPath, PathError, is_connected8, rasterize};
+pub use points::locate;
 
 use serde::{Deserialize, Serialize};
 

@@ -6,6 +6,7 @@
 pub mod dagger;
 pub mod export;
 pub mod features;
+pub mod forecast;
 pub mod ingest;
 pub mod ioc;
 pub mod learch;
@@ -71,6 +72,12 @@ const REGISTRY: &[(&str, Constructor)] = &[
     }),
     (report::KIND, |p| {
         Ok(Box::new(parse::<report::ReportParams>(report::KIND, p)?))
+    }),
+    (forecast::KIND, |p| {
+        Ok(Box::new(parse::<forecast::ForecastParams>(
+            forecast::KIND,
+            p,
+        )?))
     }),
 ];
 

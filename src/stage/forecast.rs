@@ -1,4 +1,4 @@
-//! `imitate forecast`: where an agent that has walked part of a path will go next, under
+//! `forecast` (and `imitate forecast`): where an agent that has walked part of a path will go next, under
 //! the maximum-entropy model of a learned costmap (Ziebart et al. 2008, Kitani et al.
 //! 2012): the posterior over candidate destinations and the expected visitation of the
 //! rest of the path.
@@ -9,16 +9,18 @@
 //! over destinations of the expected visits of paths from B. Paths are limited to a
 //! horizon (see `ioc::soft_paths`): from B, `horizon_factor` times the octile steps to
 //! g; from A, that plus the steps already taken.
+//!
+//! The outputs are an artifact, so a pipeline reruns a forecast only when its costmap or
+//! its parameters changed.
 
 use std::path::PathBuf;
 
-use clap::Args;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
-use super::plan::locate;
-use crate::artifact::load_costs;
+use super::{Stage, StageReport, commit_artifact, resolved};
+use crate::artifact::{ArtifactBuilder, load_costs};
 use crate::error::{Error, Result};
-use crate::grid::{Cell, Grid};
+use crate::grid::{Cell, Grid, locate};
 use crate::io::fs::write_bytes_atomic;
 use crate::io::png::write_png;
 use crate::io::tables::{Table, write_numeric_table};
@@ -26,10 +28,28 @@ use crate::ioc::soft_paths::{SoftGoal, Window};
 use crate::plan::path_cost;
 use crate::report::{COLOUR_DEMONSTRATION, COLOUR_PLAN, paint_heat};
 
-#[derive(Debug, Args)]
-pub struct ForecastArgs {
+pub const KIND: &str = "forecast";
+const VERSION: u32 = 1;
+
+fn default_horizon_factor() -> f64 {
+    1.5
+}
+
+fn default_window_margin() -> u32 {
+    6
+}
+
+fn default_scale() -> u32 {
+    4
+}
+
+/// Parameters of `imitate forecast` and of `uses: forecast`.
+#[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForecastParams {
     /// A costmap artifact folder (best one learned with `--method maxent`, whose costs
     /// are calibrated as log-probabilities) or a `costmap/1` Parquet file.
+    #[serde(rename = "artifact")]
     pub costmap: PathBuf,
     /// The path walked so far: points "x,y" (metres, or "row,col" with --cells)
     /// separated by spaces or semicolons, consecutive cells neighbours.
@@ -40,23 +60,63 @@ pub struct ForecastArgs {
     pub destinations: Vec<String>,
     /// Read points as "row,col" cells.
     #[arg(long)]
+    #[serde(default)]
     pub cells: bool,
     /// Which map of an artifact (default: its only one).
     #[arg(long)]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     pub map: Option<String>,
     /// Paths may take up to this many times the octile steps to a destination.
     #[arg(long, default_value_t = 1.5)]
+    #[serde(default = "default_horizon_factor")]
     pub horizon_factor: f64,
     /// Cells around the observed path and the destinations that paths may use.
     #[arg(long, default_value_t = 6)]
+    #[serde(default = "default_window_margin")]
     pub window_margin: u32,
-    /// Folder for visitation.parquet, destinations.parquet, forecast.png and
+    /// Artifact folder for visitation.parquet, destinations.parquet, forecast.png and
     /// forecast.json.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Pixels per cell in the PNG.
     #[arg(long, default_value_t = 4)]
+    #[serde(default = "default_scale")]
     pub scale: u32,
+}
+
+impl Stage for ForecastParams {
+    fn kind(&self) -> &'static str {
+        KIND
+    }
+
+    fn version(&self) -> u32 {
+        VERSION
+    }
+
+    fn params(&self) -> serde_json::Value {
+        resolved(self)
+    }
+
+    fn deps(&self) -> Vec<PathBuf> {
+        vec![self.costmap.clone()]
+    }
+
+    fn out(&self) -> PathBuf {
+        self.out.clone()
+    }
+
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
+        let mut out = ArtifactBuilder::new(&self.out)?;
+        let output = forecast(self, &mut out)?;
+        let summary = output
+            .destinations
+            .iter()
+            .map(|d| format!("({}, {}) {:.3}", d.cell[0], d.cell[1], d.probability))
+            .collect::<Vec<_>>()
+            .join(", ");
+        let metrics = serde_json::to_value(&output).expect("forecasts serialise");
+        commit_artifact(self, extra_deps, out, "forecast", metrics, summary)
+    }
 }
 
 #[derive(Serialize)]
@@ -83,7 +143,8 @@ fn octile(a: Cell, b: Cell) -> f64 {
     dr.max(dc) + (std::f64::consts::SQRT_2 - 1.0) * dr.min(dc)
 }
 
-pub fn run(args: ForecastArgs) -> Result<()> {
+/// The forecast of `args`, its files written into `out`.
+fn forecast(args: &ForecastParams, out: &mut ArtifactBuilder) -> Result<ForecastOutput> {
     if !(args.horizon_factor.is_finite() && args.horizon_factor >= 1.0) {
         return Err(Error::Usage("--horizon-factor must be at least 1".into()));
     }
@@ -161,8 +222,6 @@ pub fn run(args: ForecastArgs) -> Result<()> {
         heat.data[geo.index(window.cell(i))] = v as f32;
     }
 
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| Error::io(format!("creating {}", args.out.display()), e))?;
     let (rows, cols): (Vec<f64>, Vec<f64>) = (0..geo.cell_count())
         .map(|i| {
             let c = geo.cell_at(i);
@@ -171,7 +230,7 @@ pub fn run(args: ForecastArgs) -> Result<()> {
         .unzip();
     let heat_values: Vec<f64> = heat.data.iter().map(|&v| f64::from(v)).collect();
     write_numeric_table(
-        &args.out.join("visitation.parquet"),
+        &out.file("visitation.parquet", "visitation")?,
         Table::FORECAST_VISITATION,
         &[("row", &rows), ("col", &cols), ("visits", &heat_values)],
     )?;
@@ -180,7 +239,7 @@ pub fn run(args: ForecastArgs) -> Result<()> {
         .map(|c| (f64::from(c.row), f64::from(c.col)))
         .unzip();
     write_numeric_table(
-        &args.out.join("destinations.parquet"),
+        &out.file("destinations.parquet", "destinations")?,
         Table::FORECAST_DESTINATIONS,
         &[
             ("row", &d_rows),
@@ -194,7 +253,7 @@ pub fn run(args: ForecastArgs) -> Result<()> {
         .collect();
     marks.extend(destinations.iter().map(|&c| (c, COLOUR_PLAN)));
     write_png(
-        &args.out.join("forecast.png"),
+        &out.file("forecast.png", "picture")?,
         &paint_heat(&heat, &marks, args.scale),
     )?;
     let output = ForecastOutput {
@@ -215,7 +274,6 @@ pub fn run(args: ForecastArgs) -> Result<()> {
             .collect(),
     };
     let json = serde_json::to_string_pretty(&output).expect("forecasts serialise");
-    write_bytes_atomic(&args.out.join("forecast.json"), json.as_bytes())?;
-    outln!("{json}");
-    Ok(())
+    write_bytes_atomic(&out.file("forecast.json", "forecast")?, json.as_bytes())?;
+    Ok(output)
 }
