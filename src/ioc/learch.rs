@@ -207,7 +207,7 @@ impl Default for LearchConfig {
                 ..TreeConfig::default()
             },
             patience: None,
-            horizon_factor: 1.5,
+            horizon_factor: 1.25,
             window_margin: 6,
         }
     }
@@ -800,7 +800,7 @@ fn maxent_gradient(
     let horizon = ((steps(&ex.path) as f64 * config.horizon_factor).ceil() as usize)
         .max(steps(&ex.path))
         .max(1);
-    let soft = SoftGoal::new(costs, window, goal, horizon);
+    let soft = SoftGoal::between(costs, window, start, goal, horizon);
     let log_partition = -soft.value(start);
     if !log_partition.is_finite() {
         return Err(unreachable(ex));

@@ -115,9 +115,131 @@ pub struct SoftGoal {
     edge: Vec<f64>,
     length: Vec<f64>,
     goal: usize,
+    goal_cell: Cell,
+    /// The one start the passes are restricted to, if any (see `SoftGoal::between`).
+    start: Option<Cell>,
     horizon: usize,
-    /// V_k for k = 0..=horizon, each a window's worth.
-    values: Vec<Vec<f64>>,
+    /// V_k for k = 0..=settled, each on the cells the passes can read (∞ elsewhere).
+    values: Vec<Layer>,
+    /// The first k from which V_k no longer changes (to 1e-13): V_k = V_settled for
+    /// every k above, so the backward pass stops there and the forward pass reuses one
+    /// policy. Cheap paths (cells costing less than about ln 8 per step) never settle:
+    /// their loops keep gaining weight, and the horizon is what bounds them.
+    settled: usize,
+}
+
+/// Values on a rectangle of window cells.
+struct Layer {
+    rect: Rect,
+    data: Vec<f64>,
+}
+
+/// Window rows r0..r1 and columns c0..c1.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Rect {
+    r0: u32,
+    r1: u32,
+    c0: u32,
+    c1: u32,
+}
+
+impl Rect {
+    const EMPTY: Rect = Rect {
+        r0: 0,
+        r1: 0,
+        c0: 0,
+        c1: 0,
+    };
+
+    /// The window cells within `k` moves (Chebyshev distance) of `center`: only they
+    /// can hold finite values after k backward steps, or mass after k forward ones.
+    fn ball(window: &Window, center: Cell, k: usize) -> Rect {
+        let k = k.min(u32::MAX as usize / 2) as u32;
+        let (r, c) = (center.row - window.row0, center.col - window.col0);
+        Rect {
+            r0: r.saturating_sub(k),
+            r1: r.saturating_add(k).saturating_add(1).min(window.rows),
+            c0: c.saturating_sub(k),
+            c1: c.saturating_add(k).saturating_add(1).min(window.cols),
+        }
+    }
+
+    fn intersect(self, other: Rect) -> Rect {
+        Rect {
+            r0: self.r0.max(other.r0),
+            r1: self.r1.min(other.r1),
+            c0: self.c0.max(other.c0),
+            c1: self.c1.min(other.c1),
+        }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.r0 >= self.r1 || self.c0 >= self.c1
+    }
+
+    fn len(&self) -> usize {
+        if self.is_empty() {
+            0
+        } else {
+            (self.r1 - self.r0) as usize * (self.c1 - self.c0) as usize
+        }
+    }
+
+    fn covers(&self, other: Rect) -> bool {
+        other.is_empty()
+            || (self.r0 <= other.r0
+                && other.r1 <= self.r1
+                && self.c0 <= other.c0
+                && other.c1 <= self.c1)
+    }
+
+    /// Window indices of the cells, row-major.
+    fn indices(self, width: u32) -> impl Iterator<Item = usize> {
+        let cols = if self.is_empty() {
+            0..0
+        } else {
+            self.c0..self.c1
+        };
+        (self.r0..self.r1).flat_map(move |row| {
+            cols.clone()
+                .map(move |col| row as usize * width as usize + col as usize)
+        })
+    }
+
+    /// Position of window index `x` in the rectangle's data, if inside.
+    fn offset(&self, x: usize, width: u32) -> Option<usize> {
+        let (row, col) = ((x / width as usize) as u32, (x % width as usize) as u32);
+        ((self.r0..self.r1).contains(&row) && (self.c0..self.c1).contains(&col)).then(|| {
+            (row - self.r0) as usize * (self.c1 - self.c0) as usize + (col - self.c0) as usize
+        })
+    }
+}
+
+/// A window-sized copy of one layer (∞ outside it), so that the passes look up
+/// neighbours by window index without bounds tests.
+struct Scratch {
+    values: Vec<f64>,
+    rect: Rect,
+}
+
+impl Scratch {
+    fn new(n: usize) -> Self {
+        Scratch {
+            values: vec![f64::INFINITY; n],
+            rect: Rect::EMPTY,
+        }
+    }
+
+    /// Hold `layer` instead, touching only the two layers' cells.
+    fn load(&mut self, layer: &Layer, width: u32) {
+        for x in self.rect.indices(width) {
+            self.values[x] = f64::INFINITY;
+        }
+        for (x, &v) in layer.rect.indices(width).zip(&layer.data) {
+            self.values[x] = v;
+        }
+        self.rect = layer.rect;
+    }
 }
 
 /// What the forward pass found.
@@ -129,24 +251,36 @@ pub struct Visitation {
     pub incidence: Vec<f64>,
 }
 
-/// The window cells within `k` moves (Chebyshev distance) of `center`: only they can
-/// hold finite values after k backward steps, or mass after k forward ones.
-fn within(window: &Window, center: Cell, k: usize) -> impl Iterator<Item = usize> + '_ {
-    let k = k.min(u32::MAX as usize) as u32;
-    let (r, c) = (center.row - window.row0, center.col - window.col0);
-    let rows = r.saturating_sub(k)..r.saturating_add(k).saturating_add(1).min(window.rows);
-    let cols = c.saturating_sub(k)..c.saturating_add(k).saturating_add(1).min(window.cols);
-    let width = window.cols as usize;
-    rows.flat_map(move |row| {
-        cols.clone()
-            .map(move |col| row as usize * width + col as usize)
-    })
-}
+/// Relative change below which a soft value counts as settled.
+const SETTLED: f64 = 1e-13;
 
 impl SoftGoal {
-    /// The backward pass towards `goal` with at most `horizon` steps; `goal` must lie in
-    /// the window.
-    pub fn new(costs: &Grid<f32>, window: Window, goal_cell: Cell, horizon: usize) -> Self {
+    /// The backward pass towards `goal` with at most `horizon` steps, for any start in
+    /// the window; `goal` must lie in it.
+    pub fn new(costs: &Grid<f32>, window: Window, goal: Cell, horizon: usize) -> Self {
+        Self::build(costs, window, None, goal, horizon)
+    }
+
+    /// The backward pass for paths from `start` only: V_k is kept on the cells that
+    /// `start` reaches within horizon − k steps, all that the forward pass from `start`
+    /// reads (about half the work on a long path). Other starts read as unreachable.
+    pub fn between(
+        costs: &Grid<f32>,
+        window: Window,
+        start: Cell,
+        goal: Cell,
+        horizon: usize,
+    ) -> Self {
+        Self::build(costs, window, Some(start), goal, horizon)
+    }
+
+    fn build(
+        costs: &Grid<f32>,
+        window: Window,
+        start: Option<Cell>,
+        goal_cell: Cell,
+        horizon: usize,
+    ) -> Self {
         let n = window.len();
         let cell_costs: Vec<f64> = (0..n)
             .map(|i| {
@@ -173,37 +307,88 @@ impl SoftGoal {
                 };
             }
         }
-        let goal = window.index(goal_cell);
-        let mut first = vec![f64::INFINITY; n];
-        first[goal] = 0.0;
-        let mut values = vec![first];
-        for k in 1..=horizon {
-            let previous = values.last().expect("V_0 is there");
-            let mut current = vec![f64::INFINITY; n];
-            for x in within(&window, goal_cell, k) {
-                current[x] = if x == goal {
-                    0.0
-                } else {
-                    let q = |m: usize| edge[x * 8 + m] + previous[next[x * 8 + m] as usize];
-                    let least = (0..8).map(q).fold(f64::INFINITY, f64::min);
-                    if least == f64::INFINITY {
-                        least
-                    } else {
-                        least - (0..8).map(|m| (least - q(m)).exp()).sum::<f64>().ln()
-                    }
-                };
-            }
-            values.push(current);
-        }
-        SoftGoal {
+        let mut soft = SoftGoal {
             window,
             next,
             edge,
             length,
-            goal,
+            goal: window.index(goal_cell),
+            goal_cell,
+            start,
             horizon,
-            values,
+            values: Vec::new(),
+            settled: horizon,
+        };
+        soft.backward();
+        soft
+    }
+
+    /// The cells whose V_k the passes read: within k moves of the goal and, for one
+    /// start, within horizon − k moves of it.
+    fn region(&self, k: usize) -> Rect {
+        let near_goal = Rect::ball(&self.window, self.goal_cell, k);
+        match self.start {
+            Some(start) => near_goal.intersect(Rect::ball(&self.window, start, self.horizon - k)),
+            None => near_goal,
         }
+    }
+
+    /// V_k(x) = softmin over moves of edge + V_{k−1}(next), up to the horizon or until
+    /// the values settle.
+    fn backward(&mut self) {
+        let width = self.window.cols;
+        let mut previous = Scratch::new(self.window.len());
+        let first = Layer {
+            rect: self.region(0),
+            data: vec![0.0; self.region(0).len()],
+        };
+        previous.load(&first, width);
+        self.values.push(first);
+        for k in 1..=self.horizon {
+            let rect = self.region(k);
+            let mut changed = false;
+            let data: Vec<f64> = rect
+                .indices(width)
+                .map(|x| {
+                    let v = if x == self.goal {
+                        0.0
+                    } else {
+                        let mut q = [0.0; 8];
+                        for (m, q) in q.iter_mut().enumerate() {
+                            let e = x * 8 + m;
+                            *q = self.edge[e] + previous.values[self.next[e] as usize];
+                        }
+                        let least = q.iter().copied().fold(f64::INFINITY, f64::min);
+                        if least == f64::INFINITY {
+                            least
+                        } else {
+                            least - q.iter().map(|&q| (least - q).exp()).sum::<f64>().ln()
+                        }
+                    };
+                    let old = previous.values[x];
+                    changed |= !(v == old || (v - old).abs() <= SETTLED * v.abs().max(1.0));
+                    v
+                })
+                .collect();
+            let layer = Layer { rect, data };
+            previous.load(&layer, width);
+            self.values.push(layer);
+            // Settled: no value moved, and every cell a later layer could read was
+            // already within reach of the goal, so later layers would repeat this one.
+            let readable = match self.start {
+                Some(start) => Rect::ball(&self.window, start, self.horizon - k + 1),
+                None => Rect::ball(&self.window, self.goal_cell, usize::MAX),
+            };
+            if !changed && Rect::ball(&self.window, self.goal_cell, k - 1).covers(readable) {
+                self.settled = k;
+                break;
+            }
+        }
+    }
+
+    /// The layer that holds V_k.
+    fn layer(&self, k: usize) -> &Layer {
+        &self.values[k.min(self.settled)]
     }
 
     /// Soft cost-to-go from `cell` with the full horizon: −log of the summed
@@ -214,10 +399,14 @@ impl SoftGoal {
 
     /// Soft cost-to-go from `cell` with at most `steps` steps (capped at the horizon).
     pub fn value_within(&self, cell: Cell, steps: usize) -> f64 {
-        if !self.window.contains(cell) {
+        if !self.window.contains(cell) || self.start.is_some_and(|s| s != cell) {
             return f64::INFINITY;
         }
-        self.values[steps.min(self.horizon)][self.window.index(cell)]
+        let layer = self.layer(steps.min(self.horizon));
+        layer
+            .rect
+            .offset(self.window.index(cell), self.window.cols)
+            .map_or(f64::INFINITY, |i| layer.data[i])
     }
 
     /// Expected visitation of paths from `start` under the distribution.
@@ -230,6 +419,7 @@ impl SoftGoal {
     pub fn visitation_within(&self, start: Cell, steps: usize) -> Visitation {
         let steps = steps.min(self.horizon);
         let n = self.window.len();
+        let width = self.window.cols;
         let mut visits = vec![0.0; n];
         let mut incidence = vec![0.0; n];
         if self.value_within(start, steps) == f64::INFINITY {
@@ -239,17 +429,47 @@ impl SoftGoal {
         mass[self.window.index(start)] = 1.0;
         visits[self.window.index(start)] = 1.0;
         let mut moved = vec![0.0; n];
+        let (mut here, mut ahead) = (Scratch::new(n), Scratch::new(n));
+        // While both layers are the settled one the policy does not depend on the
+        // steps left: its move probabilities are computed once.
+        let mut settled_policy: Option<(Rect, Vec<f64>)> = None;
         for (taken, left) in (1..=steps).rev().enumerate() {
-            let (here, next_values) = (&self.values[left], &self.values[left - 1]);
+            let stationary = left > self.settled;
+            if !stationary || settled_policy.is_none() {
+                here.load(self.layer(left), width);
+                ahead.load(self.layer(left - 1), width);
+            }
+            if stationary && settled_policy.is_none() {
+                let rect = self.layer(left).rect;
+                let mut p = vec![0.0; rect.len() * 8];
+                for (i, x) in rect.indices(width).enumerate() {
+                    for m in 0..8 {
+                        let e = x * 8 + m;
+                        let next = ahead.values[self.next[e] as usize];
+                        p[i * 8 + m] = (here.values[x] - self.edge[e] - next).exp();
+                    }
+                }
+                settled_policy = Some((rect, p));
+            }
+            let policy = settled_policy.as_ref().filter(|_| stationary);
             moved.iter_mut().for_each(|m| *m = 0.0);
-            for x in within(&self.window, start, taken) {
+            let cells = Rect::ball(&self.window, start, taken).intersect(self.region(left));
+            for x in cells.indices(width) {
                 let m = mass[x];
                 if m == 0.0 || x == self.goal {
                     continue;
                 }
-                for e in x * 8..x * 8 + 8 {
+                let settled_row = policy.map(|(rect, p)| {
+                    let i = rect.offset(x, width).expect("mass stays where V is finite");
+                    &p[i * 8..i * 8 + 8]
+                });
+                for mv in 0..8 {
+                    let e = x * 8 + mv;
                     let y = self.next[e] as usize;
-                    let p = (here[x] - self.edge[e] - next_values[y]).exp();
+                    let p = match settled_row {
+                        Some(row) => row[mv],
+                        None => (here.values[x] - self.edge[e] - ahead.values[y]).exp(),
+                    };
                     if p > 0.0 {
                         let flow = m * p;
                         let half = flow * self.length[e] * 0.5;
@@ -367,6 +587,104 @@ mod tests {
             .map(|i| visitation.incidence[i] * f64::from(costs.get(window.cell(i))))
             .sum();
         assert!((expected - by_incidence).abs() < 1e-9);
+    }
+
+    /// The passes without restriction or settling: every layer on the whole window.
+    fn naive(costs: &Grid<f32>, start: Cell, goal: Cell, horizon: usize) -> (f64, Vec<f64>) {
+        let (w, h) = (costs.geo.width, costs.geo.height);
+        let window = Window::around(&[Cell::new(0, 0), Cell::new(h - 1, w - 1)], 0, w, h);
+        let lengths = StepLengths::of(&costs.geo);
+        let n = window.len();
+        let edge = |x: usize, m: usize| {
+            window.step(x, m, &lengths).map(|(y, l)| {
+                let (a, b) = (costs.get(window.cell(x)), costs.get(window.cell(y)));
+                (y, l, l * 0.5 * (f64::from(a) + f64::from(b)))
+            })
+        };
+        let g = window.index(goal);
+        let mut values = vec![vec![f64::INFINITY; n]];
+        values[0][g] = 0.0;
+        for k in 1..=horizon {
+            let layer: Vec<f64> = (0..n)
+                .map(|x| {
+                    if x == g {
+                        return 0.0;
+                    }
+                    let z: f64 = (0..8)
+                        .filter_map(|m| edge(x, m))
+                        .map(|(y, _, e)| (-e - values[k - 1][y]).exp())
+                        .sum();
+                    -z.ln()
+                })
+                .collect();
+            values.push(layer);
+        }
+        let mut mass = vec![0.0; n];
+        let mut visits = vec![0.0; n];
+        mass[window.index(start)] = 1.0;
+        visits[window.index(start)] = 1.0;
+        for left in (1..=horizon).rev() {
+            let mut moved = vec![0.0; n];
+            moved[g] = mass[g];
+            for x in (0..n).filter(|&x| x != g && mass[x] > 0.0) {
+                for (y, _, e) in (0..8).filter_map(|m| edge(x, m)) {
+                    let p = (values[left][x] - e - values[left - 1][y]).exp();
+                    moved[y] += mass[x] * p;
+                    visits[y] += mass[x] * p;
+                }
+            }
+            mass = moved;
+        }
+        (values[horizon][window.index(start)], visits)
+    }
+
+    proptest::proptest! {
+        /// Restricting the passes to one start and stopping once the values settle
+        /// change nothing: against the naive passes, on cheap maps (which never settle)
+        /// and dear ones (which do).
+        #[test]
+        fn restricted_and_settled_passes_match_the_naive_ones(
+            width in 2u32..9,
+            height in 2u32..9,
+            scale in proptest::prop_oneof![0.2f32..1.0, 3.0f32..8.0],
+            seed in 0u64..1000,
+            extra in 0usize..12,
+        ) {
+            let data: Vec<f32> = (0..width * height)
+                .map(|i| {
+                    let r = (u64::from(i) * 2654435761 + seed * 40503) % 1000;
+                    scale * (0.5 + r as f32 / 1000.0)
+                })
+                .collect();
+            let costs = grid(width, height, data);
+            let start = Cell::new((seed % u64::from(height)) as u32, 0);
+            let goal = Cell::new(height - 1, width - 1);
+            let horizon = start.chebyshev(goal) as usize + extra;
+            let window = Window::around(&[Cell::new(0, 0), goal], 0, width, height);
+            let (value, visits) = naive(&costs, start, goal, horizon);
+            for soft in [
+                SoftGoal::new(&costs, window, goal, horizon),
+                SoftGoal::between(&costs, window, start, goal, horizon),
+            ] {
+                let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
+                proptest::prop_assert!(close(soft.value(start), value), "{} against {value}", soft.value(start));
+                let found = soft.visitation(start).visits;
+                for (i, (&a, &b)) in found.iter().zip(&visits).enumerate() {
+                    proptest::prop_assert!(close(a, b), "cell {i}: {a} against {b}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn dear_maps_settle_before_the_horizon() {
+        let costs = grid(6, 6, vec![4.0; 36]);
+        let (start, goal) = (Cell::new(0, 0), Cell::new(5, 5));
+        let window = Window::around(&[start, goal], 0, 6, 6);
+        let soft = SoftGoal::between(&costs, window, start, goal, 200);
+        assert!(soft.settled < 60, "settled at {}", soft.settled);
+        let cheap = grid(6, 6, vec![0.5; 36]);
+        assert_eq!(SoftGoal::new(&cheap, window, goal, 200).settled, 200);
     }
 
     #[test]

@@ -68,7 +68,7 @@ mod defaults {
         crate::ioc::GridMethod::Learch
     }
     pub fn horizon_factor() -> f64 {
-        1.5
+        1.25
     }
     pub fn window_margin() -> u32 {
         6
