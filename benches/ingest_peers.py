@@ -56,9 +56,16 @@ def main():
         if not os.path.exists(path):
             subprocess.run([IMITATE, "bench", "ingest", path, "--generate",
                             "--megabytes", str(args.megabytes)], check=True)
-        ours = json.loads(subprocess.run(
-            [IMITATE, "bench", "ingest", path, "--repeat", str(args.repeat), "--json"],
-            check=True, capture_output=True, text=True).stdout)
+        def imitate(threads):
+            env = dict(os.environ)
+            if threads:
+                env["RAYON_NUM_THREADS"] = str(threads)
+            return json.loads(subprocess.run(
+                [IMITATE, "bench", "ingest", path, "--repeat", str(args.repeat), "--json"],
+                check=True, capture_output=True, text=True, env=env).stdout)
+
+        ours = imitate(None)
+        one_thread = imitate(1)
 
         before = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
         start = time.perf_counter()
@@ -72,11 +79,16 @@ def main():
     mb = ours["file_bytes"] / 1e6
     print(f"file: {mb:.1f} MB, {ours['messages']} messages, {ours['chunks']} chunks "
           f"(largest {ours['largest_chunk_bytes'] / 1e6:.1f} MB uncompressed)")
-    print(f"imitate:             {ours['seconds']:8.3f} s  {ours['megabytes_per_second']:7.0f} MB/s  "
+    print(f"imitate, all threads ({os.cpu_count()}): {ours['seconds']:8.3f} s  "
+          f"{ours['megabytes_per_second']:7.0f} MB/s  "
           f"peak extra memory {ours['peak_extra_bytes'] / 1e6:.1f} MB")
+    print(f"imitate, 1 thread:   {one_thread['seconds']:8.3f} s  "
+          f"{one_thread['megabytes_per_second']:7.0f} MB/s  "
+          f"peak extra memory {one_thread['peak_extra_bytes'] / 1e6:.1f} MB")
     print(f"python mcap+ros2:    {theirs:8.3f} s  {mb / theirs:7.1f} MB/s  "
           f"peak memory growth {(peak - before) / 1e6:.1f} MB")
-    print(f"ratio (python / imitate): {theirs / ours['seconds']:.1f}x")
+    print(f"ratio (python / imitate, all threads): {theirs / ours['seconds']:.1f}x; "
+          f"1 thread: {theirs / one_thread['seconds']:.1f}x")
 
 
 if __name__ == "__main__":

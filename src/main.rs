@@ -1,5 +1,11 @@
 use clap::Parser;
 
+/// mimalloc keeps freed megabyte buffers (chunks, grids, feature planes) for reuse
+/// instead of handing them back to the kernel and faulting them in again, which on
+/// several threads serialises on the kernel's page-table lock.
+#[global_allocator]
+static ALLOCATOR: mimalloc::MiMalloc = mimalloc::MiMalloc;
+
 fn main() {
     imitate::error::install_panic_hook();
     let cli = imitate::cli::Cli::parse();

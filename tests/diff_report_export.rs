@@ -241,7 +241,7 @@ fn exports_read_back_through_our_readers() {
     let mut grid = None;
     let mut grid_map = None;
     let mut demonstrations = Vec::new();
-    let mut decoders = imitate::io::mcap::Decoders::default();
+    let decoders = imitate::io::mcap::Decoders::default();
     imitate::io::mcap::scan(&log, |event| {
         if let imitate::io::mcap::Event::Message { channel, data, .. } = event {
             let value = decoders.get(channel).unwrap().decode(data).unwrap();

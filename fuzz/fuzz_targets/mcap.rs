@@ -15,7 +15,7 @@ fuzz_target!(|data: &[u8]| {
     // The readers take paths, as users give them: one scratch file per process.
     let path = std::env::temp_dir().join(format!("imitate-fuzz-mcap-{}", std::process::id()));
     std::fs::write(&path, data).unwrap();
-    let mut decoders = Decoders::default();
+    let decoders = Decoders::default();
     let _ = scan(&path, |event| {
         if let Event::Message { channel, data, .. } = event {
             if let Ok(decoder) = decoders.get(channel) {

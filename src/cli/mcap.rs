@@ -162,7 +162,7 @@ struct CatLine<'a> {
 pub fn cat_command(args: CatArgs) -> Result<()> {
     let wanted: BTreeSet<&str> = args.topics.iter().map(String::as_str).collect();
     let mut seen = BTreeSet::new();
-    let mut decoders = Decoders::default();
+    let decoders = Decoders::default();
     let stdout = std::io::stdout();
     let mut out = std::io::BufWriter::new(stdout.lock());
     let write_error = |e: std::io::Error| Error::io("writing to stdout", e);

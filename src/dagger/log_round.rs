@@ -82,7 +82,7 @@ fn message_numbers(message: &Value) -> Vec<f64> {
 
 /// Reads the round from the log at `path`, whose actions hold `actions` numbers.
 pub fn read_log_round(path: &Path, topics: &LogTopics, actions: usize) -> Result<LogRound> {
-    let mut decoders = Decoders::default();
+    let decoders = Decoders::default();
     let mut seen = std::collections::BTreeSet::new();
     // (log time, numbers) per topic: observation, action, label.
     let mut series: [Vec<(u64, Vec<f64>)>; 3] = Default::default();

@@ -143,12 +143,18 @@ fn map_key(key: &prost_reflect::MapKey) -> String {
 /// One decoder per channel, built on first use; a channel without one keeps its reason.
 #[derive(Default)]
 pub struct Decoders {
-    by_channel: HashMap<u16, Result<Arc<MessageDecoder>, String>>,
+    /// Behind a lock so that threads decoding chunks in parallel share one cache.
+    by_channel: std::sync::Mutex<HashMap<u16, Result<Arc<MessageDecoder>, String>>>,
 }
 
 impl Decoders {
-    pub fn get(&mut self, channel: &ChannelInfo) -> Result<Arc<MessageDecoder>, String> {
-        self.by_channel
+    pub fn get(&self, channel: &ChannelInfo) -> Result<Arc<MessageDecoder>, String> {
+        // A panic elsewhere cannot leave the cache half-written: take it as it is.
+        let mut cache = self
+            .by_channel
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        cache
             .entry(channel.id)
             .or_insert_with(|| MessageDecoder::for_channel(channel).map(Arc::new))
             .clone()

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::frames::{FrameTree, Planar};
 use super::inspect::describe_damage;
-use super::reader::{ChannelInfo, Event, scan, scan_until_damage};
+use super::reader::{ChannelInfo, MessageHeader, scan_messages};
 use super::ros2::{self, GRID_TYPES, POSE_TYPES, StampedPose};
 use super::{Decoders, Value};
 use crate::error::{Error, Result};
@@ -91,6 +91,19 @@ fn pick_topic<'a>(
 
 /// Reads the log at `path`. A map in the log is named after the file (its stem); without
 /// one, episodes lie on `fallback` (map name, frame). Episodes are named after the file
+/// What one message of a log gives the demonstrations.
+enum Found {
+    Poses(Vec<StampedPose>),
+    Map(Map),
+    Goal(u64),
+    Transforms {
+        transforms: Vec<ros2::FrameTransform>,
+        fixed: bool,
+        /// Topic and message, for errors.
+        at: String,
+    },
+}
+
 /// too: `<stem>-demo-NNN`.
 pub fn read_log(
     path: &Path,
@@ -154,56 +167,71 @@ pub fn read_log(
         return Err(problem(format!("no goal topic {goal} in the log")));
     }
 
-    let mut decoders = Decoders::default();
-    let mut map = None;
-    let mut poses: Vec<StampedPose> = Vec::new();
-    let mut goals: Vec<u64> = Vec::new();
-    let mut frames = FrameTree::default();
-    let decode = |decoders: &mut Decoders, channel: &ChannelInfo, sequence: u32, data: &[u8]| {
+    // Messages are decoded on all threads (`scan_messages`) and taken in log order.
+    let decoders = Decoders::default();
+    let decode = |channel: &ChannelInfo, sequence: u32, data: &[u8]| {
         decoders
             .get(channel)
             .and_then(|d| d.decode(data))
             .map_err(|e| problem(format!("topic {} message {sequence}: {e}", channel.topic)))
     };
-    let visit = |event: Event<'_>| {
-        let Event::Message {
-            channel,
-            header,
-            data,
-        } = event
-        else {
-            return Ok(());
-        };
+    let prepare = |channel: &ChannelInfo, header: &MessageHeader, data: &[u8]| {
         let topic = channel.topic.as_str();
         let schema = ros2::canonical_type(channel.schema_name());
         let schema = schema.as_ref();
         let at = |e: String| problem(format!("topic {topic} message {}: {e}", header.sequence));
-        if topic == pose_topic {
-            let message = decode(&mut decoders, channel, header.sequence, data)?;
-            poses.extend(ros2::poses(schema, &message, header.log_time).map_err(at)?);
+        Ok(Some(if topic == pose_topic {
+            let message = decode(channel, header.sequence, data)?;
+            Found::Poses(ros2::poses(schema, &message, header.log_time).map_err(at)?)
         } else if Some(topic) == map_topic.as_deref() {
-            let message = decode(&mut decoders, channel, header.sequence, data)?;
-            map = Some(ros2::grid(schema, &message, &stem).map_err(at)?);
+            let message = decode(channel, header.sequence, data)?;
+            Found::Map(ros2::grid(schema, &message, &stem).map_err(at)?)
         } else if Some(topic) == goal_topic.as_deref() {
-            goals.push(header.log_time);
+            Found::Goal(header.log_time)
         } else if (topic == "/tf" || topic == "/tf_static") && schema == "tf2_msgs/msg/TFMessage" {
-            let message: Value = decode(&mut decoders, channel, header.sequence, data)?;
-            for transform in ros2::transforms(&message, header.log_time).map_err(at)? {
-                frames.add(transform, topic == "/tf_static").map_err(at)?;
+            let message: Value = decode(channel, header.sequence, data)?;
+            let transforms = ros2::transforms(&message, header.log_time).map_err(at)?;
+            Found::Transforms {
+                transforms,
+                fixed: topic == "/tf_static",
+                at: format!("topic {topic} message {}", header.sequence),
+            }
+        } else {
+            return Ok(None);
+        }))
+    };
+    let mut map = None;
+    let mut poses: Vec<StampedPose> = Vec::new();
+    let mut goals: Vec<u64> = Vec::new();
+    let mut frames = FrameTree::default();
+    let consume = |found: Found| {
+        match found {
+            Found::Poses(more) => poses.extend(more),
+            Found::Map(grid) => map = Some(grid),
+            Found::Goal(time) => goals.push(time),
+            Found::Transforms {
+                transforms,
+                fixed,
+                at,
+            } => {
+                for transform in transforms {
+                    frames
+                        .add(transform, fixed)
+                        .map_err(|e| problem(format!("{at}: {e}")))?;
+                }
             }
         }
         Ok(())
     };
-    if mapping.allow_truncated {
-        if let Some(damage) = scan_until_damage(path, visit)? {
-            tracing::warn!(
-                "{}: {}; ingesting what came before it",
-                path.display(),
-                describe_damage(&damage)
-            );
+    if let Some(damage) = scan_messages(path, prepare, consume)? {
+        if !mapping.allow_truncated {
+            return Err(damage.into_error(path));
         }
-    } else {
-        scan(path, visit)?;
+        tracing::warn!(
+            "{}: {}; ingesting what came before it",
+            path.display(),
+            describe_damage(&damage)
+        );
     }
     frames.finish();
 
