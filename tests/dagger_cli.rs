@@ -648,6 +648,76 @@ fn expert_demonstrations_from_lerobot_become_round_zero() {
     assert_eq!(rounds.as_array().unwrap().len(), 1);
 }
 
+/// `lerobot_episode` whose `action` is a chunk of 3 two-number vectors per frame, with
+/// an `action_is_pad` column flagging the last `padded` frames.
+fn lerobot_chunked_episode(episode: i64, steps: usize, padded: usize) -> arrow::array::RecordBatch {
+    use arrow::array::{Array, ArrayRef, BooleanArray, FixedSizeListArray, Float32Array};
+    use arrow::datatypes::{DataType, Field};
+    use std::sync::Arc;
+    let base = lerobot_episode(episode, steps);
+    let item = Arc::new(Field::new("item", DataType::Float32, true));
+    let vector = Arc::new(Field::new("item", DataType::FixedSizeList(item.clone(), 2), true));
+    let numbers: Vec<f32> = (0..steps * 6).map(|i| i as f32 * 0.01).collect();
+    let vectors = FixedSizeListArray::new(item, 2, Arc::new(Float32Array::from(numbers)), None);
+    let chunk = FixedSizeListArray::new(vector, 3, Arc::new(vectors), None);
+    let pad = BooleanArray::from((0..steps).map(|k| k >= steps - padded).collect::<Vec<_>>());
+    let mut fields = Vec::new();
+    let mut columns: Vec<ArrayRef> = Vec::new();
+    for (field, column) in base.schema().fields().iter().zip(base.columns()) {
+        if field.name() == "action" {
+            fields.push(Field::new("action", chunk.data_type().clone(), false));
+            columns.push(Arc::new(chunk.clone()));
+        } else {
+            fields.push(field.as_ref().clone());
+            columns.push(column.clone());
+        }
+    }
+    fields.push(Field::new("action_is_pad", DataType::Boolean, false));
+    columns.push(Arc::new(pad));
+    arrow::array::RecordBatch::try_new(Arc::new(arrow::datatypes::Schema::new(fields)), columns)
+        .unwrap()
+}
+
+#[test]
+fn lerobot_padding_is_left_out_and_a_chunk_needs_a_choice() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| imitate(dir.path(), args);
+    let folder = dir.path().join("expert");
+    std::fs::create_dir_all(folder.join("meta")).unwrap();
+    std::fs::write(
+        folder.join("meta/info.json"),
+        r#"{"codebase_version": "v2.1", "features": {
+            "observation.state": {"dtype": "float32", "shape": [5]},
+            "action": {"dtype": "float32", "shape": [2], "names": ["steer", "throttle"]}}}"#,
+    )
+    .unwrap();
+    for episode in 0..2 {
+        write_parquet(
+            &folder.join(format!("data/chunk-000/episode_{episode:06}.parquet")),
+            &lerobot_chunked_episode(episode, 30, 5),
+        );
+    }
+    let init = run(&["dagger", "init", "ds", "--lerobot", "expert"]);
+    assert!(init.status.success(), "{}", stderr(&init));
+    // A chunk of 3 vectors for a dataset of 2-number actions: the user must say which
+    // part to learn; nothing is added until then.
+    let chunk = run(&["dagger", "add", "ds", "--lerobot", "expert"]);
+    assert_eq!(chunk.status.code(), Some(2), "{}", stderr(&chunk));
+    for needed in ["record 0", "'action'", "chunk of 3 vectors", "action[0]"] {
+        assert!(stderr(&chunk).contains(needed), "{needed}: {}", stderr(&chunk));
+    }
+    let status = json(&run(&["dagger", "status", "ds", "--json"]));
+    assert_eq!(status.as_array().unwrap().len(), 0);
+    // The first vector of each chunk, padded frames left out.
+    let first = run(&["dagger", "add", "ds", "--lerobot", "expert", "--action", "action[0]"]);
+    assert!(first.status.success(), "{}", stderr(&first));
+    assert!(
+        stdout(&first).contains("50 steps in 2 episodes"),
+        "{}",
+        stdout(&first)
+    );
+}
+
 #[test]
 fn gridnav_rounds_walk_a_costmap_and_train_a_discrete_policy() {
     let dir = tempfile::tempdir().unwrap();

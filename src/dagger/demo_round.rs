@@ -3,13 +3,13 @@
 //! outside imitate, whose table holds the executed action beside the teacher's label. Observations come from one
 //! or more columns and the action from one (a list column gives all its elements,
 //! `name[i]` one element, a number column itself); rows of an episode are consecutive,
-//! in time order.
+//! in time order. Frames that LeRobot's `<column>_is_pad` flags as padding are left out.
 
 use std::path::PathBuf;
 
 use super::{Actor, Step};
 use crate::error::{Error, Result};
-use crate::io::demo_tables::{Column, labels, row_vectors};
+use crate::io::demo_tables::{Column, labels, padding, row_vectors};
 use crate::io::tables::{Table, read_table};
 
 /// Which columns hold what.
@@ -56,7 +56,18 @@ pub fn read_demo_round(
             Some(column) => Some(row_vectors(file, &batch, column)?),
             None => None,
         };
+        // LeRobot's `*_is_pad` flags: frames whose observation or action is padding
+        // are left out.
+        let mut padded = vec![false; ids.len()];
+        for column in columns.observations.iter().chain([&columns.action]) {
+            for (row, flag) in padding(file, &batch, column)?.into_iter().flatten().enumerate() {
+                padded[row] |= flag;
+            }
+        }
         for (row, id) in ids.iter().enumerate() {
+            if padded[row] {
+                continue;
+            }
             let action = &action_rows[row];
             if action.len() != actions {
                 return Err(Error::input(
@@ -71,6 +82,15 @@ pub fn read_demo_round(
                                 " (create the dataset with `dagger init --lerobot` or \
                                  `--actions`, or name one element, as '{}[0]')",
                                 columns.action.name
+                            )
+                        } else if action.len() > actions && action.len() % actions == 0 {
+                            format!(
+                                ": an action chunk of {} vectors; choose what to learn: \
+                                 its first vector ('{name}[0]') or the whole chunk (a \
+                                 dataset made with --actions naming all {} numbers)",
+                                action.len() / actions,
+                                action.len(),
+                                name = columns.action.name
                             )
                         } else {
                             String::new()

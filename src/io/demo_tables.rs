@@ -317,6 +317,81 @@ pub fn row_vectors(path: &Path, batch: &RecordBatch, column: &Column) -> Result<
         .collect()
 }
 
+/// Per row, whether the values `column` takes are padding, from LeRobot's
+/// `<name>_is_pad` column beside it (a bool, or a list of bools per element of an
+/// action chunk): padded values repeat the episode's last frame and teach nothing.
+/// With `name[i]` element i's flag counts, otherwise any element's. `None` when the
+/// table has no such column.
+pub fn padding(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Option<Vec<bool>>> {
+    let name = format!("{}_is_pad", column.name);
+    let Some(flags) = batch.column_by_name(&name) else {
+        return Ok(None);
+    };
+    let null = |row: usize| Error::input(path, format!("record {row}: column '{name}' is null"));
+    let not_flags = |t: &DataType| {
+        Error::input(
+            path,
+            format!("column '{name}' holds {t}, expected booleans or lists of booleans"),
+        )
+    };
+    let rows = flags.len();
+    let (ranges, values): (Vec<usize>, &dyn Array) = match flags.data_type() {
+        DataType::Boolean => ((0..=rows).collect(), flags.as_ref()),
+        DataType::List(_) => {
+            let list = flags.as_list::<i32>();
+            let ranges = list.value_offsets().iter().map(|&o| o as usize).collect();
+            (ranges, list.values().as_ref())
+        }
+        DataType::LargeList(_) => {
+            let list = flags.as_list::<i64>();
+            let ranges = list.value_offsets().iter().map(|&o| o as usize).collect();
+            (ranges, list.values().as_ref())
+        }
+        DataType::FixedSizeList(_, n) => {
+            let list = flags.as_fixed_size_list();
+            let n = *n as usize;
+            ((0..=rows).map(|i| i * n).collect(), list.values().as_ref())
+        }
+        other => return Err(not_flags(other)),
+    };
+    let Some(values) = values.as_boolean_opt() else {
+        return Err(not_flags(values.data_type()));
+    };
+    (0..rows)
+        .map(|row| {
+            if flags.is_null(row) {
+                return Err(null(row));
+            }
+            let taken = match (column.index, flags.data_type()) {
+                (Some(i), DataType::List(_) | DataType::LargeList(_) | DataType::FixedSizeList(..)) => {
+                    let at = ranges[row] + i;
+                    if at >= ranges[row + 1] {
+                        return Err(Error::input(
+                            path,
+                            format!(
+                                "record {row}: column '{name}' holds {} flags, no element {i}",
+                                ranges[row + 1] - ranges[row]
+                            ),
+                        ));
+                    }
+                    at..at + 1
+                }
+                _ => ranges[row]..ranges[row + 1],
+            };
+            taken
+                .map(|i| {
+                    if values.is_null(i) {
+                        Err(null(row))
+                    } else {
+                        Ok(values.value(i))
+                    }
+                })
+                .try_fold(false, |any, flag| flag.map(|f| any || f))
+        })
+        .collect::<Result<Vec<bool>>>()
+        .map(Some)
+}
+
 /// Episode ids as text: string columns as they are, integer ids in decimal.
 pub fn labels(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Vec<String>> {
     let values = array(path, batch, column)?;
