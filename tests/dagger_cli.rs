@@ -656,7 +656,11 @@ fn lerobot_chunked_episode(episode: i64, steps: usize, padded: usize) -> arrow::
     use std::sync::Arc;
     let base = lerobot_episode(episode, steps);
     let item = Arc::new(Field::new("item", DataType::Float32, true));
-    let vector = Arc::new(Field::new("item", DataType::FixedSizeList(item.clone(), 2), true));
+    let vector = Arc::new(Field::new(
+        "item",
+        DataType::FixedSizeList(item.clone(), 2),
+        true,
+    ));
     let numbers: Vec<f32> = (0..steps * 6).map(|i| i as f32 * 0.01).collect();
     let vectors = FixedSizeListArray::new(item, 2, Arc::new(Float32Array::from(numbers)), None);
     let chunk = FixedSizeListArray::new(vector, 3, Arc::new(vectors), None);
@@ -704,12 +708,24 @@ fn lerobot_padding_is_left_out_and_a_chunk_needs_a_choice() {
     let chunk = run(&["dagger", "add", "ds", "--lerobot", "expert"]);
     assert_eq!(chunk.status.code(), Some(2), "{}", stderr(&chunk));
     for needed in ["record 0", "'action'", "chunk of 3 vectors", "action[0]"] {
-        assert!(stderr(&chunk).contains(needed), "{needed}: {}", stderr(&chunk));
+        assert!(
+            stderr(&chunk).contains(needed),
+            "{needed}: {}",
+            stderr(&chunk)
+        );
     }
     let status = json(&run(&["dagger", "status", "ds", "--json"]));
     assert_eq!(status.as_array().unwrap().len(), 0);
     // The first vector of each chunk, padded frames left out.
-    let first = run(&["dagger", "add", "ds", "--lerobot", "expert", "--action", "action[0]"]);
+    let first = run(&[
+        "dagger",
+        "add",
+        "ds",
+        "--lerobot",
+        "expert",
+        "--action",
+        "action[0]",
+    ]);
     assert!(first.status.success(), "{}", stderr(&first));
     assert!(
         stdout(&first).contains("50 steps in 2 episodes"),

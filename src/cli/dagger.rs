@@ -11,7 +11,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::bench::emit;
+use super::emit;
 use crate::artifact::{ArtifactBuilder, Lineage, digest_input, load_costs};
 use crate::dagger::dataset::{CostsSource, Dataset, DatasetInfo, NewRound, RoundInfo};
 use crate::dagger::demo_round::{DemoColumns, read_demo_round};

@@ -1,30 +1,6 @@
 //! The command line: one file per subcommand; `main.rs` only calls `run`.
 
-/// `print!` for command output: when the reader goes away (`imitate ... | head`), the
-/// command ends quietly instead of panicking on the closed pipe.
-macro_rules! out {
-    ($($arg:tt)*) => {
-        $crate::cli::write_stdout(format_args!($($arg)*))
-    };
-}
-
-/// `println!` for command output, as `out!`.
-macro_rules! outln {
-    ($($arg:tt)*) => {
-        $crate::cli::write_stdout(format_args!("{}\n", format_args!($($arg)*)))
-    };
-}
-
 mod bench;
-mod bench_dagger;
-mod bench_gridnav;
-mod bench_ingest;
-mod bench_ioc;
-mod bench_learch;
-mod bench_objectworld;
-mod bench_terrain;
-mod bench_track;
-mod bench_verify;
 mod cache;
 mod dagger;
 mod diff;
@@ -257,6 +233,20 @@ fn print_report(name: &str, report: &StageReport) {
 
 /// Writes command output to stdout. A closed pipe ends the process with success, as
 /// Unix tools do (the reader took what it wanted); any other failure is an error.
+/// Prints a report: JSON for scripts, or the text `describe` makes for people.
+pub(crate) fn emit<T: serde::Serialize>(
+    report: &T,
+    json: bool,
+    describe: impl FnOnce(&T) -> String,
+) {
+    let text = if json {
+        serde_json::to_string(report).expect("reports serialise")
+    } else {
+        describe(report)
+    };
+    crate::cli::write_stdout(format_args!("{text}\n"));
+}
+
 pub(crate) fn write_stdout(text: std::fmt::Arguments) {
     use std::io::Write;
     let mut stdout = std::io::stdout().lock();

@@ -6,12 +6,11 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 
-use super::bench::Planner;
 use crate::artifact::load_costs;
 use crate::error::{Error, Result};
 use crate::grid::locate;
 use crate::io::png::write_png;
-use crate::plan::{Connectivity, GridPlanner, Moves};
+use crate::plan::{Connectivity, GridPlanner, Moves, SearchKind};
 use crate::report::{Preview, render_preview};
 
 #[derive(Debug, Args)]
@@ -36,8 +35,8 @@ pub struct PlanArgs {
     /// Forbid diagonal steps past blocked cells.
     #[arg(long)]
     pub no_corner_cutting: bool,
-    #[arg(long, value_enum, default_value_t = Planner::Astar)]
-    pub planner: Planner,
+    #[arg(long, value_enum, default_value_t = SearchKind::Astar)]
+    pub planner: SearchKind,
     /// Also draw the path over the costmap into this PNG.
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
@@ -67,8 +66,8 @@ pub fn run(args: PlanArgs) -> Result<()> {
     };
     let mut planner = GridPlanner::new(&costs, moves);
     let route = match args.planner {
-        Planner::Astar => planner.astar(start, goal),
-        Planner::Dijkstra => planner.dijkstra(start, goal),
+        SearchKind::Astar => planner.astar(start, goal),
+        SearchKind::Dijkstra => planner.dijkstra(start, goal),
     }
     .ok_or_else(|| Error::Failed(format!("no path from {start} to {goal} on map '{name}'")))?;
     if let Some(png) = &args.png {

@@ -60,7 +60,11 @@ pub fn read_demo_round(
         // are left out.
         let mut padded = vec![false; ids.len()];
         for column in columns.observations.iter().chain([&columns.action]) {
-            for (row, flag) in padding(file, &batch, column)?.into_iter().flatten().enumerate() {
+            for (row, flag) in padding(file, &batch, column)?
+                .into_iter()
+                .flatten()
+                .enumerate()
+            {
                 padded[row] |= flag;
             }
         }

@@ -363,7 +363,10 @@ pub fn padding(path: &Path, batch: &RecordBatch, column: &Column) -> Result<Opti
                 return Err(null(row));
             }
             let taken = match (column.index, flags.data_type()) {
-                (Some(i), DataType::List(_) | DataType::LargeList(_) | DataType::FixedSizeList(..)) => {
+                (
+                    Some(i),
+                    DataType::List(_) | DataType::LargeList(_) | DataType::FixedSizeList(..),
+                ) => {
                     let at = ranges[row] + i;
                     if at >= ranges[row + 1] {
                         return Err(Error::input(

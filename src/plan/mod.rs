@@ -16,3 +16,14 @@ pub use grid::{
 };
 pub use mdp::{Backup, TabularMdp, Values, value_iteration, value_iteration_from};
 pub use relax::StepLengths;
+
+use serde::Serialize;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+/// Which exact search answers a query: A* with the octile heuristic, or Dijkstra
+/// stopping at the goal.
+pub enum SearchKind {
+    Astar,
+    Dijkstra,
+}

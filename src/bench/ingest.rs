@@ -8,7 +8,8 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::bench::{emit, memory, reset_peak_memory};
+use super::{memory, reset_peak_memory};
+use crate::cli::emit;
 use crate::error::{Error, Result};
 use crate::grid::GeoRef;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};

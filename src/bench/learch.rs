@@ -7,7 +7,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::bench::emit;
+use crate::cli::emit;
 use crate::error::{Error, Result};
 use crate::features::{FeatureSpec, Op, compute};
 use crate::grid::{FeatureStack, Grid, rasterize};

@@ -16,7 +16,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::bench::emit;
+use crate::cli::emit;
 use crate::error::{Error, Result};
 use crate::features::{FeatureSpec, Op, compute};
 use crate::grid::{Cell, FeatureStack, GeoRef, Grid, Layer, Map, rasterize};

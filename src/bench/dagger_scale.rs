@@ -12,7 +12,7 @@ use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::bench::emit;
+use crate::cli::emit;
 use crate::dagger::dataset::{Dataset, DatasetInfo, NewRound};
 use crate::dagger::{Actor, PolicyLearner, Step};
 use crate::error::{Error, Result};

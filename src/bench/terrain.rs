@@ -12,8 +12,8 @@ use std::time::Instant;
 
 use serde::Serialize;
 
-use super::bench::emit;
-use super::bench_ioc::{MethodResult, Terrain, measure, methods, results_table, teacher_paths};
+use super::ioc_methods::{MethodResult, Terrain, measure, methods, results_table, teacher_paths};
+use crate::cli::emit;
 use crate::error::{Error, Result};
 use crate::features::{Bank, FeatureSpec, compute, gaussian_blur};
 use crate::grid::{GeoRef, Grid, Layer, Map};

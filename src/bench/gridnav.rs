@@ -9,7 +9,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::bench::emit;
+use crate::cli::emit;
 use crate::dagger::{BetaSchedule, Environment, Learning, Policy, PolicyKind, learn};
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
