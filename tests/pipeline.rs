@@ -46,7 +46,9 @@ fn only_stale_stages_rerun_and_say_why() {
         [
             "ingest: up to date",
             "features: up to date",
-            "learch: up to date"
+            "learch: up to date",
+            "export: up to date",
+            "report: up to date"
         ]
     );
     assert_eq!(stdout(&again), digests);
@@ -67,7 +69,9 @@ fn only_stale_stages_rerun_and_say_why() {
         [
             "ingest: up to date",
             "features: up to date",
-            "learch: stale: param changed: learch.rounds 80 → 5"
+            "learch: stale: param changed: learch.rounds 80 → 5",
+            "export: stale: input will be remade: out/quickstart/costmap",
+            "report: stale: input will be remade: out/quickstart/costmap"
         ]
     );
     let dry = imitate(ws.path(), &["run", PIPELINE, "--dry-run"]);
@@ -84,6 +88,13 @@ fn only_stale_stages_rerun_and_say_why() {
         rerun_lines[2].starts_with("learch: 5 rounds"),
         "{rerun_lines:?}"
     );
+    // What follows LEARCH reruns because its costmap changed.
+    for (line, stage) in rerun_lines[3..].iter().zip(["export", "report"]) {
+        assert!(
+            line.starts_with(stage) && line.ends_with("(input changed: out/quickstart/costmap)"),
+            "{rerun_lines:?}"
+        );
+    }
 
     // Reverting restores the first run's artifact from the cache, without training.
     edit(ws.path(), "rounds: 5", "rounds: 80");
@@ -106,8 +117,8 @@ fn a_deleted_output_reruns_its_stage_and_identical_outputs_cut_off_downstream() 
     let json: serde_json::Value = serde_json::from_str(&stdout(&status)).unwrap();
     assert_eq!(json["schema"], "imitate.status/1");
     assert_eq!(
-        json["stale"], 2,
-        "features, and learch whose input will be remade"
+        json["stale"], 4,
+        "features, and learch, export and report whose inputs will be remade"
     );
     assert_eq!(
         json["stages"][1]["reasons"][0],
@@ -119,7 +130,9 @@ fn a_deleted_output_reruns_its_stage_and_identical_outputs_cut_off_downstream() 
         lines(&restored)[1..],
         [
             "features: restored from the output cache (output missing: out/quickstart/features)",
-            "learch: up to date"
+            "learch: up to date",
+            "export: up to date",
+            "report: up to date"
         ]
     );
     // Without the cache the stage runs, remakes the features byte for byte, and so
@@ -353,7 +366,7 @@ fn independent_stages_run_at_once_with_the_same_results() {
     let (_a, one) = run_with("1");
     let (_b, two) = run_with("2");
     assert_eq!(one, two, "same outputs, reported in the same order");
-    assert_eq!(one.lines().count(), 4);
+    assert_eq!(one.lines().count(), 6);
 }
 
 #[test]
@@ -429,38 +442,47 @@ fn declared_deps_join_the_lineage_and_declared_outs_are_checked() {
 }
 
 #[test]
-fn exports_and_reports_are_stages_that_rerun_only_when_their_costmap_changes() {
-    let yaml = std::fs::read_to_string(repo().join(PIPELINE)).unwrap()
-        + "  export:
-    uses: export
-    with:
-      artifact: out/quickstart/costmap
-      formats: [png, nav2]
-      maps: [terrain-000]
-      out: out/quickstart/export
-  report:
-    uses: report
-    with:
-      artifact: out/quickstart/costmap
-      out: out/quickstart/report
-";
+fn the_quickstart_ends_with_an_export_and_a_report_as_stages() {
     let ws = quickstart_workspace();
-    std::fs::write(ws.path().join(PIPELINE), &yaml).unwrap();
     let first = run(ws.path(), &[]);
     let export = ws.path().join("out/quickstart/export");
     for file in [
-        "terrain-000.png",
+        "terrain-000.tif",
+        "terrain-003.tif",
         "terrain-000.yaml",
         "terrain-000.pgm",
         "manifest.json",
     ] {
         assert!(export.join(file).is_file(), "{file}: {}", stderr(&first));
     }
-    assert!(
-        ws.path()
-            .join("out/quickstart/report/report.html")
-            .is_file()
-    );
+    let report = ws.path().join("out/quickstart/report");
+    assert!(report.join("report.html").is_file());
+    // The learning curves have labelled axes: text drawn left of each plot (the y
+    // axis's ticks and description) and below it (the x axis's).
+    let curves = imitate::io::png::read_png(&report.join("learning-curves.png")).unwrap();
+    let dark = |x: std::ops::Range<u32>, y: std::ops::Range<u32>| {
+        y.flat_map(|row| x.clone().map(move |col| (col, row)))
+            .filter(|&(col, row)| {
+                let i = (row as usize * curves.width as usize + col as usize) * 3;
+                curves.pixels[i..i + 3]
+                    .iter()
+                    .map(|&v| u32::from(v))
+                    .sum::<u32>()
+                    < 330
+            })
+            .count()
+    };
+    assert_eq!((curves.width, curves.height), (852, 280));
+    for left in [0, 432] {
+        assert!(
+            dark(left..left + 55, 30..230) > 150,
+            "y axis text at {left}"
+        );
+        assert!(
+            dark(left + 70..left + 410, 240..280) > 150,
+            "x axis text at {left}"
+        );
+    }
     let again = run(ws.path(), &[]);
     for stage in ["export", "report"] {
         let line = format!("{stage}: up to date");

@@ -14,7 +14,7 @@ fn quickstart_learns_a_costmap_that_imitates_the_teacher() {
     let out = imitate(ws.path(), &["run", "pipelines/quickstart.yaml"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let lines: Vec<String> = stdout(&out).lines().map(String::from).collect();
-    assert_eq!(lines.len(), 3, "one line per stage: {lines:?}");
+    assert_eq!(lines.len(), 5, "one line per stage: {lines:?}");
     assert!(
         lines[2].starts_with("learch\tout/quickstart/costmap\tblake3:"),
         "{lines:?}"

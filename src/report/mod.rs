@@ -1,5 +1,6 @@
 //! What people look at: preview pictures, diffs between artifacts, reports.
 
+pub mod chart;
 pub mod costmap_artifact;
 pub mod dagger_diff;
 pub mod diff;

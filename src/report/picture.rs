@@ -1,5 +1,5 @@
 //! Pictures people read: costmaps on a shared colour scale, signed difference heat maps,
-//! colour bars, pictures side by side and simple line plots. All north up.
+//! colour bars and pictures side by side, all north up (charts with axes: `chart`).
 
 use crate::grid::{Cell, Grid};
 use crate::io::png::Rgb;
@@ -122,71 +122,6 @@ pub fn side_by_side(pictures: &[&Rgb], gap: u32) -> Rgb {
     out
 }
 
-/// Lines of `series` (values, colour) over a shared x (their index) and y range, on a
-/// white canvas with a grey frame and quarter grid lines.
-pub fn line_plot(series: &[(Vec<f64>, [u8; 3])], width: u32, height: u32) -> Rgb {
-    let mut plot = Rgb::new(width, height);
-    let margin = 8;
-    let (w, h) = (width - 2 * margin, height - 2 * margin);
-    for y in 0..height {
-        for x in 0..width {
-            let frame = x == margin || x == margin + w || y == margin || y == margin + h;
-            let grid = (1..4).any(|k| y == margin + h * k / 4) && x > margin && x < margin + w;
-            let c = if frame {
-                [120, 120, 120]
-            } else if grid {
-                [225, 225, 225]
-            } else {
-                [255, 255, 255]
-            };
-            plot.put(x, y, c);
-        }
-    }
-    let values = series
-        .iter()
-        .flat_map(|(v, _)| v.iter().copied())
-        .filter(|v| v.is_finite());
-    let (lo, hi) = values.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-        (lo.min(v), hi.max(v))
-    });
-    if !lo.is_finite() {
-        return plot;
-    }
-    let span = (hi - lo).max(1e-12);
-    let longest = series
-        .iter()
-        .map(|(v, _)| v.len())
-        .max()
-        .unwrap_or(1)
-        .max(2);
-    let at = |i: usize, v: f64| {
-        let x = margin as f64 + w as f64 * i as f64 / (longest - 1) as f64;
-        let y = (margin + h) as f64 - h as f64 * (v - lo) / span;
-        (x, y)
-    };
-    for (values, colour) in series {
-        for (i, pair) in values.windows(2).enumerate() {
-            if !(pair[0].is_finite() && pair[1].is_finite()) {
-                continue;
-            }
-            let (x0, y0) = at(i, pair[0]);
-            let (x1, y1) = at(i + 1, pair[1]);
-            let steps = ((x1 - x0).abs().max((y1 - y0).abs()).ceil() as usize).max(1);
-            for s in 0..=steps {
-                let f = s as f64 / steps as f64;
-                let (x, y) = (x0 + f * (x1 - x0), y0 + f * (y1 - y0));
-                for (dx, dy) in [(0, 0), (1, 0), (0, 1), (1, 1)] {
-                    let (px, py) = (x.round() as u32 + dx, y.round() as u32 + dy);
-                    if px < width && py < height {
-                        plot.put(px, py, *colour);
-                    }
-                }
-            }
-        }
-    }
-    plot
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -217,17 +152,8 @@ mod tests {
     }
 
     #[test]
-    fn the_colour_bar_is_costly_at_the_top_and_plots_draw_their_lines() {
+    fn the_colour_bar_is_costly_at_the_top() {
         let bar = colour_bar(4, 50);
         assert!(bar.get(0, 0)[1] > bar.get(0, 49)[1] + 100);
-        let plot = line_plot(&[(vec![0.0, 1.0, 2.0], [200, 0, 0])], 60, 40);
-        let red = (0..60)
-            .flat_map(|x| (0..40).map(move |y| (x, y)))
-            .filter(|&(x, y)| plot.get(x, y) == [200, 0, 0])
-            .count();
-        assert!(red > 40, "{red}");
-        // Rising line: red in the bottom-left and the top-right corners.
-        assert_eq!(plot.get(9, 32), [200, 0, 0]);
-        assert_eq!(plot.get(52, 9), [200, 0, 0]);
     }
 }

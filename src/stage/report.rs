@@ -14,11 +14,12 @@ use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, read_input};
 use crate::io::fs::write_bytes_atomic;
 use crate::io::png::write_png;
+use crate::report::chart::{Chart, Legend, Series};
 use crate::report::costmap_artifact::CostmapArtifact;
-use crate::report::picture::{line_plot, side_by_side};
+use crate::report::picture::side_by_side;
 
 pub const KIND: &str = "report";
-const VERSION: u32 = 1;
+const VERSION: u32 = 2;
 
 /// Parameters of `imitate report` and of `uses: report`.
 #[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
@@ -65,6 +66,41 @@ impl Stage for ReportParams {
 const LOSS_COLOUR: [u8; 3] = [200, 40, 40];
 const AGREEMENT_COLOUR: [u8; 3] = [40, 90, 200];
 
+/// What a method's training loss measures, for the chart's axis.
+fn loss_description(method: &str) -> &'static str {
+    match method {
+        "maxent" => "neg. log-likelihood per step",
+        _ => "margin (share of demo cost)",
+    }
+}
+
+/// One learning curve against the round, as a chart.
+fn learning_chart(
+    title: &str,
+    y_label: &str,
+    (name, colour): (&str, [u8; 3]),
+    values: &[f64],
+    legend: Legend,
+) -> Result<crate::io::png::Rgb> {
+    Chart {
+        title: title.into(),
+        x_label: "round".into(),
+        y_label: y_label.into(),
+        series: vec![Series {
+            name: name.into(),
+            points: values
+                .iter()
+                .enumerate()
+                .map(|(i, &v)| ((i + 1) as f64, v))
+                .collect(),
+            colour,
+        }],
+        legend,
+    }
+    .draw(420, 280)
+    .map_err(Error::Failed)
+}
+
 /// Per round: training loss and held-out agreement.
 fn curves(artifact: &CostmapArtifact) -> (Vec<f64>, Vec<f64>) {
     let rounds = artifact
@@ -106,10 +142,28 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
     let (loss, agreement) = curves(&artifact);
     let mut pictures: Vec<(String, PathBuf, String)> = Vec::new();
     if !loss.is_empty() {
+        let method = manifest
+            .lineage
+            .params
+            .get("method")
+            .and_then(|m| m.as_str())
+            .unwrap_or("learch");
         let plot = side_by_side(
             &[
-                &line_plot(&[(loss.clone(), LOSS_COLOUR)], 360, 220),
-                &line_plot(&[(agreement.clone(), AGREEMENT_COLOUR)], 360, 220),
+                &learning_chart(
+                    "Training loss per round",
+                    loss_description(method),
+                    ("training examples", LOSS_COLOUR),
+                    &loss,
+                    Legend::UpperRight,
+                )?,
+                &learning_chart(
+                    "Held-out agreement per round",
+                    "cells within 2 of the demo (share)",
+                    ("held-out examples", AGREEMENT_COLOUR),
+                    &agreement,
+                    Legend::LowerRight,
+                )?,
             ],
             12,
         );
@@ -119,8 +173,8 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
             "Learning curves".into(),
             path,
             format!(
-                "per round, left: training loss (red, {:.4} → {:.4}); right: share of held-out \
-                 planned cells within 2 cells of the demonstration (blue, {:.3} → {:.3})",
+                "per round, left: training loss ({:.4} → {:.4}); right: share of held-out \
+                 planned cells within 2 cells of the demonstration ({:.3} → {:.3})",
                 loss.first().copied().unwrap_or(f64::NAN),
                 loss.last().copied().unwrap_or(f64::NAN),
                 agreement.first().copied().unwrap_or(f64::NAN),
