@@ -1070,6 +1070,18 @@ fn lerobot_datasets_with_26_joint_actions_train_a_policy_per_joint() {
         errors.sort_by(f64::total_cmp);
         // Joints move by tens of degrees (their spread is about 40°).
         assert!(errors[13] < 1.0 && errors[25] < 20.0, "{errors:?}");
+        // Always answering the mean action is the baseline, far behind on every joint.
+        let baseline = metrics["validation_mean_action_rmse_per_action"]
+            .as_array()
+            .unwrap();
+        let learned = metrics["validation_rmse_per_action"].as_array().unwrap();
+        assert_eq!(baseline.len(), 26);
+        for (mean, policy) in baseline.iter().zip(learned) {
+            assert!(
+                mean.as_f64().unwrap() > 2.0 * policy.as_f64().unwrap(),
+                "{metrics}"
+            );
+        }
         // Trees learn every joint too; a discrete learner is refused, naming the joints.
         let tree = run(&["dagger", "train", &ds, "--out", "tree", "--learner", "tree"]);
         assert!(tree.status.success(), "{}", stderr(&tree));
@@ -1461,7 +1473,15 @@ fn dagger_through_files_balances_a_gymnasium_pendulum_where_cloning_fails() {
     let run = std::process::Command::new("python3")
         .arg(repo().join("examples/pendulum_dagger.py"))
         .args(["--imitate", env!("CARGO_BIN_EXE_imitate")])
-        .args(["--seeds", "0", "--iterations", "6", "--test-episodes", "10", "--json"])
+        .args([
+            "--seeds",
+            "0",
+            "--iterations",
+            "6",
+            "--test-episodes",
+            "10",
+            "--json",
+        ])
         .env("PYTHONPATH", repo().join("target/python-deps"))
         .output()
         .unwrap();
@@ -1478,7 +1498,12 @@ fn dagger_through_files_balances_a_gymnasium_pendulum_where_cloning_fails() {
     let last = |method: &str| {
         let runs = result["runs"].as_array().unwrap();
         let run = runs.iter().find(|r| r["method"] == method).unwrap();
-        run["iterations"].as_array().unwrap().last().unwrap().clone()
+        run["iterations"]
+            .as_array()
+            .unwrap()
+            .last()
+            .unwrap()
+            .clone()
     };
     let (dagger, cloning) = (last("dagger"), last("bc"));
     let teacher = result["teacher"]["mean_return"].as_f64().unwrap();

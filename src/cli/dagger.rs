@@ -492,12 +492,17 @@ fn train(dataset: &Path, out: &Path, options: &TrainOptions) -> Result<()> {
     }
     if !ds.info.action_names.is_empty() || share > 0.0 {
         metrics["training_rmse_per_action"] =
-            serde_json::json!(ds.errors_per_action(&policy, fitted_on)?);
+            serde_json::json!(ds.errors_per_action(|o| policy.act_all(o), fitted_on)?);
     }
     if share > 0.0 {
         metrics["validation_share"] = serde_json::json!(share);
         metrics["validation_rmse_per_action"] =
-            serde_json::json!(ds.errors_per_action(&policy, |e| held_out(e, share))?);
+            serde_json::json!(ds.errors_per_action(|o| policy.act_all(o), |e| held_out(e, share))?);
+        // What always answering the training episodes' mean action scores: a policy
+        // that does not beat it has learned nothing from the observations.
+        let mean = ds.mean_action(fitted_on)?;
+        metrics["validation_mean_action_rmse_per_action"] =
+            serde_json::json!(ds.errors_per_action(|_| mean.clone(), |e| held_out(e, share))?);
     }
     write_bytes_atomic(
         &artifact.file("metrics.json", "metrics")?,

@@ -454,15 +454,17 @@ impl Dataset {
 
     /// Per number of the action: the root mean square of `policy`'s action minus the
     /// teacher's label over the steps of the episodes `keep` accepts.
+    /// Root mean square error per action number of `predict` on the steps of the
+    /// episodes `keep` takes.
     pub fn errors_per_action(
         &self,
-        policy: &super::Policy,
+        predict: impl Fn(&[f64]) -> Vec<f64>,
         keep: impl Fn(u64) -> bool,
     ) -> Result<Vec<f64>> {
         let mut squares = vec![0.0; self.info.action_dims()];
         let mut count = 0usize;
         self.for_each_step(&keep, |observation, label| {
-            let action = policy.act_all(observation);
+            let action = predict(observation);
             for ((total, a), y) in squares.iter_mut().zip(action).zip(label) {
                 *total += (a - y) * (a - y);
             }
@@ -472,6 +474,20 @@ impl Dataset {
             .into_iter()
             .map(|total| (total / count.max(1) as f64).sqrt())
             .collect())
+    }
+
+    /// The mean label per action number over the episodes `keep` takes: the baseline a
+    /// learned policy has to beat.
+    pub fn mean_action(&self, keep: impl Fn(u64) -> bool) -> Result<Vec<f64>> {
+        let mut sums = vec![0.0; self.info.action_dims()];
+        let mut count = 0usize;
+        self.for_each_step(&keep, |_, label| {
+            for (total, y) in sums.iter_mut().zip(label) {
+                *total += y;
+            }
+            count += 1;
+        })?;
+        Ok(sums.into_iter().map(|s| s / count.max(1) as f64).collect())
     }
 
     fn write_rounds(&self) -> Result<()> {
