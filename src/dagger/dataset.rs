@@ -275,12 +275,24 @@ impl Dataset {
                         ),
                     ));
                 }
-                let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-                if !finite(&step.label) || !finite(&step.executed) || !finite(&step.observation) {
-                    return Err(Error::input(
-                        &self.dir,
-                        format!("{}: the label or observation is not finite", at()),
-                    ));
+                // The first value that is not a number, named by its column and element.
+                let not_finite = [
+                    (
+                        "observation.state",
+                        &step.observation,
+                        &self.info.observation_names,
+                    ),
+                    ("action", &step.label, &self.info.action_names),
+                    ("action_executed", &step.executed, &self.info.action_names),
+                ]
+                .into_iter()
+                .find_map(|(column, values, names)| {
+                    let i = values.iter().position(|x| !x.is_finite())?;
+                    let name = names.get(i).map_or(String::new(), |n| format!(", {n}"));
+                    Some(format!("{column}[{i}]{name} is {}", values[i]))
+                });
+                if let Some(problem) = not_finite {
+                    return Err(Error::input(&self.dir, format!("{}: {problem}", at())));
                 }
             }
         }
@@ -927,7 +939,7 @@ mod tests {
             .append(&round("nan", &[vec![nan]]))
             .unwrap_err()
             .to_string();
-        assert!(err.contains("not finite"), "{err}");
+        assert!(err.contains("step 0: action[0] is NaN"), "{err}");
         assert_eq!(std::fs::read(dir.path().join(MANIFEST)).unwrap(), before);
         assert_eq!(Dataset::open(dir.path()).unwrap().rounds.len(), 1);
         assert!(!dir.path().join("data/round=001").exists());
