@@ -489,3 +489,74 @@ fn the_quickstart_ends_with_an_export_and_a_report_as_stages() {
         assert!(lines(&again).contains(&line), "{}", stderr(&again));
     }
 }
+
+#[test]
+fn evaluate_scores_a_costmap_on_a_fixed_set_as_a_command_and_as_a_stage() {
+    let yaml = std::fs::read_to_string(repo().join(PIPELINE)).unwrap()
+        + "  evaluate:
+    uses: evaluate
+    with:
+      artifact: out/quickstart/costmap
+      dataset: out/quickstart/dataset
+      references:
+        - testdata/world/truth/terrain-000.parquet
+        - testdata/world/truth/terrain-001.parquet
+        - testdata/world/truth/terrain-002.parquet
+        - testdata/world/truth/terrain-003.parquet
+      out: out/quickstart/evaluation
+";
+    let ws = quickstart_workspace();
+    std::fs::write(ws.path().join(PIPELINE), &yaml).unwrap();
+    let first = run(ws.path(), &[]);
+    let read = |dir: &str| -> serde_json::Value {
+        let bytes = std::fs::read(ws.path().join(dir).join("evaluation.json")).unwrap();
+        serde_json::from_slice(&bytes).unwrap()
+    };
+    let evaluation = read("out/quickstart/evaluation");
+    let summary = &evaluation["summary"];
+    // Every demonstration of the world, training ones included: plans on the learned
+    // costmap stay near them and cost little more than the optimum under the truth.
+    assert_eq!(summary["examples"], 64, "{}", stderr(&first));
+    assert!(
+        summary["within_radius"].as_f64().unwrap() > 0.9,
+        "{summary}"
+    );
+    let optimal = summary["mean_optimal_cost_ratio"].as_f64().unwrap();
+    assert!((1.0..1.05).contains(&optimal), "{summary}");
+    assert_eq!(evaluation["paths"].as_array().unwrap().len(), 64);
+    let again = run(ws.path(), &[]);
+    assert!(lines(&again).contains(&"evaluate: up to date".to_string()));
+
+    // The command writes the same artifact; a map without its reference is refused.
+    let out = imitate(
+        ws.path(),
+        &[
+            "evaluate",
+            "out/quickstart/costmap",
+            "--dataset",
+            "out/quickstart/dataset",
+            "--reference",
+            "testdata/world/truth/terrain-000.parquet",
+            "--out",
+            "out/partial",
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("no reference costmap for map 'terrain-001'"));
+    assert!(!ws.path().join("out/partial").exists());
+    let plain = imitate(
+        ws.path(),
+        &[
+            "evaluate",
+            "out/quickstart/costmap",
+            "--dataset",
+            "out/quickstart/dataset",
+            "--out",
+            "out/plain",
+        ],
+    );
+    assert!(plain.status.success(), "{}", stderr(&plain));
+    let plain = read("out/plain");
+    assert_eq!(plain["summary"]["within_radius"], summary["within_radius"]);
+    assert!(plain["summary"].get("mean_optimal_cost_ratio").is_none());
+}

@@ -17,7 +17,9 @@ use clap::{Parser, Subcommand};
 
 use crate::error::{Error, Result};
 use crate::pipeline::RunOptions;
-use crate::stage::{Stage, StageReport, export, features, forecast, ingest, ioc, learch, report};
+use crate::stage::{
+    Stage, StageReport, evaluate, export, features, forecast, ingest, ioc, learch, report,
+};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -103,6 +105,10 @@ pub enum Command {
     /// A report on a costmap artifact: markdown and self-contained HTML with previews,
     /// learning curves and metrics.
     Report(report::ReportParams),
+    /// Plan on a costmap between the ends of every path of a dataset (a fixed
+    /// evaluation set) and score the plans: agreement with the paths, and cost ratios
+    /// under reference costmaps.
+    Evaluate(evaluate::EvaluateParams),
     /// Plan the cheapest path between two points on a costmap.
     Plan(plan::PlanArgs),
     /// Forecast where a partly walked path goes: the posterior over candidate
@@ -214,6 +220,7 @@ pub fn run(cli: Cli) -> Result<()> {
         Command::Cache(command) => cache::run(command),
         Command::Export(args) => run_stage(&args),
         Command::Report(args) => run_stage(&args),
+        Command::Evaluate(args) => run_stage(&args),
     }
 }
 

@@ -4,6 +4,7 @@
 //! `build`; stages never know the runner.
 
 pub mod dagger;
+pub mod evaluate;
 pub mod export;
 pub mod features;
 pub mod forecast;
@@ -72,6 +73,12 @@ const REGISTRY: &[(&str, Constructor)] = &[
     }),
     (report::KIND, |p| {
         Ok(Box::new(parse::<report::ReportParams>(report::KIND, p)?))
+    }),
+    (evaluate::KIND, |p| {
+        Ok(Box::new(parse::<evaluate::EvaluateParams>(
+            evaluate::KIND,
+            p,
+        )?))
     }),
     (forecast::KIND, |p| {
         Ok(Box::new(parse::<forecast::ForecastParams>(
