@@ -15,7 +15,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
@@ -48,18 +48,9 @@ pub struct EvaluateParams {
     pub out: PathBuf,
 }
 
-impl Stage for EvaluateParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for EvaluateParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         let mut deps = vec![self.costmap.clone(), self.dataset.clone()];

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, written_by_imitate};
 use crate::dagger::onnx::write_policy_model;
 use crate::error::{Error, Result};
@@ -51,18 +51,9 @@ pub struct ExportParams {
     pub maps: Vec<String>,
 }
 
-impl Stage for ExportParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for ExportParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         vec![self.costmap.clone()]

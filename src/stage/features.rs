@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
 use crate::features::{Bank, FeatureSpec, Op, compute_with_nodata, nodata_layers};
@@ -59,18 +59,9 @@ fn parse_op(text: &str) -> Result<Op, String> {
     serde_json::from_str(text).map_err(|e| format!("not a feature operator: {e}"))
 }
 
-impl Stage for FeaturesParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for FeaturesParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         vec![self.dataset.clone()]

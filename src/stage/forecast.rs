@@ -17,7 +17,7 @@ use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, load_costs};
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid, locate};
@@ -84,18 +84,9 @@ pub struct ForecastParams {
     pub scale: u32,
 }
 
-impl Stage for ForecastParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for ForecastParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         vec![self.costmap.clone()]

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, first_error_in_order};
 use crate::grid::{Demonstration, Map, PathError, check_map_name, rasterize};
@@ -233,18 +233,9 @@ impl IngestParams {
     }
 }
 
-impl Stage for IngestParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for IngestParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         let mut deps = self.maps.clone();

@@ -10,7 +10,7 @@ use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result};
 use crate::grid::{FeatureStack, Grid};
@@ -272,18 +272,9 @@ fn split(examples: Vec<Example>, fraction: f64, seed: u64) -> (Vec<Example>, Vec
     (training, holdout)
 }
 
-impl Stage for LearchParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for LearchParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         let mut deps = vec![self.dataset.clone(), self.features.clone()];

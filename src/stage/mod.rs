@@ -46,6 +46,43 @@ pub trait Stage: Send + Sync {
     fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport>;
 }
 
+/// What each stage's parameters define; `Stage` follows from it, with the resolved
+/// parameters being the parameters themselves, serialised with their defaults.
+pub trait StageParams: Serialize + Send + Sync {
+    const KIND: &'static str;
+    /// Bumped when the same inputs would give other outputs.
+    const VERSION: u32;
+    fn deps(&self) -> Vec<PathBuf>;
+    fn out(&self) -> PathBuf;
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport>;
+}
+
+impl<T: StageParams> Stage for T {
+    fn kind(&self) -> &'static str {
+        T::KIND
+    }
+
+    fn version(&self) -> u32 {
+        T::VERSION
+    }
+
+    fn params(&self) -> serde_json::Value {
+        resolved(self)
+    }
+
+    fn deps(&self) -> Vec<PathBuf> {
+        StageParams::deps(self)
+    }
+
+    fn out(&self) -> PathBuf {
+        StageParams::out(self)
+    }
+
+    fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
+        StageParams::run(self, extra_deps)
+    }
+}
+
 type Constructor = fn(serde_json::Value) -> Result<Box<dyn Stage>>;
 
 /// Every stage kind a pipeline can `use`.

@@ -9,7 +9,7 @@ use std::path::PathBuf;
 use base64::Engine;
 use serde::{Deserialize, Serialize};
 
-use super::{Stage, StageReport, commit_artifact, resolved};
+use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, read_input};
 use crate::io::fs::write_bytes_atomic;
@@ -33,18 +33,9 @@ pub struct ReportParams {
     pub out: PathBuf,
 }
 
-impl Stage for ReportParams {
-    fn kind(&self) -> &'static str {
-        KIND
-    }
-
-    fn version(&self) -> u32 {
-        VERSION
-    }
-
-    fn params(&self) -> serde_json::Value {
-        resolved(self)
-    }
+impl StageParams for ReportParams {
+    const KIND: &'static str = KIND;
+    const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
         vec![self.costmap.clone()]
