@@ -560,3 +560,49 @@ fn evaluate_scores_a_costmap_on_a_fixed_set_as_a_command_and_as_a_stage() {
     assert_eq!(plain["summary"]["within_radius"], summary["within_radius"]);
     assert!(plain["summary"].get("mean_optimal_cost_ratio").is_none());
 }
+
+#[test]
+fn a_diff_stage_keeps_the_comparison_of_two_costmaps_as_an_artifact() {
+    let yaml = std::fs::read_to_string(repo().join(PIPELINE)).unwrap()
+        + "  learch-short:
+    uses: learch
+    with:
+      dataset: out/quickstart/dataset
+      features: out/quickstart/features
+      rounds: 5
+      out: out/quickstart/costmap-short
+  diff:
+    uses: diff
+    with:
+      old: out/quickstart/costmap-short
+      new: out/quickstart/costmap
+      fail_if: ['max_abs_log_cost > 0.001', 'changed_paths > 1000']
+      out: out/quickstart/diff
+";
+    let ws = quickstart_workspace();
+    std::fs::write(ws.path().join(PIPELINE), &yaml).unwrap();
+    let first = run(ws.path(), &[]);
+    let dir = ws.path().join("out/quickstart/diff");
+    let diff: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("diff.json")).unwrap()).unwrap();
+    assert_eq!(diff["kind"], "costmap", "{}", stderr(&first));
+    // 5 rounds against 80: the costmaps differ, so the first threshold is crossed and
+    // recorded; the second is not.
+    let failed = diff["failed"].as_array().unwrap();
+    assert_eq!(failed.len(), 1, "{diff}");
+    assert!(failed[0].as_str().unwrap().contains("max_abs_log_cost"));
+    let markdown = std::fs::read_to_string(dir.join("diff.md")).unwrap();
+    assert!(markdown.contains("](terrain-000.png)"), "{markdown}");
+    for map in ["terrain-000", "terrain-003"] {
+        assert!(dir.join(format!("{map}.png")).is_file());
+    }
+    let again = run(ws.path(), &[]);
+    assert!(lines(&again).contains(&"diff: up to date".to_string()));
+    // A threshold that names no figure is refused before anything is written.
+    edit(ws.path(), "changed_paths > 1000", "no_such_figure > 1");
+    std::fs::remove_dir_all(&dir).unwrap();
+    let out = imitate(ws.path(), &["run", PIPELINE]);
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(stderr(&out).contains("no_such_figure"), "{}", stderr(&out));
+    assert!(!dir.exists());
+}

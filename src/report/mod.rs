@@ -1,6 +1,7 @@
 //! What people look at: preview pictures, diffs between artifacts, reports.
 
 pub mod chart;
+pub mod compare;
 pub mod costmap_artifact;
 pub mod dagger_diff;
 pub mod diff;

@@ -4,6 +4,7 @@
 //! `build`; stages never know the runner.
 
 pub mod dagger;
+pub mod diff;
 pub mod evaluate;
 pub mod export;
 pub mod features;
@@ -110,6 +111,9 @@ const REGISTRY: &[(&str, Constructor)] = &[
     }),
     (report::KIND, |p| {
         Ok(Box::new(parse::<report::ReportParams>(report::KIND, p)?))
+    }),
+    (diff::KIND, |p| {
+        Ok(Box::new(parse::<diff::DiffParams>(diff::KIND, p)?))
     }),
     (evaluate::KIND, |p| {
         Ok(Box::new(parse::<evaluate::EvaluateParams>(
