@@ -146,7 +146,8 @@ pub fn pictures(old_dir: &Path, new_dir: &Path, diff: &CostmapDiff) -> Result<Ve
         .collect()
 }
 
-fn verdict(report: &Comparison) -> String {
+/// One line: whether every threshold passed, or which were crossed.
+pub fn verdict(report: &Comparison) -> String {
     if report.failed.is_empty() {
         "thresholds: all passed".to_string()
     } else {

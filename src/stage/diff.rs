@@ -13,7 +13,7 @@ use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::io::png::write_png;
-use crate::report::compare::{compare, pictures, render_markdown};
+use crate::report::compare::{compare, pictures, render_markdown, verdict};
 use crate::report::diff::Threshold;
 
 pub const KIND: &str = "diff";
@@ -76,17 +76,13 @@ impl StageParams for DiffParams {
             render_markdown(&comparison, std::path::Path::new("")).as_bytes(),
         )?;
         let f = &comparison.files;
-        let verdict = if comparison.failed.is_empty() {
-            "thresholds: all passed".to_string()
-        } else {
-            format!("thresholds crossed: {}", comparison.failed.join("; "))
-        };
         let summary = format!(
-            "{} artifact: {} files changed, {} added, {} removed; {verdict}",
+            "{} artifact: {} files changed, {} added, {} removed; {}",
             comparison.kind,
             f.changed.len(),
             f.added.len(),
-            f.removed.len()
+            f.removed.len(),
+            verdict(&comparison)
         );
         let metrics = serde_json::json!({
             "summary": comparison.summary,
