@@ -537,6 +537,7 @@ impl StageParams for DaggerParams {
         let (teacher, period) = world.teacher();
         let mut policies: Vec<Policy> = Vec::new();
         let mut metrics = Vec::new();
+        let progress = super::progress_bar(self.rounds, "dagger rounds");
         for round in 0..self.rounds {
             let beta = if self.supervised {
                 1.0
@@ -578,7 +579,9 @@ impl StageParams for DaggerParams {
                 &to_json_bytes(&policy),
             )?;
             policies.push(policy);
+            progress.inc(1);
         }
+        progress.finish_and_clear();
         list_dataset(&mut out, &dataset)?;
         let validations: Vec<Validation> = metrics.iter().map(|m| m.validation).collect();
         let (selected, selected_validation, chosen_round) = match self.selection {

@@ -86,15 +86,18 @@ impl StageParams for FeaturesParams {
             .collect();
         let maps = first_error_in_order(map_files.par_iter().map(|p| read_map(p)).collect())?;
         let nodata = nodata_layers(&maps);
+        let progress = super::progress_bar(maps.len(), "feature maps");
         let stacks = maps
             .par_iter()
             .zip(&map_files)
             .map(|(map, path)| {
                 let stack =
                     compute_with_nodata(map, &spec, &nodata).map_err(|e| Error::input(path, e))?;
+                progress.inc(1);
                 Ok((map.name.clone(), stack))
             })
             .collect::<Vec<_>>();
+        progress.finish_and_clear();
         let stacks = first_error_in_order(stacks)?;
         let mut out = ArtifactBuilder::new(&self.out)?;
         let spec_json = serde_json::to_value(&spec).expect("the spec serialises");

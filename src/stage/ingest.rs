@@ -224,11 +224,17 @@ impl IngestParams {
         let fallback = self
             .default_map(maps)?
             .map(|m| (m.name.as_str(), m.geo.frame.as_str()));
+        let progress = super::progress_bar(self.logs.len(), "logs");
         let results: Vec<Result<_>> = self
             .logs
             .par_iter()
-            .map(|log| read_log(log, &mapping, fallback).map(|c| (c.map, c.demonstrations)))
+            .map(|log| {
+                let read = read_log(log, &mapping, fallback).map(|c| (c.map, c.demonstrations));
+                progress.inc(1);
+                read
+            })
             .collect();
+        progress.finish_and_clear();
         first_error_in_order(results)
     }
 }

@@ -379,8 +379,7 @@ impl StageParams for LearchParams {
             },
             patience: self.patience,
         };
-        let progress =
-            indicatif::ProgressBar::new(self.rounds() as u64).with_message("learch rounds");
+        let progress = super::progress_bar(self.rounds(), "learch rounds");
         let checkpoint = checkpoint_path(&super::lineage(self, extra_deps)?.stage_key);
         let resume = if self.resume {
             read_checkpoint(&checkpoint)?
