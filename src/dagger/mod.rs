@@ -14,6 +14,7 @@ pub mod log_round;
 pub mod onnx;
 mod policy;
 pub mod query;
+pub mod train;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
