@@ -145,16 +145,19 @@ fn staging_beside(destination: &Path) -> Result<Staging> {
     std::fs::create_dir_all(&parent)
         .map_err(|e| Error::io(format!("creating {}", parent.display()), e))?;
     leftovers::sweep(&parent, &leftovers::BESIDE_OUTPUTS);
-    let dir = tempfile::Builder::new()
-        .prefix(leftovers::STAGING)
-        .tempdir_in(&parent)
-        .map_err(|e| {
-            Error::io(
-                format!("creating a staging folder in {}", parent.display()),
-                e,
-            )
-        })?;
-    let held = leftovers::hold(dir.path());
+    let (dir, held) = leftovers::claimed(|| {
+        let dir = tempfile::Builder::new()
+            .prefix(leftovers::STAGING)
+            .tempdir_in(&parent)?;
+        let held = leftovers::hold(dir.path());
+        Ok((dir, held))
+    })
+    .map_err(|e| {
+        Error::io(
+            format!("creating a staging folder in {}", parent.display()),
+            e,
+        )
+    })?;
     Ok(Staging { dir, _held: held })
 }
 
@@ -175,12 +178,15 @@ fn install(staging: Staging, destination: &Path) -> Result<()> {
             .map_err(|e| Error::io(format!("moving {} to {}", from.display(), to.display()), e))
     };
     let result = if destination.exists() {
-        let retired = tempfile::Builder::new()
-            .prefix(leftovers::RETIRED)
-            .tempdir_in(&parent)
-            .map_err(|e| Error::io(format!("creating a folder in {}", parent.display()), e))?
-            .keep();
-        let _retired_held = leftovers::hold(&retired);
+        let (retired, _retired_held) = leftovers::claimed(|| {
+            let retired = tempfile::Builder::new()
+                .prefix(leftovers::RETIRED)
+                .tempdir_in(&parent)?
+                .keep();
+            let held = leftovers::hold(&retired);
+            Ok::<_, std::io::Error>((retired, held))
+        })
+        .map_err(|e| Error::io(format!("creating a folder in {}", parent.display()), e))?;
         let old = retired.join("old");
         let result = rename(destination, &old).and_then(|_| {
             rename(&staged, destination).inspect_err(|_| {

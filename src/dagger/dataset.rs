@@ -315,11 +315,14 @@ impl Dataset {
         let data = self.dir.join("data");
         std::fs::create_dir_all(&data)
             .map_err(|e| Error::io(format!("creating {}", data.display()), e))?;
-        let staging = tempfile::Builder::new()
-            .prefix(leftovers::ROUND)
-            .tempdir_in(&data)
-            .map_err(|e| Error::io(format!("creating a folder in {}", data.display()), e))?;
-        let _staging_held = leftovers::hold(staging.path());
+        let (staging, _staging_held) = leftovers::claimed(|| {
+            let staging = tempfile::Builder::new()
+                .prefix(leftovers::ROUND)
+                .tempdir_in(&data)?;
+            let held = leftovers::hold(staging.path());
+            Ok((staging, held))
+        })
+        .map_err(|e| Error::io(format!("creating a folder in {}", data.display()), e))?;
         let batch = steps_batch(round, first_index, new, dims, self.info.action_dims());
         write_table(
             &staging.path().join("part-000.parquet"),

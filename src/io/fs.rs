@@ -28,12 +28,16 @@ pub fn write_atomic_seekable(
     };
     std::fs::create_dir_all(dir)
         .map_err(|e| Error::io(format!("creating {}", dir.display()), e))?;
-    let tmp = tempfile::Builder::new()
-        .prefix(".imitate-tmp-")
-        .tempfile_in(dir)
-        .map_err(|e| Error::io(format!("creating a temporary file in {}", dir.display()), e))?;
-    // Marks the file as ours while we live (see `leftovers`); released on drop.
-    let _ = tmp.as_file().try_lock();
+    // Made and marked as ours while we live (see `leftovers`; released on drop) with
+    // no sweep of this process in between.
+    let tmp = crate::io::leftovers::claimed(|| {
+        let tmp = tempfile::Builder::new()
+            .prefix(crate::io::leftovers::TEMPORARY)
+            .tempfile_in(dir)?;
+        let _ = tmp.as_file().try_lock();
+        Ok::<_, std::io::Error>(tmp)
+    })
+    .map_err(|e| Error::io(format!("creating a temporary file in {}", dir.display()), e))?;
     let mut out = BufWriter::new(tmp);
     write(&mut out)?;
     let tmp = out

@@ -14,6 +14,21 @@ pub const RETIRED: &str = ".imitate-retired-";
 /// A DAgger round staged inside the dataset's `data/` folder.
 pub const ROUND: &str = ".round-";
 
+/// Held while a staging folder or temporary file is created and locked, and while a
+/// sweep runs: without it, a sweep on another thread of this process (stages of one
+/// pipeline run side by side, their outputs in one folder) could take a new folder in
+/// the instant between its creation and its lock, and remove it.
+static CLAIMS: std::sync::Mutex<()> = std::sync::Mutex::new(());
+
+/// Runs `create_and_hold`, which makes something a sweep would match and locks it, so
+/// that no sweep of this process runs in between.
+pub fn claimed<T>(create_and_hold: impl FnOnce() -> T) -> T {
+    let _claims = CLAIMS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
+    create_and_hold()
+}
+
 /// Takes the lock that marks `path` (a folder or file) as in use by this process; the
 /// lock lasts as long as the returned handle. `None` where the platform cannot lock it
 /// (then it is never swept while in use, since sweeping needs the lock too).
@@ -26,6 +41,9 @@ pub fn hold(path: &Path) -> Option<File> {
 /// Removes the entries of `dir` whose names start with one of `prefixes` and that no
 /// living process holds. Returns how many were removed; what cannot be removed stays.
 pub fn sweep(dir: &Path, prefixes: &[&str]) -> usize {
+    let _claims = CLAIMS
+        .lock()
+        .unwrap_or_else(std::sync::PoisonError::into_inner);
     let Ok(entries) = std::fs::read_dir(dir) else {
         return 0;
     };
@@ -76,5 +94,38 @@ mod tests {
         assert!(!dead.exists() && !tmp.exists());
         assert!(live.exists(), "a living run's staging folder stays");
         assert!(user.exists());
+    }
+
+    #[test]
+    fn a_sweep_on_another_thread_never_takes_a_folder_being_claimed() {
+        let dir = tempfile::tempdir().unwrap();
+        let parent = dir.path().to_path_buf();
+        let done = std::sync::atomic::AtomicBool::new(false);
+        let swept = std::thread::scope(|scope| {
+            scope.spawn(|| {
+                while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                    sweep(&parent, &BESIDE_OUTPUTS);
+                }
+            });
+            let swept = (0..50)
+                .filter(|_| {
+                    let (staging, _held) = claimed(|| {
+                        let staging = tempfile::Builder::new()
+                            .prefix(STAGING)
+                            .tempdir_in(&parent)
+                            .unwrap();
+                        // A slow moment between creation and lock: without the claim,
+                        // the sweeping thread takes the folder here.
+                        std::thread::sleep(std::time::Duration::from_millis(2));
+                        let held = hold(staging.path());
+                        (staging, held)
+                    });
+                    !staging.path().is_dir()
+                })
+                .count();
+            done.store(true, std::sync::atomic::Ordering::Relaxed);
+            swept
+        });
+        assert_eq!(swept, 0, "claimed folders were swept");
     }
 }
