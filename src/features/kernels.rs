@@ -209,19 +209,29 @@ fn difference(
     }
 }
 
+/// The cell size (x, y) in metres of row `row`: `spacing` holds one pair for every row
+/// (geographic rasters, whose cells narrow towards the poles) or one for them all.
+fn row_spacing(spacing: &[[f64; 2]], row: usize) -> [f64; 2] {
+    match spacing {
+        [one] => *one,
+        rows => rows[row],
+    }
+}
+
 /// Calls `each(dx, dy)` with the derivatives ∂z/∂x and ∂z/∂y (per metre; `spacing` is
-/// the cell size (x, y) in metres) of every cell, writing what it returns: the one
-/// traversal behind the gradient, slope and aspect.
+/// the cell size (x, y) in metres, per row or for all) of every cell, writing what it
+/// returns: the one traversal behind the gradient, slope and aspect.
 fn from_derivatives(
     input: &[f32],
     width: usize,
     height: usize,
-    spacing: [f64; 2],
+    spacing: &[[f64; 2]],
     out: &mut [f32],
     each: impl Fn(f64, f64) -> f64,
 ) {
     let line = |r: usize| &input[r * width..(r + 1) * width];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        let spacing = row_spacing(spacing, row);
         let (here, below, above) = (
             line(row),
             line(row.saturating_sub(1)),
@@ -251,12 +261,12 @@ fn from_derivatives(
 }
 
 /// Gradient magnitude |∇z| (units of z per metre) and, with `degrees`, the slope
-/// atan |∇z| in degrees; `spacing` is the cell size (x, y) in metres.
+/// atan |∇z| in degrees; `spacing` is the cell size (x, y) in metres, per row or for all.
 pub fn gradient(
     input: &[f32],
     width: usize,
     height: usize,
-    spacing: [f64; 2],
+    spacing: &[[f64; 2]],
     degrees: bool,
     out: &mut [f32],
 ) {
@@ -271,8 +281,9 @@ pub fn gradient(
 }
 
 /// Aspect: the direction of steepest descent in degrees clockwise from north (0–360),
-/// 0 on flat cells; `spacing` is the cell size (x, y) in metres. Rows grow north.
-pub fn aspect(input: &[f32], width: usize, height: usize, spacing: [f64; 2], out: &mut [f32]) {
+/// 0 on flat cells; `spacing` is the cell size (x, y) in metres, per row or for all.
+/// Rows grow north.
+pub fn aspect(input: &[f32], width: usize, height: usize, spacing: &[[f64; 2]], out: &mut [f32]) {
     from_derivatives(input, width, height, spacing, out, |dx, dy| {
         // Downhill is −∇z; its bearing from north is atan2(east, north).
         if dx == 0.0 && dy == 0.0 {
@@ -284,16 +295,22 @@ pub fn aspect(input: &[f32], width: usize, height: usize, spacing: [f64; 2], out
 }
 
 /// The 5-point Laplacian per square metre (scipy.ndimage.laplace / resolution² on
-/// square cells); `spacing` is the cell size (x, y) in metres.
-pub fn laplacian(input: &[f32], width: usize, height: usize, spacing: [f64; 2], out: &mut [f32]) {
-    let scale = 1.0 / (spacing[0] * spacing[0]);
-    let scale_y = 1.0 / (spacing[1] * spacing[1]);
+/// square cells); `spacing` is the cell size (x, y) in metres, per row or for all.
+pub fn laplacian(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    spacing: &[[f64; 2]],
+    out: &mut [f32],
+) {
     let line = |r: isize| {
         let rr = reflect(r, height);
         &input[rr * width..(rr + 1) * width]
     };
     let mut padded = vec![0.0f32; width + 2];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        let [sx, sy] = row_spacing(spacing, row);
+        let (scale, scale_y) = (1.0 / (sx * sx), 1.0 / (sy * sy));
         let here = line(row as isize);
         pad_row(here, 1, &mut padded);
         let (below, above) = (line(row as isize - 1), line(row as isize + 1));
@@ -470,14 +487,14 @@ mod tests {
         // z = 2x metres per metre at resolution 0.5: one cell east raises z by 1.
         let input: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
         let mut out = vec![0.0; w * h];
-        gradient(&input, w, h, [0.5; 2], false, &mut out);
+        gradient(&input, w, h, &[[0.5; 2]], false, &mut out);
         assert!(out.iter().all(|&g| (g - 2.0).abs() < 1e-6));
-        gradient(&input, w, h, [0.5; 2], true, &mut out);
+        gradient(&input, w, h, &[[0.5; 2]], true, &mut out);
         assert!(
             out.iter()
                 .all(|&s| (s - 2f32.atan().to_degrees()).abs() < 1e-4)
         );
-        laplacian(&input, w, h, [0.5; 2], &mut out);
+        laplacian(&input, w, h, &[[0.5; 2]], &mut out);
         assert!(out[w + 2].abs() < 1e-6, "a plane has no curvature inside");
     }
 
@@ -509,13 +526,13 @@ mod tests {
         let mut out = vec![0.0; w * h];
         // Rising to the east: downhill faces west (270°).
         let east: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
-        aspect(&east, w, h, [1.0; 2], &mut out);
+        aspect(&east, w, h, &[[1.0; 2]], &mut out);
         assert!(out.iter().all(|&a| (a - 270.0).abs() < 1e-4), "{out:?}");
         // Rising to the north (rows grow north): downhill faces south (180°).
         let north: Vec<f32> = (0..w * h).map(|i| (i / w) as f32).collect();
-        aspect(&north, w, h, [1.0; 2], &mut out);
+        aspect(&north, w, h, &[[1.0; 2]], &mut out);
         assert!(out.iter().all(|&a| (a - 180.0).abs() < 1e-4));
-        aspect(&vec![2.0; w * h], w, h, [1.0; 2], &mut out);
+        aspect(&vec![2.0; w * h], w, h, &[[1.0; 2]], &mut out);
         assert!(out.iter().all(|&a| a == 0.0));
     }
 
@@ -544,13 +561,27 @@ mod tests {
         let z: Vec<f32> = (0..w * h)
             .map(|i| ((i % w) as f64 * sx + (i / w) as f64 * sy) as f32)
             .collect();
-        gradient(&z, w, h, [sx, sy], false, &mut out);
+        gradient(&z, w, h, &[[sx, sy]], false, &mut out);
         assert!(out.iter().all(|&g| (g - 2f32.sqrt()).abs() < 1e-5));
+        // Rows of different widths (degrees of longitude shorten towards the poles):
+        // z climbing 1 per cell east climbs 1 / (the row's cell width) per metre.
+        let by_row: Vec<[f64; 2]> = (0..h).map(|r| [sx * (1.0 + r as f64), sy]).collect();
+        let z: Vec<f32> = (0..w * h).map(|i| (i % w) as f32).collect();
+        gradient(&z, w, h, &by_row, false, &mut out);
+        for (i, &g) in out.iter().enumerate() {
+            let expected = 1.0 / by_row[i / w][0];
+            assert!((f64::from(g) - expected).abs() < 1e-6, "cell {i}: {g}");
+        }
+        aspect(&z, w, h, &by_row, &mut out);
+        assert!(
+            out.iter().all(|&a| (a - 270.0).abs() < 1e-3),
+            "downhill is west"
+        );
         // z = x² + y²: the Laplacian is 4 per square metre inside.
         let z: Vec<f32> = (0..w * h)
             .map(|i| (((i % w) as f64 * sx).powi(2) + ((i / w) as f64 * sy).powi(2)) as f32)
             .collect();
-        laplacian(&z, w, h, [sx, sy], &mut out);
+        laplacian(&z, w, h, &[[sx, sy]], &mut out);
         assert!((out[4 * w + 5] - 4.0).abs() < 1e-3, "{}", out[4 * w + 5]);
         // A blur with σ of 2 cells across and 1 down spreads an impulse twice as far
         // along the row, and keeps its mass.

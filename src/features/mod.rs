@@ -525,6 +525,9 @@ pub fn compute_with_nodata(
         map.geo.height as usize,
         map.geo.cell_metres(),
     );
+    // Derivatives use each row's own cell size (it varies with latitude in degrees);
+    // neighbourhood operators (blurs, distances) the raster's middle latitude.
+    let by_row = map.geo.cell_metres_by_row();
     let n = w * h;
     // Layers with no data, filled; the others are read in place.
     let filled: Vec<(usize, Vec<f32>)> = nodata
@@ -557,9 +560,9 @@ pub fn compute_with_nodata(
             }
             Plane::Normalize(i) => robust_normalize(input(i), out),
             Plane::Blur(i, sigma_cells) => gaussian_blur(input(i), w, h, sigma_cells, out),
-            Plane::Gradient(i, degrees) => gradient(input(i), w, h, res, degrees, out),
+            Plane::Gradient(i, degrees) => gradient(input(i), w, h, &by_row, degrees, out),
             Plane::Roughness(i, window) => local_std(input(i), w, h, window, out),
-            Plane::Laplacian(i) => laplacian(input(i), w, h, res, out),
+            Plane::Laplacian(i) => laplacian(input(i), w, h, &by_row, out),
             Plane::Equals(i, c) => {
                 for (o, &v) in out.iter_mut().zip(input(i)) {
                     *o = f32::from(u8::from(v == c));
@@ -602,7 +605,7 @@ pub fn compute_with_nodata(
                     *o = v - *o;
                 }
             }
-            Plane::Aspect(i) => aspect(input(i), w, h, res, out),
+            Plane::Aspect(i) => aspect(input(i), w, h, &by_row, out),
             Plane::Bias => out.fill(1.0),
             Plane::Product(..) => {}
         });

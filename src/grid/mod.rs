@@ -14,6 +14,7 @@ mod path;
 mod points;
 
 pub use demo::{Demonstration, Pose};
+pub use geodesy::metres_per_degree;
 
 pub use map::{Layer, Map, check_map_name};
 pub use path::{CellPath, PathError, is_connected8, rasterize};
@@ -77,7 +78,8 @@ impl GeoRef {
 
     /// Cell size (x, y) in metres on the ground. In a geographic frame it is measured
     /// at the raster's middle latitude on the WGS 84 ellipsoid (rasters spanning many
-    /// degrees of latitude are stretched away from it: `scale_variation` says how much).
+    /// degrees of latitude are stretched away from it: `scale_variation` says how much;
+    /// planners and derivatives use `cell_metres_by_row`).
     pub fn cell_metres(&self) -> [f64; 2] {
         let [sx, sy] = self.cell_size();
         if !self.degrees {
@@ -85,6 +87,27 @@ impl GeoRef {
         }
         let [east, north] = geodesy::metres_per_degree(self.middle_latitude());
         [sx * east, sy * north]
+    }
+
+    /// Cell size (x, y) in metres on the ground, row by row: one pair for every row in
+    /// a geographic frame, measured at the row's middle latitude (a degree of longitude
+    /// shortens towards the poles), and one pair for them all elsewhere.
+    pub fn cell_metres_by_row(&self) -> Vec<[f64; 2]> {
+        if !self.degrees {
+            return vec![self.cell_metres()];
+        }
+        let [sx, sy] = self.cell_size();
+        (0..self.height)
+            .map(|r| {
+                let [east, north] = geodesy::metres_per_degree(self.latitude(f64::from(r) + 0.5));
+                [sx * east, sy * north]
+            })
+            .collect()
+    }
+
+    /// The latitude `rows` rows north of the raster's southern edge, in a geographic frame.
+    pub fn latitude(&self, rows: f64) -> f64 {
+        (self.origin[1] + rows * self.cell_size()[1]).clamp(-90.0, 90.0)
     }
 
     /// The largest relative difference between the east-west cell size at the raster's

@@ -207,8 +207,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         if variation > 0.05 {
             tracing::warn!(
                 "{}: a geographic raster spanning latitudes {south:.2}° to {north:.2}°: \
-                 cells are measured at the middle latitude, and east-west lengths differ \
-                 by up to {:.0} % at its edges; reproject it (gdalwarp) for exact lengths",
+                 steps, slopes and aspects are measured at each row's latitude, but blurs \
+                 and distances at the middle latitude, and east-west lengths differ by up \
+                 to {:.0} % at its edges; reproject it (gdalwarp) for exact neighbourhoods",
                 path.display(),
                 100.0 * variation
             );

@@ -90,18 +90,15 @@ impl Window {
     /// The window's neighbour of `index` by move `m`, with the move's length.
     fn step(&self, index: usize, m: usize, lengths: &StepLengths) -> Option<(usize, f64)> {
         let (dr, dc) = MOVES[m];
-        let length = match (dr != 0, dc != 0) {
-            (true, true) => lengths.diagonal,
-            (true, false) => lengths.y,
-            _ => lengths.x,
-        };
         let cols = self.cols as i64;
         let (r, c) = (
             (index as i64) / cols + dr as i64,
             (index as i64) % cols + dc as i64,
         );
-        (r >= 0 && c >= 0 && r < self.rows as i64 && c < cols)
-            .then(|| ((r * cols + c) as usize, length))
+        (r >= 0 && c >= 0 && r < self.rows as i64 && c < cols).then(|| {
+            let next = (r * cols + c) as usize;
+            (next, lengths.between(self.cell(index), self.cell(next)))
+        })
     }
 }
 

@@ -8,7 +8,8 @@ use std::collections::BinaryHeap;
 use serde::{Deserialize, Serialize};
 
 use super::queue::{Buckets, Heap, MinQueue};
-use super::relax::{self, CLOSED, NO_PARENT, Node, StepLengths};
+use super::relax::{self, CLOSED, NO_PARENT, Node, RowSteps};
+use super::steps::StepLengths;
 use crate::grid::{Cell, CellPath, GeoRef, Grid};
 
 const SQRT_2: f64 = std::f64::consts::SQRT_2;
@@ -48,29 +49,6 @@ pub struct Route {
 /// Cost of one step of `length` between neighbouring cells with costs `a` and `b`.
 pub fn edge_cost(a: f32, b: f32, length: f64) -> f64 {
     length * 0.5 * (f64::from(a) + f64::from(b))
-}
-
-impl StepLengths {
-    /// The steps of a raster's cells, in units of its shorter cell side.
-    pub fn of(geo: &GeoRef) -> Self {
-        Self::of_cells(geo.cell_metres())
-    }
-
-    /// The length of the step between neighbours `a` and `b`.
-    pub fn between(&self, a: Cell, b: Cell) -> f64 {
-        match (a.row != b.row, a.col != b.col) {
-            (true, true) => self.diagonal,
-            (true, false) => self.y,
-            _ => self.x,
-        }
-    }
-}
-
-/// Metres in one unit of step length on `geo`: costs of routes times this are cost ×
-/// metres.
-pub fn unit_step_metres(geo: &GeoRef) -> f64 {
-    let [mx, my] = geo.cell_metres();
-    mx.min(my)
 }
 
 /// Cost of a connected path under `costs` (sum of its edge costs).
@@ -188,7 +166,8 @@ struct AstarOpen<const N: usize> {
     goal_row: u32,
     goal_col: u32,
     min_cost: f64,
-    lengths: StepLengths,
+    /// Lower bounds on each kind of step anywhere on the grid.
+    shortest: RowSteps,
 }
 
 impl<const N: usize> AstarOpen<N> {
@@ -197,7 +176,7 @@ impl<const N: usize> AstarOpen<N> {
         let node = node as u32;
         let dr = f64::from((node / self.row).abs_diff(self.goal_row));
         let dc = f64::from((node % self.row).abs_diff(self.goal_col));
-        let steps = if self.lengths == StepLengths::SQUARE {
+        let steps = if self.shortest == RowSteps::SQUARE {
             if N == 8 {
                 dr.max(dc) + (SQRT_2 - 1.0) * dr.min(dc)
             } else {
@@ -206,9 +185,9 @@ impl<const N: usize> AstarOpen<N> {
         } else {
             // As many diagonal steps as both offsets allow, then straight ones: a
             // diagonal is never longer than its two sides.
-            let (x, y) = (self.lengths.x, self.lengths.y);
+            let (x, y) = (self.shortest.x, self.shortest.y[0]);
             let diagonals = if N == 8 { dr.min(dc) } else { 0.0 };
-            diagonals * self.lengths.diagonal + (dr - diagonals) * y + (dc - diagonals) * x
+            diagonals * self.shortest.diagonal[0] + (dr - diagonals) * y + (dc - diagonals) * x
         };
         steps * self.min_cost
     }
@@ -241,12 +220,17 @@ fn expand<const N: usize, const NO_CORNER_CUTTING: bool, const TRACK: bool>(
     frontier: &mut impl Frontier,
     touched: &mut Vec<u32>,
 ) {
+    // Rows differ only in geographic frames: elsewhere no division.
+    let steps = match lengths.uniform() {
+        Some(steps) => steps,
+        None => lengths.row(u / row - 1),
+    };
     // SAFETY: `u` is an inner cell of the padded grid (only passable cells are ever
     // queued, and the border is blocked), so its neighbours lie within `nodes`.
     let relax::Candidates {
         costs,
         mut improved,
-    } = unsafe { relax::candidates(nodes, row, u, lengths) };
+    } = unsafe { relax::candidates(nodes, row, u, steps) };
     let neighbours = relax::neighbours(u, row);
     if N == 4 {
         improved &= 0b1111;
@@ -372,9 +356,10 @@ impl GridPlanner {
     }
 
     fn longest_step(&self) -> f64 {
+        let (straight, any) = self.lengths.longest();
         match self.moves.connectivity {
-            Connectivity::Four => self.lengths.x.max(self.lengths.y),
-            Connectivity::Eight => self.lengths.longest(),
+            Connectivity::Four => straight,
+            Connectivity::Eight => any,
         }
     }
 
@@ -485,7 +470,7 @@ impl GridPlanner {
             goal_row: (g / row) as u32,
             goal_col: (g % row) as u32,
             min_cost: self.min_cost,
-            lengths: self.lengths,
+            shortest: self.lengths.shortest(),
         };
         self.start(s);
         open.reached(s, f64::INFINITY, 0.0);
@@ -612,7 +597,15 @@ impl CostField {
 mod tests {
     use super::*;
     use crate::grid::is_connected8;
+    use crate::plan::unit_step_metres;
     use proptest::prelude::*;
+
+    #[derive(Clone, Debug)]
+    enum Frame {
+        Square,
+        Rectangles(f64),
+        Degrees(f64),
+    }
 
     fn grid(width: u32, height: u32, data: Vec<f32>) -> Grid<f32> {
         Grid::from_vec(GeoRef::unit(width, height), data)
@@ -680,12 +673,26 @@ mod tests {
                 prop::collection::vec(prop_oneof![4 => 0.1f32..10.0, 1 => Just(f32::INFINITY)], n),
                 0..n,
                 0..n,
-                // Square cells, or rectangles either way round.
-                prop_oneof![2 => Just(None), 1 => (0.3f64..3.0).prop_map(Some)],
+                // Square cells, rectangles either way round, or 10° cells in degrees
+                // from a southern edge (narrower towards the pole, each row its own
+                // lengths).
+                prop_oneof![
+                    2 => Just(Frame::Square),
+                    1 => (0.3f64..3.0).prop_map(Frame::Rectangles),
+                    1 => (-80.0f64..10.0).prop_map(Frame::Degrees),
+                ],
             )
-                .prop_map(move |(data, s, t, resolution_y)| {
+                .prop_map(move |(data, s, t, frame)| {
                     let mut g = grid(w, h, data);
-                    g.geo.resolution_y = resolution_y;
+                    match frame {
+                        Frame::Square => {}
+                        Frame::Rectangles(y) => g.geo.resolution_y = Some(y),
+                        Frame::Degrees(south) => {
+                            g.geo.degrees = true;
+                            g.geo.resolution = 10.0;
+                            g.geo.origin = [0.0, south];
+                        }
+                    }
                     (g, s, t)
                 })
         })
@@ -741,6 +748,28 @@ mod tests {
                 .abs()
                 < 1e-12
         );
+    }
+
+    #[test]
+    fn a_degree_east_is_shorter_towards_the_pole() {
+        // 1° cells from the equator to 60° north: crossing ten cells east costs about
+        // cos(latitude) of what it costs on the equator, in the planner's units.
+        let mut g = grid(11, 60, vec![1.0; 660]);
+        g.geo.degrees = true;
+        let cost = |row| {
+            shortest_path(&g, Cell::new(row, 0), Cell::new(row, 10))
+                .unwrap()
+                .cost
+        };
+        let (equator, north) = (cost(0), cost(59));
+        let expected = 59.5f64.to_radians().cos() / 0.5f64.to_radians().cos();
+        assert!(
+            (north / equator / expected - 1.0).abs() < 0.01,
+            "{north} / {equator}"
+        );
+        // In metres: ten cells of 111.3 km on the equator.
+        let metres = equator * unit_step_metres(&g.geo);
+        assert!((metres - 1_113_195.0).abs() < 500.0, "{metres}");
     }
 
     #[test]

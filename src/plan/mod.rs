@@ -9,13 +9,15 @@ mod grid;
 mod mdp;
 mod queue;
 mod relax;
+mod steps;
 
 pub use grid::{
     Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
-    loss_augmented, path_cost, shortest_path, unit_step_metres, visitation,
+    loss_augmented, path_cost, shortest_path, visitation,
 };
 pub use mdp::{Backup, TabularMdp, Values, value_iteration, value_iteration_from};
-pub use relax::StepLengths;
+pub use relax::RowSteps;
+pub use steps::{StepLengths, unit_step_metres};
 
 use serde::Serialize;
 

@@ -44,24 +44,28 @@ pub fn neighbours(u: usize, row: usize) -> [usize; 8] {
     [up, u - 1, u + 1, down, up - 1, up + 1, down - 1, down + 1]
 }
 
-/// How long a step is along x, along y and diagonally, in units of the shorter cell
-/// side: 1, 1 and √2 on square cells. Cells are rectangles where a raster's cells are
-/// not square, or in degrees away from the equator.
+/// How long the steps out of one row's cells are, in units of the grid's shortest step
+/// (`StepLengths`): along the row, and straight and diagonally to the row before
+/// (index − 1) and the row after. 1, 1 and √2 on square cells; rectangles where a
+/// raster's cells are not square; and different from row to row in degrees, where a
+/// degree of longitude shortens away from the equator.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct StepLengths {
+pub struct RowSteps {
     pub x: f64,
-    pub y: f64,
-    pub diagonal: f64,
+    /// Straight to the row before and the row after.
+    pub y: [f64; 2],
+    /// Diagonally to the row before and the row after.
+    pub diagonal: [f64; 2],
 }
 
-impl StepLengths {
-    pub const SQUARE: StepLengths = StepLengths {
+impl RowSteps {
+    pub const SQUARE: RowSteps = RowSteps {
         x: 1.0,
-        y: 1.0,
-        diagonal: SQRT_2,
+        y: [1.0; 2],
+        diagonal: [SQRT_2; 2],
     };
 
-    /// The steps of cells `metres` = (x, y) on the ground.
+    /// The steps of cells `metres` = (x, y) on the ground, in units of the shorter side.
     pub fn of_cells(metres: [f64; 2]) -> Self {
         let [mx, my] = metres;
         if (mx - my).abs() <= 1e-9 * mx.max(my) {
@@ -69,22 +73,17 @@ impl StepLengths {
         }
         let unit = mx.min(my);
         let (x, y) = (mx / unit, my / unit);
-        StepLengths {
+        RowSteps {
             x,
-            y,
-            diagonal: x.hypot(y),
+            y: [y; 2],
+            diagonal: [x.hypot(y); 2],
         }
     }
 
     /// Lengths to the neighbours in `neighbours` order.
     pub fn by_neighbour(&self) -> [f64; 8] {
-        let (x, y, d) = (self.x, self.y, self.diagonal);
-        [y, x, x, y, d, d, d, d]
-    }
-
-    /// The longest single step.
-    pub fn longest(&self) -> f64 {
-        self.diagonal
+        let (x, [y0, y1], [d0, d1]) = (self.x, self.y, self.diagonal);
+        [y0, x, x, y1, d0, d0, d1, d1]
     }
 }
 
@@ -103,12 +102,7 @@ pub struct Candidates {
 /// column of nodes around it inside `nodes` (the planner's blocked border), so that all
 /// its neighbours lie within `nodes`.
 #[inline(always)]
-pub unsafe fn candidates(
-    nodes: &[Node],
-    row: usize,
-    u: usize,
-    lengths: &StepLengths,
-) -> Candidates {
+pub unsafe fn candidates(nodes: &[Node], row: usize, u: usize, lengths: &RowSteps) -> Candidates {
     debug_assert!(u > row && u + row + 1 < nodes.len());
     #[cfg(target_arch = "x86_64")]
     // SAFETY: as the caller promises.
@@ -133,7 +127,7 @@ pub unsafe fn candidates_scalar(
     nodes: &[Node],
     row: usize,
     u: usize,
-    lengths: &StepLengths,
+    lengths: &RowSteps,
 ) -> Candidates {
     let lengths = lengths.by_neighbour();
     let du = nodes[u].dist;
@@ -153,7 +147,7 @@ pub unsafe fn candidates_scalar(
 mod sse2 {
     use std::arch::x86_64::*;
 
-    use super::{Candidates, Node, StepLengths};
+    use super::{Candidates, Node, RowSteps};
 
     /// Vector lane of neighbour `k`: lanes run along the row above (up-left, up,
     /// up-right), then left, along the row below, then right, as the loads come.
@@ -210,7 +204,7 @@ mod sse2 {
         nodes: &[Node],
         row: usize,
         u: usize,
-        lengths: &StepLengths,
+        lengths: &RowSteps,
     ) -> Candidates {
         let p = nodes.as_ptr();
         // SAFETY: as the caller promises, every node read lies within `nodes`.
@@ -219,10 +213,12 @@ mod sse2 {
             let hu = _mm_set1_pd(f64::from((*p.add(u)).half));
             // Both pairs of a row are a corner, then an orthogonal neighbour: above and
             // below along y in the first pair, left and right along x in the second.
-            let pair_lengths = [
-                _mm_setr_pd(lengths.diagonal, lengths.y),
-                _mm_setr_pd(lengths.diagonal, lengths.x),
-            ];
+            let pair_lengths = [0, 1].map(|r| {
+                [
+                    _mm_setr_pd(lengths.diagonal[r], lengths.y[r]),
+                    _mm_setr_pd(lengths.diagonal[r], lengths.x),
+                ]
+            });
             let (up, down) = (u - row, u + row);
             let rows = [
                 three_and_one(p, up - 1, u - 1),
@@ -234,7 +230,8 @@ mod sse2 {
                 for (j, (dist, half)) in pairs.into_iter().enumerate() {
                     let lane = 4 * r + 2 * j;
                     // du + length × (hu + half): the scalar path's operations, in order.
-                    let cost = _mm_add_pd(du, _mm_mul_pd(pair_lengths[j], _mm_add_pd(hu, half)));
+                    let length = pair_lengths[r][j];
+                    let cost = _mm_add_pd(du, _mm_mul_pd(length, _mm_add_pd(hu, half)));
                     _mm_storeu_pd(by_lane.as_mut_ptr().add(lane), cost);
                     lanes |= _mm_movemask_pd(_mm_cmplt_pd(cost, dist)) << lane;
                 }
@@ -269,9 +266,15 @@ mod tests {
             nodes in prop::collection::vec(node(), 25),
             x in 1.0f64..3.0,
             y in 1.0f64..3.0,
+            y_after in 1.0f64..3.0,
         ) {
             // A 5 × 5 block: every inner node has its eight neighbours.
-            for lengths in [StepLengths::SQUARE, StepLengths::of_cells([x, y])] {
+            let uneven = RowSteps {
+                x,
+                y: [y, y_after],
+                diagonal: [x.hypot(y), (0.9 * x).hypot(y_after)],
+            };
+            for lengths in [RowSteps::SQUARE, RowSteps::of_cells([x, y]), uneven] {
                 for u in [6, 7, 8, 11, 12, 13, 16, 17, 18] {
                     // SAFETY: inner nodes of a 5-wide block.
                     let (fast, reference) = unsafe {
@@ -292,10 +295,10 @@ mod tests {
 
     #[test]
     fn rectangular_cells_step_in_units_of_the_shorter_side() {
-        assert_eq!(StepLengths::of_cells([30.0, 30.0]), StepLengths::SQUARE);
-        let steps = StepLengths::of_cells([2.0, 1.0]);
-        assert_eq!((steps.x, steps.y), (2.0, 1.0));
-        assert!((steps.diagonal - 5f64.sqrt()).abs() < 1e-15);
+        assert_eq!(RowSteps::of_cells([30.0, 30.0]), RowSteps::SQUARE);
+        let steps = RowSteps::of_cells([2.0, 1.0]);
+        assert_eq!((steps.x, steps.y), (2.0, [1.0; 2]));
+        assert!((steps.diagonal[1] - 5f64.sqrt()).abs() < 1e-15);
         assert_eq!(steps.by_neighbour()[..4], [1.0, 2.0, 2.0, 1.0]);
     }
 
