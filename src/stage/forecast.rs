@@ -29,7 +29,8 @@ use crate::plan::path_cost;
 use crate::report::{COLOUR_DEMONSTRATION, COLOUR_PLAN, paint_heat};
 
 pub const KIND: &str = "forecast";
-const VERSION: u32 = 1;
+/// 2: MaxEnt's passes with their own exponential (the same bits on every machine).
+const VERSION: u32 = 2;
 
 fn default_horizon_factor() -> f64 {
     1.5
