@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The test command: the Python packages some tests write files with, then every test.
+# The test command: the Python packages some tests write files with, the browser the
+# report test opens the HTML report in, then every test.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/python-deps.sh
+scripts/browser-deps.sh
 cargo test --locked "$@"

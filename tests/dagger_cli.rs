@@ -124,6 +124,13 @@ fn bench_dagger_scale_builds_appends_and_retrains() {
     assert_eq!(status.as_array().unwrap().len(), 6);
 }
 
+/// Pixels of text and axes (near black) in a chart.
+fn dark_pixels(picture: &imitate::io::png::Rgb) -> usize {
+    (picture.pixels.chunks_exact(3))
+        .filter(|p| p.iter().map(|&v| u32::from(v)).sum::<u32>() < 200)
+        .count()
+}
+
 /// A workspace holding a short version of `pipelines/dagger-track.yaml`.
 fn dagger_pipeline(selection: &str) -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
@@ -165,6 +172,10 @@ fn the_dagger_stage_writes_a_policy_artifact_reproducibly() {
         .map(|r| r["validation_falls_per_lap"].as_f64().unwrap())
         .fold(f64::INFINITY, f64::min);
     assert_eq!(metrics["summary"]["validation_falls_per_lap"], best);
+    // Charted per round against the teacher, with a title and labelled axes.
+    let chart = imitate::io::png::read_png(&artifact.join("validation.png")).unwrap();
+    assert_eq!((chart.width, chart.height), (420, 280));
+    assert!(dark_pixels(&chart) > 1_000);
     for round in 0..4 {
         assert!(
             artifact
@@ -913,6 +924,10 @@ fn the_dagger_stage_walks_gridnav_on_a_costmap() {
     let policy: serde_json::Value =
         serde_json::from_slice(&std::fs::read(artifact.join("policy.json")).unwrap()).unwrap();
     assert_eq!(policy["kind"], "logistic");
+    // Two charts side by side: goals reached and path cost, per round.
+    let charts = imitate::io::png::read_png(&artifact.join("validation.png")).unwrap();
+    assert_eq!((charts.width, charts.height), (852, 280));
+    assert!(dark_pixels(&charts) > 2_000);
 
     // Moves are classes: a regression learner is refused, as is gridnav without costs.
     for (from, to) in [

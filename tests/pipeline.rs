@@ -606,3 +606,75 @@ fn a_diff_stage_keeps_the_comparison_of_two_costmaps_as_an_artifact() {
     assert!(stderr(&out).contains("no_such_figure"), "{}", stderr(&out));
     assert!(!dir.exists());
 }
+
+/// The first Chromium on the PATH (`scripts/browser-deps.sh` installs Debian's).
+fn browser() -> Option<&'static str> {
+    ["chromium", "chromium-browser", "google-chrome"]
+        .into_iter()
+        .find(|name| {
+            std::process::Command::new(name)
+                .arg("--version")
+                .output()
+                .is_ok_and(|o| o.status.success())
+        })
+}
+
+#[test]
+fn the_report_renders_in_a_headless_browser_with_its_pictures() {
+    let Some(browser) = browser() else {
+        eprintln!("skipped: no Chromium on the PATH (scripts/browser-deps.sh installs it)");
+        return;
+    };
+    let ws = quickstart_workspace();
+    run(ws.path(), &[]);
+    let html = ws.path().join("out/quickstart/report/report.html");
+    // Kept after the run as the test's artifact: target/tmp/report-screenshot.png.
+    let shot = Path::new(env!("CARGO_TARGET_TMPDIR")).join("report-screenshot.png");
+    let _ = std::fs::remove_file(&shot);
+    let profile = tempfile::tempdir().unwrap();
+    let out = std::process::Command::new("timeout")
+        .arg("120")
+        .arg(browser)
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--hide-scrollbars",
+            "--window-size=1200,2600",
+        ])
+        .arg(format!("--user-data-dir={}", profile.path().display()))
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("file://{}", html.display()))
+        .output()
+        .unwrap();
+    assert!(shot.is_file(), "no screenshot: {}", stderr(&out));
+    let picture = imitate::io::png::read_png(&shot).unwrap();
+    assert_eq!((picture.width, picture.height), (1200, 2600));
+    // The pictures loaded: a broken image shows an icon and its alt text, not the
+    // costmaps' viridis ends, the demonstrations' red or the loss curve's.
+    let near = |target: [u8; 3]| {
+        picture
+            .pixels
+            .chunks_exact(3)
+            .filter(|p| {
+                p.iter()
+                    .zip(target)
+                    .all(|(&a, b)| (i32::from(a) - i32::from(b)).abs() <= 25)
+            })
+            .count()
+    };
+    let purple = near([68, 1, 84]);
+    let yellow = near([253, 231, 37]);
+    let red = near(imitate::report::COLOUR_DEMONSTRATION);
+    assert!(
+        purple > 2_000 && yellow > 2_000 && red > 1_000,
+        "costmap colours on the page: purple {purple}, yellow {yellow}, red {red}"
+    );
+    // And the text rendered: a good share of the page is dark glyphs on white.
+    let dark = picture
+        .pixels
+        .chunks_exact(3)
+        .filter(|p| p.iter().all(|&v| v < 60))
+        .count();
+    assert!(dark > 20_000, "{dark} dark pixels");
+}

@@ -81,7 +81,7 @@ pub fn run(args: PlanArgs) -> Result<()> {
                 plans: vec![&route.cells],
             },
             args.scale,
-        );
+        )?;
         write_png(png, &picture)?;
     }
     let output = PlanOutput {

@@ -13,7 +13,7 @@ use crate::io::png::Rgb;
 static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
 
 /// Registers the bundled font under "sans-serif" once per process.
-fn font_ready() -> Result<(), String> {
+pub(crate) fn font_ready() -> Result<(), String> {
     static REGISTERED: OnceLock<Result<(), String>> = OnceLock::new();
     REGISTERED
         .get_or_init(|| {

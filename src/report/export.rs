@@ -6,21 +6,25 @@
 use std::path::Path;
 
 use super::costmap_artifact::CostmapArtifact;
-use super::picture::{colour_bar, log_cost_range, paint_costs, side_by_side};
-use crate::error::Result;
+use super::legend::with_legend;
+use super::picture::{log_cost_range, paint_costs};
+use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
 use crate::io::geotiff::write_geotiff;
 use crate::io::mcap::{foxglove, ros2, writer::write_log};
 use crate::io::png::write_png;
 use crate::plan::shortest_path;
 
-/// The costmap in viridis (north up) with a colour bar on its right, cheap at the bottom;
-/// colours span the 2nd to 98th percentile of log-cost.
+/// The costmap in viridis (north up) with a colour bar labelled in cost on its right
+/// (cheap at the bottom) and a scale bar in metres; colours span the 2nd to 98th
+/// percentile of log-cost.
 pub fn export_png(costs: &Grid<f32>, path: &Path) -> Result<()> {
     let scale = (512 / costs.geo.width.max(costs.geo.height)).clamp(1, 16);
-    let picture = paint_costs(costs, log_cost_range(&[costs]), scale);
-    let bar = colour_bar(16.max(picture.width / 24), picture.height);
-    write_png(path, &side_by_side(&[&picture, &bar], 6))
+    let range = log_cost_range(&[costs]);
+    let picture = paint_costs(costs, range, scale);
+    let figure = with_legend(&picture, &costs.geo, range, scale)
+        .map_err(|e| Error::Failed(format!("{}: {e}", path.display())))?;
+    write_png(path, &figure)
 }
 
 /// The costs as a float32 GeoTIFF; blocked (infinite) cells become nodata.

@@ -2,6 +2,7 @@
 //! costly), demonstrations in red, planned paths in green, cells on both in white.
 //! North is up, as in the georeference (row 0 is the southern edge).
 
+use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
 use crate::io::png::Rgb;
 
@@ -42,9 +43,17 @@ pub struct Preview<'a> {
     pub plans: Vec<&'a [Cell]>,
 }
 
-/// Renders at `scale` pixels per cell. Colours span the 2nd to 98th percentile of
-/// log-cost, so one extreme cell does not wash out the rest.
-pub fn render_preview(preview: &Preview<'_>, scale: u32) -> Rgb {
+/// Renders at `scale` pixels per cell, with a colour bar labelled in cost and a scale
+/// bar in metres. Colours span the 2nd to 98th percentile of log-cost, so one extreme
+/// cell does not wash out the rest.
+pub fn render_preview(preview: &Preview<'_>, scale: u32) -> Result<Rgb> {
+    let range = super::picture::log_cost_range(&[preview.costs]);
+    let map = paint_preview(preview, range, scale);
+    super::legend::with_legend(&map, &preview.costs.geo, range, scale).map_err(Error::Failed)
+}
+
+/// The map alone: `scale` pixels per cell, colours over `range` of log-cost.
+fn paint_preview(preview: &Preview<'_>, (lo, hi): (f32, f32), scale: u32) -> Rgb {
     let geo = &preview.costs.geo;
     let log: Vec<f32> = preview
         .costs
@@ -52,7 +61,6 @@ pub fn render_preview(preview: &Preview<'_>, scale: u32) -> Rgb {
         .iter()
         .map(|c| c.max(f32::MIN_POSITIVE).ln())
         .collect();
-    let (lo, hi) = super::picture::log_cost_range(&[preview.costs]);
     let span = hi - lo;
 
     let mut marks = vec![[false; 2]; geo.cell_count()];
@@ -106,14 +114,13 @@ mod tests {
         );
         let demo = [Cell::new(0, 0), Cell::new(0, 1)];
         let plan = [Cell::new(0, 1), Cell::new(1, 2)];
-        let pic = render_preview(
-            &Preview {
-                costs: &costs,
-                demonstrations: vec![&demo],
-                plans: vec![&plan],
-            },
-            2,
-        );
+        let preview = Preview {
+            costs: &costs,
+            demonstrations: vec![&demo],
+            plans: vec![&plan],
+        };
+        let range = crate::report::picture::log_cost_range(&[&costs]);
+        let pic = paint_preview(&preview, range, 2);
         assert_eq!((pic.width, pic.height), (8, 6));
         // The top-right pixel shows row 2 (costly, yellow); the bottom-right row 0 (cheap, purple).
         let top = pic.get(7, 0);
@@ -122,5 +129,9 @@ mod tests {
         assert_eq!(pic.get(0, 5), COLOUR_DEMONSTRATION);
         assert_eq!(pic.get(2, 5), COLOUR_BOTH);
         assert_eq!(pic.get(4, 3), COLOUR_PLAN);
+        // With its legend: the same map at the figure's margin, labels beside it.
+        let figure = render_preview(&preview, 2).unwrap();
+        assert!(figure.width > pic.width + 60 && figure.height > pic.height + 20);
+        assert_eq!(figure.get(8 + 4, 8 + 3), COLOUR_PLAN);
     }
 }

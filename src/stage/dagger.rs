@@ -3,7 +3,8 @@
 //! Out comes a policy artifact: the selected policy (`policy.json`), every round's policy
 //! (`policies/round-NNN.json`), the aggregated dataset the rounds wrote (`dataset/`, the
 //! layout of `imitate dagger`), and per round the labels gathered and the validation:
-//! falls per lap on the track, success rate and path-cost ratio on gridnav.
+//! falls per lap on the track, success rate and path-cost ratio on gridnav, in
+//! metrics.json and charted against the teacher's in validation.png.
 
 use std::path::PathBuf;
 
@@ -21,13 +22,16 @@ use crate::dagger::{
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
+use crate::io::png::{Rgb, write_png};
+use crate::report::chart::{Chart, Legend, Series};
+use crate::report::picture::side_by_side;
 use crate::sim::gridnav::{self, evaluate, random_episode};
 use crate::sim::{Track, TrackConfig, TrackSim, track};
 
 pub const KIND: &str = "dagger";
 /// 2: episodes per round, each from its own random stream; gridnav; forward training;
-/// metrics/2.
-const VERSION: u32 = 2;
+/// metrics/2. 3: validation.png.
+const VERSION: u32 = 3;
 
 /// Which policy the artifact returns.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -196,6 +200,72 @@ impl Validation {
             }
         }
     }
+}
+
+/// The validation of every round's policy as charts, the teacher's as a flat line:
+/// falls per lap on the track; share of goals reached and path cost on gridnav.
+fn validation_charts(rounds: &[RoundMetrics], teacher: &Validation) -> Result<Rgb> {
+    let per_round = |value: fn(&Validation) -> f64| -> Vec<(f64, f64)> {
+        (rounds.iter())
+            .map(|m| (m.round as f64, value(&m.validation)))
+            .collect()
+    };
+    let flat = |value: f64| -> Vec<(f64, f64)> {
+        rounds.iter().map(|m| (m.round as f64, value)).collect()
+    };
+    let chart = |title: &str, y_label: &str, value: fn(&Validation) -> f64, legend| {
+        Chart {
+            title: title.into(),
+            x_label: "DAgger round".into(),
+            y_label: y_label.into(),
+            series: vec![
+                Series {
+                    name: "the round's policy".into(),
+                    points: per_round(value),
+                    colour: [200, 30, 30],
+                },
+                Series {
+                    name: "teacher".into(),
+                    points: flat(value(teacher)),
+                    colour: [40, 80, 200],
+                },
+            ],
+            legend,
+        }
+        .draw(420, 280)
+        .map_err(Error::Failed)
+    };
+    Ok(match teacher {
+        Validation::Track { .. } => chart(
+            "Falls on the validation laps",
+            "falls per lap",
+            |v| v.key().0,
+            Legend::UpperRight,
+        )?,
+        Validation::Gridnav { .. } => side_by_side(
+            &[
+                &chart(
+                    "Goals reached on validation pairs",
+                    "share of pairs reached",
+                    |v| -v.key().0,
+                    Legend::LowerRight,
+                )?,
+                &chart(
+                    "Path cost on the pairs reached",
+                    "path cost / teacher's",
+                    |v| match *v {
+                        Validation::Gridnav {
+                            validation_cost_ratio,
+                            ..
+                        } => validation_cost_ratio,
+                        Validation::Track { .. } => f64::NAN,
+                    },
+                    Legend::UpperRight,
+                )?,
+            ],
+            12,
+        ),
+    })
 }
 
 impl std::fmt::Display for Validation {
@@ -613,6 +683,10 @@ impl StageParams for DaggerParams {
             &to_json_bytes(&selected),
         )?;
         let teacher_validation = world.validate_teacher(self);
+        write_png(
+            &out.file("validation.png", "picture")?,
+            &validation_charts(&metrics, &teacher_validation)?,
+        )?;
         let mut summary_metrics = serde_json::json!({
             "env": world.name(),
             "selection": self.selection,

@@ -26,7 +26,8 @@ use crate::plan::{path_cost, shortest_path};
 use crate::report::costmap_artifact::CostmapArtifact;
 
 pub const KIND: &str = "evaluate";
-const VERSION: u32 = 1;
+/// 2: step lengths per row in geographic frames.
+const VERSION: u32 = 2;
 
 /// Parameters of `imitate evaluate` and of `uses: evaluate`.
 #[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]

@@ -12,8 +12,9 @@ use crate::features::{Bank, FeatureSpec, Op, compute_with_nodata, nodata_layers}
 use crate::io::tables::{read_map, write_features};
 
 pub const KIND: &str = "features";
-/// 2: every map gets the no-data indicators of any map in the dataset.
-const VERSION: u32 = 2;
+/// 2: every map gets the no-data indicators of any map in the dataset. 3: slope,
+/// aspect and curvature with each row's cell size in geographic frames.
+const VERSION: u32 = 3;
 
 fn default_bias() -> bool {
     true

@@ -27,7 +27,9 @@ use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
-const VERSION: u32 = 6;
+/// 7: previews with a colour bar and a scale bar; MaxEnt's own exponential; step
+/// lengths per row in geographic frames.
+const VERSION: u32 = 7;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
@@ -458,7 +460,7 @@ impl StageParams for LearchParams {
                     .map(|e| e.planned.as_slice())
                     .collect(),
             };
-            let picture = render_preview(&preview, self.preview_scale);
+            let picture = render_preview(&preview, self.preview_scale)?;
             write_png(
                 &out.file(&format!("previews/{name}.png"), "preview")?,
                 &picture,

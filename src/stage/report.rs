@@ -19,7 +19,8 @@ use crate::report::costmap_artifact::CostmapArtifact;
 use crate::report::picture::side_by_side;
 
 pub const KIND: &str = "report";
-const VERSION: u32 = 2;
+/// 3: previews with a colour bar and a scale bar.
+const VERSION: u32 = 3;
 
 /// Parameters of `imitate report` and of `uses: report`.
 #[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
@@ -184,8 +185,9 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
         pictures.push((
             format!("Map {name}"),
             target,
-            "learned costmap (dark: cheap, yellow: costly; north up), demonstrations red, \
-             plans on the learned costmap green, both white"
+            "learned costmap (dark: cheap, yellow: costly, in the colour bar's cost per \
+             metre; north up; the scale bar in metres), demonstrations red, plans on the \
+             learned costmap green, both white"
                 .into(),
         ));
     }
@@ -240,7 +242,7 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
         "<!doctype html><meta charset=\"utf-8\"><title>Costmap report</title>\
          <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto}}\
          table{{border-collapse:collapse}}td,th{{border:1px solid #bbb;padding:.3em .6em}}\
-         img{{image-rendering:pixelated;max-width:100%}}</style>\
+         img{{image-rendering:pixelated;max-width:100%}}code{{overflow-wrap:anywhere}}</style>\
          <h1>Costmap report: {}</h1><p>Artifact <code>{}</code> ({}), made by <code>{}</code> v{} \
          with imitate {}.</p><p>Parameters: <code>{}</code></p><table><tr><th>set</th>",
         escape(&costmap.display().to_string()),
