@@ -137,13 +137,19 @@ fn markdown_diffs_carry_side_by_side_pictures() {
         "{md}"
     );
     let picture = read_png(&images.join("terrain-002.png")).unwrap();
-    // Three 256-pixel panels, 8 pixels apart.
-    assert_eq!((picture.width, picture.height), (3 * 256 + 16, 256));
-    let (red, blue, _) = colourful(&picture, 2 * 264, picture.width);
+    // Three 256-pixel panels and the histogram of the change per cell, 8 pixels apart.
+    assert_eq!((picture.width, picture.height), (3 * 256 + 360 + 24, 256));
+    let (red, blue, _) = colourful(&picture, 2 * 264, 3 * 264);
     assert!(
         red > 100 && blue > 100,
         "difference panel: {red} red, {blue} blue"
     );
+    // The histogram is a chart: title, tick labels and axis descriptions in dark text.
+    let text = (0..picture.height)
+        .flat_map(|y| (3 * 264..picture.width).map(move |x| (x, y)))
+        .filter(|&(x, y)| picture.get(x, y).iter().all(|&v| v < 80))
+        .count();
+    assert!(text > 500, "{text} dark pixels in the histogram");
     // The old and new panels are costmaps, not blank: many distinct colours.
     let mut colours = std::collections::BTreeSet::new();
     for y in 0..256 {
@@ -164,7 +170,7 @@ fn markdown_diffs_carry_side_by_side_pictures() {
     ]);
     assert!(out.status.success(), "{}", stderr(&out));
     let picture = read_png(&same.join("terrain-000.png")).unwrap();
-    let (red, blue, white) = colourful(&picture, 2 * 264, picture.width);
+    let (red, blue, white) = colourful(&picture, 2 * 264, 2 * 264 + 256);
     assert_eq!(
         (red, blue, white),
         (0, 0, 256 * 256),

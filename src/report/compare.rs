@@ -12,12 +12,13 @@ use serde::Serialize;
 use crate::dagger::load_policy_artifact;
 use crate::error::{Error, Result};
 use crate::io::png::Rgb;
+use crate::report::chart::{Chart, Legend, Series};
 use crate::report::costmap_artifact::{CostmapArtifact, read_any_manifest};
 use crate::report::dagger_diff::{
     DatasetDiff, PolicyDiff, dagger_summary, dataset_diff, is_track_policy, policy_diff,
 };
 use crate::report::diff::{
-    CostmapDiff, FileChanges, Threshold, costmap_diff, file_changes, summary,
+    CostmapDiff, FileChanges, Threshold, change_histogram, costmap_diff, file_changes, summary,
 };
 use crate::report::picture::{log_cost_range, paint_costs, paint_difference, side_by_side};
 
@@ -118,8 +119,8 @@ pub fn compare(
     })
 }
 
-/// The pictures of a costmap comparison, one per map: old, new and their difference
-/// side by side, named after the map.
+/// The pictures of a costmap comparison, one per map: old, new, their difference and
+/// the histogram of the change per cell side by side, named after the map.
 pub fn pictures(old_dir: &Path, new_dir: &Path, diff: &CostmapDiff) -> Result<Vec<(String, Rgb)>> {
     let (old, new) = (
         CostmapArtifact::load(old_dir)?,
@@ -133,11 +134,25 @@ pub fn pictures(old_dir: &Path, new_dir: &Path, diff: &CostmapDiff) -> Result<Ve
             let b = new.costmap(&m.map).ok_or_else(missing)?;
             let scale = (256 / a.geo.width.max(a.geo.height)).clamp(1, 8);
             let range = log_cost_range(&[a, b]);
+            let histogram = Chart {
+                title: format!("Cost change per cell, {}", m.map),
+                x_label: "log-cost change (new − old)".into(),
+                y_label: "share of cells".into(),
+                series: vec![Series {
+                    name: "cells per bin".into(),
+                    points: change_histogram(a, b, 41),
+                    colour: [40, 80, 200],
+                }],
+                legend: Legend::UpperRight,
+            }
+            .draw(360, 256.max(a.geo.height * scale))
+            .map_err(Error::Failed)?;
             let picture = side_by_side(
                 &[
                     &paint_costs(a, range, scale),
                     &paint_costs(b, range, scale),
                     &paint_difference(a, b, None, scale),
+                    &histogram,
                 ],
                 8,
             );

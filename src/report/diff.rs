@@ -132,6 +132,26 @@ pub fn map_diff(map: &str, old: &Grid<f32>, new: &Grid<f32>, tolerance: f64) -> 
     }
 }
 
+/// The distribution of the signed log-cost change (new − old) over the cells both
+/// costmaps can cross: `bins` equal bins spanning ± the largest change, as (bin centre,
+/// share of those cells).
+pub fn change_histogram(old: &Grid<f32>, new: &Grid<f32>, bins: usize) -> Vec<(f64, f64)> {
+    let changes: Vec<f64> = (log_costs(old).iter().zip(&log_costs(new)))
+        .map(|(x, y)| y - x)
+        .filter(|d| d.is_finite())
+        .collect();
+    let reach = changes.iter().fold(0.0f64, |m, d| m.max(d.abs())).max(1e-9);
+    let width = 2.0 * reach / bins as f64;
+    let mut counts = vec![0usize; bins];
+    for d in &changes {
+        counts[(((d + reach) / width) as usize).min(bins - 1)] += 1;
+    }
+    let total = changes.len().max(1) as f64;
+    (counts.iter().enumerate())
+        .map(|(i, &n)| (-reach + (i as f64 + 0.5) * width, n as f64 / total))
+        .collect()
+}
+
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct PathDiff {
     pub example: String,
@@ -406,6 +426,19 @@ mod tests {
             degrees: false,
         };
         Grid::from_vec(geo, values)
+    }
+
+    #[test]
+    fn the_change_histogram_counts_cells_by_signed_change() {
+        let geo = GeoRef::unit(4, 1);
+        let old = Grid::from_vec(geo.clone(), vec![1.0, 1.0, 1.0, 1.0]);
+        let new = Grid::from_vec(geo, vec![1.0, 1.0, std::f32::consts::E, f32::INFINITY]);
+        // Three cells both can cross: two unchanged, one up by 1 in log-cost.
+        let bins = change_histogram(&old, &new, 4);
+        assert_eq!(bins.len(), 4);
+        assert!((bins[0].0 + 0.75).abs() < 1e-6 && (bins[3].0 - 0.75).abs() < 1e-6);
+        let shares: Vec<f64> = bins.iter().map(|b| b.1).collect();
+        assert_eq!(shares, [0.0, 0.0, 2.0 / 3.0, 1.0 / 3.0]);
     }
 
     #[test]

@@ -17,7 +17,8 @@ use crate::report::compare::{compare, pictures, render_markdown, verdict};
 use crate::report::diff::Threshold;
 
 pub const KIND: &str = "diff";
-const VERSION: u32 = 1;
+/// 2: the histogram of the change per cell beside each map's pictures.
+const VERSION: u32 = 2;
 
 fn default_tolerance() -> f64 {
     0.01
