@@ -14,7 +14,7 @@ use serde::Serialize;
 use super::emit;
 use crate::artifact::load_costs;
 use crate::dagger::dataset::{CostsSource, Dataset, DatasetInfo, NewRound, RoundInfo};
-use crate::dagger::demo_round::{DemoColumns, read_demo_round};
+use crate::dagger::demo_round::{Appended, DemoColumns, append_demonstrations};
 use crate::dagger::log_round::{LogTopics, read_log_round};
 use crate::dagger::query::RoundStatistics;
 use crate::dagger::train::{TrainOptions, train_policy};
@@ -291,61 +291,20 @@ fn add(
     Ok(())
 }
 
-/// Appends expert demonstrations from tables as a round the teacher drove.
-/// Appends one round of the tables in `groups` (files whose episode ids are shared: one
-/// table set, or one LeRobot folder).
+/// Appends one round of the tables in `groups` and says what it holds.
 fn add_demonstrations(
     dataset: &Path,
     groups: &[Vec<PathBuf>],
     columns: &DemoColumns,
 ) -> Result<()> {
-    let mut ds = Dataset::open(dataset)?;
-    let mut digests = Vec::new();
-    for file in groups.iter().flatten() {
-        digests.push(file_digest(file)?.0);
+    match append_demonstrations(dataset, groups, columns)? {
+        Appended::Already { round } => outln!("round {round} already holds these demonstrations"),
+        Appended::New {
+            round,
+            steps,
+            episodes,
+        } => outln!("round {round}: {steps} steps in {episodes} episodes"),
     }
-    let mut source = format!(
-        "demonstrations {} observation={} action={}",
-        digests.join(","),
-        columns
-            .observations
-            .iter()
-            .map(ToString::to_string)
-            .collect::<Vec<_>>()
-            .join(","),
-        columns.action
-    );
-    if let Some(executed) = &columns.executed {
-        source.push_str(&format!(" executed={executed}"));
-    }
-    if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
-        outln!(
-            "round {} already holds these demonstrations",
-            existing.round
-        );
-        return Ok(());
-    }
-    let mut episodes = Vec::new();
-    for files in groups {
-        episodes.extend(read_demo_round(files, columns, ds.info.action_dims())?);
-    }
-    // With executed actions the learner drove and the teacher only labelled.
-    let beta = if columns.executed.is_some() { 0.0 } else { 1.0 };
-    let number = ds.append(&NewRound {
-        source,
-        beta,
-        policy: String::new(),
-        teacher: "demonstrations".into(),
-        period: 0.0,
-        timestamps: None,
-        episodes: &episodes,
-    })?;
-    let info = &ds.rounds[number as usize];
-    outln!(
-        "round {number}: {} steps in {} episodes",
-        info.steps,
-        info.episodes
-    );
     Ok(())
 }
 

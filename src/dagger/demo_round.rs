@@ -5,11 +5,13 @@
 //! `name[i]` one element, a number column itself); rows of an episode are consecutive,
 //! in time order. Frames that LeRobot's `<column>_is_pad` flags as padding are left out.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
+use super::dataset::{Dataset, NewRound};
 use super::{Actor, Step};
 use crate::error::{Error, Result};
 use crate::io::demo_tables::{Column, labels, padding, row_vectors};
+use crate::io::fs::file_digest;
 use crate::io::tables::{Table, read_table};
 
 /// Which columns hold what.
@@ -33,6 +35,75 @@ impl Default for DemoColumns {
             executed: None,
         }
     }
+}
+
+/// What appending tables to a dataset did.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Appended {
+    /// A round holding the same files with the same columns was there already.
+    Already { round: u32 },
+    New {
+        round: u32,
+        steps: u64,
+        episodes: u64,
+    },
+}
+
+/// Appends one round to the dataset at `dataset`: the tables in `groups` (files whose
+/// episode ids are shared: one table set, or one LeRobot folder), expert demonstrations
+/// or, with `columns.executed`, a round the learner drove and the teacher labelled. The
+/// same files with the same columns twice append nothing.
+pub fn append_demonstrations(
+    dataset: &Path,
+    groups: &[Vec<PathBuf>],
+    columns: &DemoColumns,
+) -> Result<Appended> {
+    let mut ds = Dataset::open(dataset)?;
+    let mut digests = Vec::new();
+    for file in groups.iter().flatten() {
+        digests.push(file_digest(file)?.0);
+    }
+    let names = |columns: &[Column]| {
+        (columns.iter())
+            .map(ToString::to_string)
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let mut source = format!(
+        "demonstrations {} observation={} action={}",
+        digests.join(","),
+        names(&columns.observations),
+        columns.action
+    );
+    if let Some(executed) = &columns.executed {
+        source.push_str(&format!(" executed={executed}"));
+    }
+    if let Some(existing) = ds.rounds.iter().find(|r| r.source == source) {
+        return Ok(Appended::Already {
+            round: existing.round,
+        });
+    }
+    let mut episodes = Vec::new();
+    for files in groups {
+        episodes.extend(read_demo_round(files, columns, ds.info.action_dims())?);
+    }
+    // With executed actions the learner drove and the teacher only labelled.
+    let beta = if columns.executed.is_some() { 0.0 } else { 1.0 };
+    let number = ds.append(&NewRound {
+        source,
+        beta,
+        policy: String::new(),
+        teacher: "demonstrations".into(),
+        period: 0.0,
+        timestamps: None,
+        episodes: &episodes,
+    })?;
+    let info = &ds.rounds[number as usize];
+    Ok(Appended::New {
+        round: number,
+        steps: info.steps,
+        episodes: info.episodes,
+    })
 }
 
 /// The episodes of `files`, each a list of expert steps whose actions hold `actions`
