@@ -264,9 +264,11 @@ pub struct TrainedLearch {
     pub kept_round: usize,
 }
 
-/// Per-example contribution to a round: the ridge statistics or the points for a tree
-/// (LEARCH), or the direction of a linear step on the scaled weights (MMP, MaxEnt).
-struct ExampleGradient {
+/// What one example contributes to a round (the map step, `PreparedExamples::plan`):
+/// the ridge statistics or the points for a tree (LEARCH), or the direction of a linear
+/// step on the scaled weights (MMP, MaxEnt). Merged in example order by `fit_round`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExampleStatistics {
     data: RidgeAccumulator,
     points: Vec<(Vec<f64>, f64, f64)>,
     direction: Vec<f64>,
@@ -368,10 +370,7 @@ pub fn train(
     for learner in resumed {
         model.push(learner);
     }
-    let shares: Vec<Vec<f32>> = training
-        .par_iter()
-        .map(|ex| loss_shares(&stacks[ex.map], ex, config))
-        .collect();
+    let prepared = PreparedExamples::new(stacks, training, config);
     let mut best: Option<(f64, usize)> = None;
     let improves =
         |best: Option<(f64, usize)>, agreement: f64| best.is_none_or(|(b, _)| agreement > b);
@@ -387,92 +386,10 @@ pub fn train(
         rounds: resumed_rounds,
     };
     for t in progress.rounds.len()..config.rounds {
-        let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
-        let gradients: Vec<Result<ExampleGradient, String>> = training
-            .par_iter()
-            .zip(&shares)
-            .map(|(ex, share)| {
-                example_gradient(
-                    &model,
-                    &stacks[ex.map],
-                    &costmaps[ex.map],
-                    ex,
-                    share,
-                    config,
-                )
-            })
-            .collect::<Vec<_>>();
-        let gradients = first_error_in_order(gradients)?;
-        let step = config.step(t);
-        let mut projected_to_margin = false;
-        let learner = match (config.method, config.weak_learner.in_round(t)) {
-            (GridMethod::Mmp | GridMethod::Maxent, _) => {
-                // The mean over demonstrated steps, plus the ridge penalty's pull.
-                let steps = gradients.iter().map(|g| g.steps).sum::<usize>().max(1) as f64;
-                let weights = model.scaled_weights();
-                let mut direction: Vec<f64> = (0..weights.len())
-                    .map(|j| {
-                        gradients.iter().map(|g| g.direction[j]).sum::<f64>() / steps
-                            - config.ridge_lambda * weights[j]
-                    })
-                    .collect();
-                // At most a unit step in the scaled weights (MMP, MaxEnt): MaxEnt's gradient grows
-                // with the cost it multiplies, and would otherwise overshoot into
-                // ever larger costs.
-                let norm = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
-                if !norm.is_finite() {
-                    return Err(format!(
-                        "{} round {}: the gradient is not finite (costs overflowed); \
-                         lower --step-size or scale the features",
-                        config.method.name(),
-                        t + 1
-                    ));
-                }
-                if norm > 1.0 {
-                    direction.iter_mut().for_each(|d| *d /= norm);
-                }
-                if config.method == GridMethod::Maxent {
-                    // A trust region in log-cost: no cell's cost changes by more than a
-                    // factor e^MAXENT_LOG_COST_STEP in one round. A unit step on the
-                    // scaled weights can still move the log-cost by hundreds on cells
-                    // where a heavy-tailed feature is far from its mean, and the soft
-                    // values then overflow.
-                    let largest = largest_change(stacks, &model.scale, step, &direction);
-                    if largest > MAXENT_LOG_COST_STEP {
-                        let shrink = MAXENT_LOG_COST_STEP / largest;
-                        direction.iter_mut().for_each(|d| *d *= shrink);
-                    }
-                }
-                if config.method == GridMethod::Mmp {
-                    let (projected, moved) =
-                        project_onto_positive_costs(&model, stacks, step, &direction);
-                    if moved {
-                        direction = projected;
-                        projected_to_margin = true;
-                    }
-                }
-                WeakLearner::ridge(step, direction)
-            }
-            (GridMethod::Learch, WeakLearnerKind::Ridge) => {
-                let mut data = RidgeAccumulator::new(model.feature_names.len());
-                for g in &gradients {
-                    data.merge(&g.data);
-                }
-                WeakLearner::ridge(step, data.solve(config.ridge_lambda))
-            }
-            (GridMethod::Learch, _) => {
-                let dims = model.feature_names.len();
-                let points = gradients.iter().flat_map(|g| &g.points);
-                let (mut x, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
-                for (row, target, weight) in points {
-                    x.extend_from_slice(row);
-                    y.push(*target);
-                    w.push(*weight);
-                }
-                WeakLearner::tree(step, RegressionTree::fit(&x, dims, &y, &w, &config.tree))
-            }
-        };
-        model.push(learner);
+        let statistics = prepared.plan(&model, stacks, config)?;
+        let round = fit_round(&model, stacks, &statistics, config, t)?;
+        let (step, projected_to_margin) = (round.step, round.projected_to_margin);
+        model.push(round.learner);
         let agreement_on = |examples: &[Example]| {
             (!examples.is_empty())
                 .then(|| evaluate(&model, stacks, map_names, examples, references))
@@ -484,8 +401,8 @@ pub fn train(
         let metrics = RoundMetrics {
             round: t + 1,
             step,
-            training_loss: gradients.iter().map(|g| g.loss).sum::<f64>() / gradients.len() as f64,
-            disagreeing_cells: gradients.iter().map(|g| g.disagreeing_cells).sum(),
+            training_loss: round.training_loss,
+            disagreeing_cells: round.disagreeing_cells,
             holdout: holdout_agreement,
             validation: validation_agreement,
             projected_to_margin,
@@ -511,6 +428,153 @@ pub fn train(
         model: model.truncated(kept_round),
         rounds: progress.rounds,
         kept_round,
+    })
+}
+
+/// Training examples ready for rounds: each with its loss over its map, computed once.
+/// A worker holding a share of the examples keeps one of these for every round.
+pub struct PreparedExamples<'a> {
+    examples: &'a [Example],
+    shares: Vec<Vec<f32>>,
+}
+
+impl<'a> PreparedExamples<'a> {
+    pub fn new(stacks: &[FeatureStack], examples: &'a [Example], config: &LearchConfig) -> Self {
+        let shares = examples
+            .par_iter()
+            .map(|ex| loss_shares(&stacks[ex.map], ex, config))
+            .collect();
+        PreparedExamples { examples, shares }
+    }
+
+    /// The map step of a round: plans every example under `model` (on the
+    /// loss-augmented costmap, or MaxEnt's soft paths) and returns their statistics in
+    /// example order. `stacks` are every map's features, indexed by `Example::map`.
+    pub fn plan(
+        &self,
+        model: &LogCostModel,
+        stacks: &[FeatureStack],
+        config: &LearchConfig,
+    ) -> Result<Vec<ExampleStatistics>, String> {
+        // Each map's costmap once, for the maps these examples use.
+        let mut used = vec![false; stacks.len()];
+        for ex in self.examples {
+            used[ex.map] = true;
+        }
+        let costmaps: Vec<Option<Grid<f32>>> = (stacks.par_iter().zip(&used))
+            .map(|(s, &used)| used.then(|| model.costmap(s)))
+            .collect();
+        let statistics = self
+            .examples
+            .par_iter()
+            .zip(&self.shares)
+            .map(|(ex, share)| {
+                let costs = costmaps[ex.map].as_ref().expect("costmaps of used maps");
+                example_statistics(model, &stacks[ex.map], costs, ex, share, config)
+            })
+            .collect::<Vec<_>>();
+        first_error_in_order(statistics)
+    }
+}
+
+/// What the reduce step of a round made: the next weak learner and the round's figures.
+pub struct FittedRound {
+    pub learner: WeakLearner,
+    pub step: f64,
+    /// MMP's step was projected back onto positive costs.
+    pub projected_to_margin: bool,
+    /// Mean training loss of the examples.
+    pub training_loss: f64,
+    pub disagreeing_cells: usize,
+}
+
+/// The reduce step of round `t` (from 0): merges the examples' statistics in the order
+/// given (example order, whatever machine planned them, so that the result is the
+/// same everywhere) and fits the next weak learner of `model`. `stacks` are read by
+/// MMP's projection and MaxEnt's trust region only.
+pub fn fit_round(
+    model: &LogCostModel,
+    stacks: &[FeatureStack],
+    statistics: &[ExampleStatistics],
+    config: &LearchConfig,
+    t: usize,
+) -> Result<FittedRound, String> {
+    let step = config.step(t);
+    let mut projected_to_margin = false;
+    let learner = match (config.method, config.weak_learner.in_round(t)) {
+        (GridMethod::Mmp | GridMethod::Maxent, _) => {
+            // The mean over demonstrated steps, plus the ridge penalty's pull.
+            let steps = statistics.iter().map(|g| g.steps).sum::<usize>().max(1) as f64;
+            let weights = model.scaled_weights();
+            let mut direction: Vec<f64> = (0..weights.len())
+                .map(|j| {
+                    statistics.iter().map(|g| g.direction[j]).sum::<f64>() / steps
+                        - config.ridge_lambda * weights[j]
+                })
+                .collect();
+            // At most a unit step in the scaled weights (MMP, MaxEnt): MaxEnt's gradient grows
+            // with the cost it multiplies, and would otherwise overshoot into
+            // ever larger costs.
+            let norm = direction.iter().map(|d| d * d).sum::<f64>().sqrt();
+            if !norm.is_finite() {
+                return Err(format!(
+                    "{} round {}: the gradient is not finite (costs overflowed); \
+                     lower --step-size or scale the features",
+                    config.method.name(),
+                    t + 1
+                ));
+            }
+            if norm > 1.0 {
+                direction.iter_mut().for_each(|d| *d /= norm);
+            }
+            if config.method == GridMethod::Maxent {
+                // A trust region in log-cost: no cell's cost changes by more than a
+                // factor e^MAXENT_LOG_COST_STEP in one round. A unit step on the
+                // scaled weights can still move the log-cost by hundreds on cells
+                // where a heavy-tailed feature is far from its mean, and the soft
+                // values then overflow.
+                let largest = largest_change(stacks, &model.scale, step, &direction);
+                if largest > MAXENT_LOG_COST_STEP {
+                    let shrink = MAXENT_LOG_COST_STEP / largest;
+                    direction.iter_mut().for_each(|d| *d *= shrink);
+                }
+            }
+            if config.method == GridMethod::Mmp {
+                let (projected, moved) =
+                    project_onto_positive_costs(model, stacks, step, &direction);
+                if moved {
+                    direction = projected;
+                    projected_to_margin = true;
+                }
+            }
+            WeakLearner::ridge(step, direction)
+        }
+        (GridMethod::Learch, WeakLearnerKind::Ridge) => {
+            let mut data = RidgeAccumulator::new(model.feature_names.len());
+            for g in statistics {
+                data.merge(&g.data);
+            }
+            WeakLearner::ridge(step, data.solve(config.ridge_lambda))
+        }
+        (GridMethod::Learch, _) => {
+            let dims = model.feature_names.len();
+            let points = statistics.iter().flat_map(|g| &g.points);
+            let (mut x, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
+            for (row, target, weight) in points {
+                x.extend_from_slice(row);
+                y.push(*target);
+                w.push(*weight);
+            }
+            WeakLearner::tree(step, RegressionTree::fit(&x, dims, &y, &w, &config.tree))
+        }
+    };
+    Ok(FittedRound {
+        learner,
+        step,
+        projected_to_margin,
+        training_loss: statistics.iter().map(|g| g.loss).sum::<f64>()
+            / statistics.len().max(1) as f64,
+        disagreeing_cells: statistics.iter().map(|g| g.disagreeing_cells).sum(),
     })
 }
 
@@ -658,14 +722,14 @@ fn unreachable(ex: &Example) -> String {
     )
 }
 
-fn example_gradient(
+fn example_statistics(
     model: &LogCostModel,
     stack: &FeatureStack,
     costs: &Grid<f32>,
     ex: &Example,
     shares: &[f32],
     config: &LearchConfig,
-) -> Result<ExampleGradient, String> {
+) -> Result<ExampleStatistics, String> {
     match config.method {
         GridMethod::Learch | GridMethod::Mmp => {
             planned_gradient(model, stack, costs, ex, shares, config)
@@ -711,7 +775,7 @@ fn planned_gradient(
     ex: &Example,
     shares: &[f32],
     config: &LearchConfig,
-) -> Result<ExampleGradient, String> {
+) -> Result<ExampleStatistics, String> {
     let loss = config.loss;
     let geo = &stack.geo;
     // μ: how often the demonstration visits each cell.
@@ -773,7 +837,7 @@ fn planned_gradient(
             }
         }
     }
-    Ok(ExampleGradient {
+    Ok(ExampleStatistics {
         data,
         points,
         direction,
@@ -793,7 +857,7 @@ fn maxent_gradient(
     costs: &Grid<f32>,
     ex: &Example,
     config: &LearchConfig,
-) -> Result<ExampleGradient, String> {
+) -> Result<ExampleStatistics, String> {
     let geo = &stack.geo;
     let (start, goal) = (ex.path[0], ex.path[ex.path.len() - 1]);
     let window = Window::around(&ex.path, config.window_margin, geo.width, geo.height);
@@ -820,7 +884,7 @@ fn maxent_gradient(
     let disagreeing_cells = (0..window.len())
         .filter(|&i| (expected.visits[i] > 0.5) != (demonstrated[i] > 0.0))
         .count();
-    Ok(ExampleGradient {
+    Ok(ExampleStatistics {
         data: RidgeAccumulator::new(stack.dim()),
         points: Vec::new(),
         direction,
@@ -1172,6 +1236,48 @@ mod tests {
         };
         assert_eq!(run(1), run(2));
         assert_eq!(run(2), run(3));
+    }
+
+    #[test]
+    fn rounds_split_into_shards_give_the_trainers_model() {
+        // The map step on uneven shards of the examples (as workers on other machines
+        // would run it), statistics put back in example order, the reduce step on the
+        // driver: the same learners, bit for bit, as the trainer, for each method.
+        let (stacks, names, examples, _) = small_world();
+        for (method, weak_learner) in [
+            (GridMethod::Learch, WeakLearnerKind::Ridge),
+            (GridMethod::Learch, WeakLearnerKind::Tree),
+            (GridMethod::Mmp, WeakLearnerKind::Ridge),
+        ] {
+            let config = LearchConfig {
+                method,
+                weak_learner,
+                rounds: 3,
+                ..config()
+            };
+            let trained = train_without_evaluation(&stacks, &names, &examples, &config).unwrap();
+            let shards: Vec<&[Example]> = vec![&examples[..5], &examples[5..6], &examples[6..]];
+            let prepared: Vec<PreparedExamples> = (shards.iter())
+                .map(|shard| PreparedExamples::new(&stacks, shard, &config))
+                .collect();
+            let mut model = LogCostModel::zero_with(
+                stacks[0].names.clone(),
+                feature_scales(&stacks),
+                method.link(),
+            );
+            for t in 0..config.rounds {
+                let statistics: Vec<ExampleStatistics> = (prepared.iter().rev())
+                    .map(|p| p.plan(&model, &stacks, &config).unwrap())
+                    .collect::<Vec<_>>()
+                    .into_iter()
+                    .rev()
+                    .flatten()
+                    .collect();
+                let round = fit_round(&model, &stacks, &statistics, &config, t).unwrap();
+                model.push(round.learner);
+            }
+            assert_eq!(model, trained.model, "{method:?} with {weak_learner:?}");
+        }
     }
 
     #[test]
