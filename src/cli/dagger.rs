@@ -21,9 +21,7 @@ use crate::dagger::train::{TrainOptions, train_policy};
 use crate::dagger::{gridnav_round, load_policy_artifact, track_round};
 use crate::error::{Error, Result};
 use crate::grid::Grid;
-use crate::io::demo_tables::{
-    Column, lerobot_feature_names, lerobot_files, lerobot_picture_features,
-};
+use crate::io::demo_tables::{lerobot_feature_names, lerobot_files, lerobot_picture_features};
 use crate::io::fs::file_digest;
 use crate::sim::gridnav::{self, Evaluation, evaluate, random_episode};
 use crate::sim::track::OBSERVATION_NAMES;
@@ -542,19 +540,13 @@ pub fn run(command: DaggerCommand) -> Result<()> {
             episode_column,
             ..
         } if !demonstrations.is_empty() || !lerobot.is_empty() => {
-            let parse = |text: &str| {
-                text.parse::<Column>()
-                    .map_err(|e| Error::Usage(format!("column '{text}': {e}")))
-            };
-            let columns = DemoColumns {
-                episode: parse(&episode_column)?,
-                observations: observation_columns
-                    .iter()
-                    .map(|c| parse(c))
-                    .collect::<Result<_>>()?,
-                action: parse(&action_column)?,
-                executed: executed_column.as_deref().map(parse).transpose()?,
-            };
+            let columns = DemoColumns::parse(
+                &episode_column,
+                &observation_columns,
+                &action_column,
+                executed_column.as_deref(),
+            )
+            .map_err(Error::Usage)?;
             // Episode ids are a folder's own: each LeRobot folder is read apart.
             let groups = if lerobot.is_empty() {
                 vec![demonstrations]

@@ -25,6 +25,31 @@ pub struct DemoColumns {
     pub executed: Option<Column>,
 }
 
+impl DemoColumns {
+    /// Columns named as on the command line: `name`, or `name[i]` for one element of
+    /// a list column.
+    pub fn parse(
+        episode: &str,
+        observations: &[String],
+        action: &str,
+        executed: Option<&str>,
+    ) -> std::result::Result<Self, String> {
+        let parse = |text: &str| {
+            text.parse::<Column>()
+                .map_err(|e| format!("column '{text}': {e}"))
+        };
+        Ok(DemoColumns {
+            episode: parse(episode)?,
+            observations: observations
+                .iter()
+                .map(|c| parse(c))
+                .collect::<Result<_, _>>()?,
+            action: parse(action)?,
+            executed: executed.map(parse).transpose()?,
+        })
+    }
+}
+
 impl Default for DemoColumns {
     /// LeRobot's names.
     fn default() -> Self {

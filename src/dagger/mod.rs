@@ -22,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 pub use policy::{
     Aggregate, LinearPolicy, LogisticPolicy, MlpPolicy, Policy, PolicyData, PolicyKind,
-    PolicyLearner, load_policy_artifact,
+    PolicyLearner, load_policy_artifact, policy_observation_names,
 };
 
 use rayon::prelude::*;

@@ -511,23 +511,10 @@ pub fn write_policy_model(
 ) -> crate::error::Result<()> {
     use crate::error::Error;
     let (policy, _) = super::load_policy_artifact(dir)?;
-    let metrics_path = dir.join("metrics.json");
-    let metrics: serde_json::Value = std::fs::read(&metrics_path)
-        .ok()
-        .and_then(|bytes| serde_json::from_slice(&bytes).ok())
-        .unwrap_or_default();
-    let names: Vec<String> = metrics["observation_names"]
-        .as_array()
-        .map(|names| {
-            names
-                .iter()
-                .filter_map(|n| n.as_str().map(String::from))
-                .collect()
-        })
-        .unwrap_or_default();
+    let names = super::policy_observation_names(dir);
     if names.is_empty() {
         return Err(Error::input(
-            &metrics_path,
+            dir.join("metrics.json"),
             "names no observations (observation_names): the model's input size is unknown",
         ));
     }

@@ -78,6 +78,21 @@ pub fn load_policy_artifact(dir: &std::path::Path) -> crate::error::Result<(Poli
     Ok((policy, manifest.digest))
 }
 
+/// The observation names a policy artifact's metrics record (`observation_names`), in
+/// the order the policy reads them; empty when it records none.
+pub fn policy_observation_names(dir: &std::path::Path) -> Vec<String> {
+    let metrics: serde_json::Value = std::fs::read(dir.join("metrics.json"))
+        .ok()
+        .and_then(|bytes| serde_json::from_slice(&bytes).ok())
+        .unwrap_or_default();
+    (metrics["observation_names"]
+        .as_array()
+        .into_iter()
+        .flatten())
+    .filter_map(|n| n.as_str().map(String::from))
+    .collect()
+}
+
 /// How a policy is fitted to the aggregated labels.
 #[derive(Debug, Clone, PartialEq)]
 pub enum PolicyLearner {

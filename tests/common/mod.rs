@@ -106,14 +106,22 @@ pub fn prepared_workspace() -> tempfile::TempDir {
 }
 
 /// Runs `tests/python/SCRIPT ARGS` (real tools writing or reading files) with the
-/// packages `scripts/python-deps.sh` installs, and parses its stdout as one JSON value
+/// packages `scripts/python-deps.sh` installs (and our own Python package, where
+/// `scripts/python-package.sh` built it), and parses its stdout as one JSON value
 /// per line. `None` (the test is skipped, with a
 /// message) where they are not installed, except in CI, where that is a failure.
 pub fn python_script(script: &str, args: &[&Path]) -> Option<Vec<serde_json::Value>> {
     let run = Command::new("python3")
         .arg(repo().join("tests/python").join(script))
         .args(args)
-        .env("PYTHONPATH", repo().join("target/python-deps"))
+        .env(
+            "PYTHONPATH",
+            std::env::join_paths([
+                repo().join("target/python-package"),
+                repo().join("target/python-deps"),
+            ])
+            .unwrap(),
+        )
         .output();
     match run {
         Ok(o) if o.status.success() => Some(
