@@ -237,10 +237,27 @@ fn exports_read_back_through_our_readers() {
     assert_eq!(tiff.geo.origin, costs.geo.origin);
     assert_eq!(tiff.layers[0].values, costs.data);
 
-    // The PNG: costmap, then a colour bar, costly (yellow) at the top.
+    // The PNG: costmap, then a colour bar, costly (yellow) at the top, labelled on its
+    // right (8-pixel margins, a 14-pixel bar, 74 pixels of labels, 36 under the map
+    // for the scale bar).
     let png = read_png(&dir.join("terrain-001.png")).unwrap();
-    let bar = png.width - 2;
-    assert!(png.get(bar, 0)[1] > png.get(bar, png.height - 1)[1] + 100);
+    let bar = png.width - 8 - 74 - 7;
+    let (top, bottom) = (8, png.height - 36 - 1);
+    assert!(png.get(bar, top)[1] > png.get(bar, bottom)[1] + 100);
+    let dark = |x0: u32, x1: u32, y0: u32, y1: u32| {
+        (y0..y1)
+            .flat_map(|y| (x0..x1).map(move |x| (x, y)))
+            .filter(|&(x, y)| png.get(x, y).iter().all(|&v| v < 90))
+            .count()
+    };
+    assert!(
+        dark(png.width - 82, png.width, 0, png.height) > 100,
+        "cost labels"
+    );
+    assert!(
+        dark(0, png.width / 2, bottom + 1, png.height) > 50,
+        "scale bar"
+    );
 
     // The MCAP: the foxglove.Grid holds the exact costs, the paths the demonstrations.
     let log = dir.join("terrain-001.mcap");

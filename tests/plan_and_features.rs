@@ -60,7 +60,11 @@ fn plans_around_a_wall_in_cells_and_in_metres() {
         "{cost}"
     );
     let picture = imitate::io::png::read_png(&dir.path().join("plan.png")).unwrap();
-    assert_eq!((picture.width, picture.height), (20, 16));
+    // The 20 x 16 pixel map (4 pixels a cell) with its colour bar and scale bar.
+    assert_eq!(
+        (picture.width, picture.height),
+        (8 + 20 + 10 + 14 + 74 + 8, 8 + 16 + 36)
+    );
     // The same query in world coordinates (cell centres at 11 m, 21 m and 19 m, 21 m).
     let world = plan(
         dir.path(),

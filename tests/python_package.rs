@@ -1,19 +1,29 @@
 //! The Python package (`python/`, built by `scripts/python-package.sh`) against the
 //! command line: the same artifacts, plans and errors, arrays that hold what the files
-//! hold, DAgger rounds from in-memory tables, a policy that acts as its ONNX export.
+//! hold, DAgger rounds from in-memory tables, a policy that acts as its ONNX export;
+//! and LEARCH on a local multi-node Ray cluster writing the single-machine artifact.
 
 mod common;
 
 use common::*;
 
-#[test]
-fn the_python_package_does_what_the_command_line_does() {
-    if !repo().join("target/python-package/imitate").is_dir() {
+/// Whether `scripts/python-package.sh` built the package; outside CI its tests skip,
+/// saying so, when it did not.
+fn package_built() -> bool {
+    let built = repo().join("target/python-package/imitate").is_dir();
+    if !built {
         assert!(
             std::env::var_os("CI").is_none(),
             "the Python package is not built in CI (scripts/test.sh builds it)"
         );
         eprintln!("skipped: the Python package is not built (run scripts/python-package.sh)");
+    }
+    built
+}
+
+#[test]
+fn the_python_package_does_what_the_command_line_does() {
+    if !package_built() {
         return;
     }
     let ws = quickstart_workspace();
@@ -37,4 +47,20 @@ fn the_python_package_does_what_the_command_line_does() {
             "policy"
         ]
     );
+}
+
+#[test]
+fn learch_on_a_local_ray_cluster_writes_the_single_machine_artifact() {
+    if !package_built() {
+        return;
+    }
+    let ws = prepared_workspace();
+    let binary = std::path::PathBuf::from(env!("CARGO_BIN_EXE_imitate"));
+    let args = [ws.path(), &binary, "ds".as_ref(), "fs".as_ref()];
+    let Some(runs) = python_script("ray_learch.py", &args) else {
+        return;
+    };
+    let digests: Vec<&str> = runs.iter().filter_map(|r| r["digest"].as_str()).collect();
+    assert_eq!(digests.len(), 5, "{runs:?}");
+    assert!(digests.iter().all(|d| *d == digests[0]), "{runs:?}");
 }

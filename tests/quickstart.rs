@@ -35,7 +35,12 @@ fn quickstart_learns_a_costmap_that_imitates_the_teacher() {
         assert!(artifact.join(format!("costmaps/{map}.parquet")).is_file());
         let png = artifact.join(format!("previews/{map}.png"));
         let picture = imitate::io::png::read_png(&png).unwrap();
-        assert_eq!((picture.width, picture.height), (256, 256));
+        // 64 cells at 4 pixels, with 8-pixel margins, the colour bar (10 + 14 pixels)
+        // and its labels (74) on the right, and the scale bar (36) under the map.
+        assert_eq!(
+            (picture.width, picture.height),
+            (8 + 256 + 10 + 14 + 74 + 8, 8 + 256 + 36)
+        );
     }
 
     // The bar: on held-out start/goal pairs, >= 90% of planned cells within 2 cells

@@ -6,9 +6,13 @@
 
 use std::path::PathBuf;
 
+use std::sync::Mutex;
+
 use imitate::Error;
-use imitate::grid::{Cell, GeoRef, Grid};
+use imitate::grid::{Cell, FeatureStack, GeoRef, Grid};
+use imitate::ioc::{ExampleStatistics, LearchConfig, LogCostModel, PreparedExamples};
 use imitate::plan::{Connectivity, GridPlanner, Moves, unit_step_metres};
+use imitate::stage::learch::LearchParams;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2};
 use pyo3::create_exception;
@@ -225,6 +229,109 @@ fn plan<'py>(
     }))
 }
 
+/// LEARCH parameters (JSON, as the stage's) deserialised and checked as the stage is.
+fn learch_params(text: &str) -> PyResult<LearchParams> {
+    serde_json::from_value(parse_json(text, "learch parameters")?)
+        .map_err(|e| UsageError::new_err(format!("learch parameters: {e}")))
+}
+
+/// How many training examples a LEARCH run of these parameters has (after its seeded
+/// hold-out and validation splits): what workers divide between them.
+#[pyfunction]
+fn learch_training_examples(py: Python<'_>, params: &str) -> PyResult<usize> {
+    let params = learch_params(params)?;
+    let inputs = py.detach(|| params.inputs()).map_err(raise)?;
+    Ok(inputs.training.len())
+}
+
+/// A worker's share of a LEARCH run: training examples `start..stop` with every map's
+/// features, loaded and prepared once; `plan` is the map step of a round.
+#[pyclass(frozen)]
+struct LearchShard {
+    stacks: Vec<FeatureStack>,
+    prepared: PreparedExamples,
+    config: LearchConfig,
+}
+
+#[pymethods]
+impl LearchShard {
+    #[new]
+    fn new(py: Python<'_>, params: &str, start: usize, stop: usize) -> PyResult<Self> {
+        let params = learch_params(params)?;
+        let inputs = py.detach(|| params.inputs()).map_err(raise)?;
+        if start > stop || stop > inputs.training.len() {
+            return Err(UsageError::new_err(format!(
+                "examples {start}..{stop} of a run with {} training examples",
+                inputs.training.len()
+            )));
+        }
+        let config = params.config();
+        let examples = inputs.training[start..stop].to_vec();
+        let prepared = py.detach(|| PreparedExamples::new(&inputs.stacks, examples, &config));
+        Ok(LearchShard {
+            stacks: inputs.stacks,
+            prepared,
+            config,
+        })
+    }
+
+    /// Plans the shard's examples under `model` (JSON, as the driver sends it) and
+    /// returns their statistics (JSON), in example order.
+    fn plan(&self, py: Python<'_>, model: &str) -> PyResult<String> {
+        let model: LogCostModel =
+            serde_json::from_str(model).map_err(|e| UsageError::new_err(format!("model: {e}")))?;
+        let statistics = py
+            .detach(|| self.prepared.plan(&model, &self.stacks, &self.config))
+            .map_err(ImitateError::new_err)?;
+        serde_json::to_string(&statistics)
+            .map_err(|e| ImitateError::new_err(format!("statistics: {e}")))
+    }
+
+    /// How many examples the shard holds.
+    #[getter]
+    fn examples(&self) -> usize {
+        self.prepared.len()
+    }
+}
+
+/// Runs the learch stage with `params` (JSON), the map step of every round done by
+/// `plan`: a callable given the model (JSON) that returns the statistics of every
+/// shard (JSON each, from `LearchShard.plan`), shards in example order. The artifact is
+/// the one `run_stage("learch", ...)` writes. Returns the stage's report (JSON).
+#[pyfunction]
+fn run_learch_distributed(py: Python<'_>, params: &str, plan: Py<PyAny>) -> PyResult<String> {
+    let params = learch_params(params)?;
+    // The callable's own exception, raised as it is rather than as a message.
+    let failure: Mutex<Option<PyErr>> = Mutex::new(None);
+    let mut remote = |model: &LogCostModel| -> Result<Vec<ExampleStatistics>, String> {
+        let model = serde_json::to_string(model).map_err(|e| e.to_string())?;
+        let parts = Python::attach(|py| {
+            plan.call1(py, (model,))
+                .and_then(|parts| parts.extract::<Vec<String>>(py))
+        });
+        let parts = parts.map_err(|e| {
+            let message = e.to_string();
+            *failure.lock().expect("not poisoned") = Some(e);
+            format!("the workers failed: {message}")
+        })?;
+        let mut statistics = Vec::new();
+        for part in parts {
+            let shard: Vec<ExampleStatistics> =
+                serde_json::from_str(&part).map_err(|e| format!("a shard's statistics: {e}"))?;
+            statistics.extend(shard);
+        }
+        Ok(statistics)
+    };
+    let report = py.detach(|| params.run_with(&[], Some(&mut remote)));
+    if let Some(e) = failure.lock().expect("not poisoned").take() {
+        return Err(e);
+    }
+    let report = report.map_err(raise)?;
+    Ok(json_text(
+        &serde_json::to_value(&report).expect("reports serialise"),
+    ))
+}
+
 /// A policy from a policy artifact (`dagger train`, the dagger stage).
 #[pyclass(frozen)]
 struct Policy {
@@ -312,6 +419,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("UsageError", m.py().get_type::<UsageError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<Policy>()?;
+    m.add_class::<LearchShard>()?;
     for f in [
         wrap_pyfunction!(run_stage, m)?,
         wrap_pyfunction!(stage_kinds, m)?,
@@ -322,6 +430,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(compute_features, m)?,
         wrap_pyfunction!(plan, m)?,
         wrap_pyfunction!(append_round, m)?,
+        wrap_pyfunction!(learch_training_examples, m)?,
+        wrap_pyfunction!(run_learch_distributed, m)?,
     ] {
         m.add_function(f)?;
     }

@@ -267,7 +267,8 @@ pub struct TrainedLearch {
 /// What one example contributes to a round (the map step, `PreparedExamples::plan`):
 /// the ridge statistics or the points for a tree (LEARCH), or the direction of a linear
 /// step on the scaled weights (MMP, MaxEnt). Merged in example order by `fit_round`.
-#[derive(Debug, Clone, PartialEq)]
+/// Serialisable, to travel from workers.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExampleStatistics {
     data: RidgeAccumulator,
     points: Vec<(Vec<f64>, f64, f64)>,
@@ -326,7 +327,34 @@ pub fn train(
     references: Option<&[Grid<f32>]>,
     config: &LearchConfig,
     resume: Option<Progress>,
+    on_round: impl FnMut(&Progress),
+) -> Result<TrainedLearch, String> {
+    #[rustfmt::skip]
+    let trained = train_with(
+        stacks, map_names, training, validation, holdout, references, config, resume,
+        on_round, None,
+    );
+    trained
+}
+
+/// The map step of a round done elsewhere: given the model, the statistics of every
+/// training example in order (e.g. gathered from workers that hold shards of them).
+pub type RemoteRounds<'a> = dyn FnMut(&LogCostModel) -> Result<Vec<ExampleStatistics>, String> + 'a;
+
+/// `train`, with the map step of every round done by `remote` when given (the
+/// training examples are then not planned here; the rest is as `train`).
+#[allow(clippy::too_many_arguments)]
+pub fn train_with(
+    stacks: &[FeatureStack],
+    map_names: &[String],
+    training: &[Example],
+    validation: &[Example],
+    holdout: &[Example],
+    references: Option<&[Grid<f32>]>,
+    config: &LearchConfig,
+    resume: Option<Progress>,
     mut on_round: impl FnMut(&Progress),
+    mut remote: Option<&mut RemoteRounds<'_>>,
 ) -> Result<TrainedLearch, String> {
     if training.is_empty() {
         return Err("no training examples".into());
@@ -370,7 +398,9 @@ pub fn train(
     for learner in resumed {
         model.push(learner);
     }
-    let prepared = PreparedExamples::new(stacks, training, config);
+    let prepared = remote
+        .is_none()
+        .then(|| PreparedExamples::new(stacks, training.to_vec(), config));
     let mut best: Option<(f64, usize)> = None;
     let improves =
         |best: Option<(f64, usize)>, agreement: f64| best.is_none_or(|(b, _)| agreement > b);
@@ -386,7 +416,19 @@ pub fn train(
         rounds: resumed_rounds,
     };
     for t in progress.rounds.len()..config.rounds {
-        let statistics = prepared.plan(&model, stacks, config)?;
+        let statistics = match (&mut remote, &prepared) {
+            (Some(remote), _) => remote(&model)?,
+            (None, Some(prepared)) => prepared.plan(&model, stacks, config)?,
+            (None, None) => unreachable!("examples are prepared when planned here"),
+        };
+        if statistics.len() != training.len() {
+            return Err(format!(
+                "round {}: {} examples' statistics came back for {} training examples",
+                t + 1,
+                statistics.len(),
+                training.len()
+            ));
+        }
         let round = fit_round(&model, stacks, &statistics, config, t)?;
         let (step, projected_to_margin) = (round.step, round.projected_to_margin);
         model.push(round.learner);
@@ -433,18 +475,26 @@ pub fn train(
 
 /// Training examples ready for rounds: each with its loss over its map, computed once.
 /// A worker holding a share of the examples keeps one of these for every round.
-pub struct PreparedExamples<'a> {
-    examples: &'a [Example],
+pub struct PreparedExamples {
+    examples: Vec<Example>,
     shares: Vec<Vec<f32>>,
 }
 
-impl<'a> PreparedExamples<'a> {
-    pub fn new(stacks: &[FeatureStack], examples: &'a [Example], config: &LearchConfig) -> Self {
+impl PreparedExamples {
+    pub fn new(stacks: &[FeatureStack], examples: Vec<Example>, config: &LearchConfig) -> Self {
         let shares = examples
             .par_iter()
             .map(|ex| loss_shares(&stacks[ex.map], ex, config))
             .collect();
         PreparedExamples { examples, shares }
+    }
+
+    pub fn len(&self) -> usize {
+        self.examples.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.examples.is_empty()
     }
 
     /// The map step of a round: plans every example under `model` (on the
@@ -458,7 +508,7 @@ impl<'a> PreparedExamples<'a> {
     ) -> Result<Vec<ExampleStatistics>, String> {
         // Each map's costmap once, for the maps these examples use.
         let mut used = vec![false; stacks.len()];
-        for ex in self.examples {
+        for ex in &self.examples {
             used[ex.map] = true;
         }
         let costmaps: Vec<Option<Grid<f32>>> = (stacks.par_iter().zip(&used))
@@ -1258,7 +1308,7 @@ mod tests {
             let trained = train_without_evaluation(&stacks, &names, &examples, &config).unwrap();
             let shards: Vec<&[Example]> = vec![&examples[..5], &examples[5..6], &examples[6..]];
             let prepared: Vec<PreparedExamples> = (shards.iter())
-                .map(|shard| PreparedExamples::new(&stacks, shard, &config))
+                .map(|shard| PreparedExamples::new(&stacks, shard.to_vec(), &config))
                 .collect();
             let mut model = LogCostModel::zero_with(
                 stacks[0].names.clone(),

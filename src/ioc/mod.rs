@@ -9,8 +9,9 @@ pub mod tabular;
 
 pub use learch::{
     Example, ExampleStatistics, FittedRound, GridMethod, LearchConfig, LossKind, PreparedExamples,
-    Progress, RoundMetrics, StepSchedule, TREE_BINS, TREE_LEAF_L2, TrainedLearch, WeakLearnerKind,
-    default_rounds_and_step, evaluate as learch_evaluate, fit_round, hold_out_every, train,
+    Progress, RemoteRounds, RoundMetrics, StepSchedule, TREE_BINS, TREE_LEAF_L2, TrainedLearch,
+    WeakLearnerKind, default_rounds_and_step, evaluate as learch_evaluate, fit_round,
+    hold_out_every, train, train_with,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
 pub use model::{CostLink, LogCostModel, WeakLearner};

@@ -5,7 +5,7 @@
 //! depend on the thread count.
 
 /// Sufficient statistics of a weighted least-squares problem in `dim` unknowns.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RidgeAccumulator {
     dim: usize,
     /// Upper triangle is enough, but the full matrix keeps merging and solving simple.

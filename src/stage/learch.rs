@@ -289,6 +289,26 @@ impl StageParams for LearchParams {
     }
 
     fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
+        self.run_with(extra_deps, None)
+    }
+}
+
+/// What a LEARCH run reads: every map's features, and the demonstrations split into
+/// training, validation and held-out examples.
+pub struct LearchInputs {
+    pub map_names: Vec<String>,
+    pub stacks: Vec<FeatureStack>,
+    pub feature_spec: serde_json::Value,
+    pub references: Option<Vec<Grid<f32>>>,
+    pub training: Vec<Example>,
+    pub validation: Vec<Example>,
+    pub holdout: Vec<Example>,
+}
+
+impl LearchParams {
+    /// Reads and checks the inputs, and splits the examples as every run of these
+    /// parameters does (seeded), so that workers elsewhere find the same training set.
+    pub fn inputs(&self) -> Result<LearchInputs> {
         self.validate()?;
         let dataset = read_manifest(&self.dataset, "dataset")?;
         let features = read_manifest(&self.features, "features")?;
@@ -360,7 +380,20 @@ impl StageParams for LearchParams {
         }
         let (training, holdout) = split(examples, self.holdout, self.seed);
         let (training, validation) = split(training, self.validation, self.seed.wrapping_add(1));
-        let config = LearchConfig {
+        Ok(LearchInputs {
+            map_names,
+            stacks,
+            feature_spec,
+            references,
+            training,
+            validation,
+            holdout,
+        })
+    }
+
+    /// The trainer's configuration.
+    pub fn config(&self) -> LearchConfig {
+        LearchConfig {
             method: self.method,
             horizon_factor: self.horizon_factor,
             window_margin: self.window_margin,
@@ -380,7 +413,26 @@ impl StageParams for LearchParams {
                 ..TreeConfig::default()
             },
             patience: self.patience,
-        };
+        }
+    }
+
+    /// Runs the stage, with the map step of every round done by `remote` when given
+    /// (workers elsewhere planning shards of `inputs().training`): the same artifact.
+    pub fn run_with(
+        &self,
+        extra_deps: &[PathBuf],
+        remote: Option<&mut ioc::RemoteRounds<'_>>,
+    ) -> Result<StageReport> {
+        let LearchInputs {
+            map_names,
+            stacks,
+            feature_spec,
+            references,
+            training,
+            validation,
+            holdout,
+        } = self.inputs()?;
+        let config = self.config();
         let progress = super::progress_bar(self.rounds(), "learch rounds");
         let checkpoint = checkpoint_path(&super::lineage(self, extra_deps)?.stage_key);
         let resume = if self.resume {
@@ -393,7 +445,7 @@ impl StageParams for LearchParams {
             progress.inc(resumed.rounds.len() as u64);
         }
         let mut checkpoint_error = None;
-        let trained = ioc::train(
+        let trained = ioc::train_with(
             &stacks,
             &map_names,
             &training,
@@ -410,6 +462,7 @@ impl StageParams for LearchParams {
                     checkpoint_error = Some(e);
                 }
             },
+            remote,
         )
         // Everything train refuses is about what it was given (no examples, stacks
         // that disagree, a demonstration whose goal cannot be reached).
