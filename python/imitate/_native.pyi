@@ -1,6 +1,6 @@
 """Type stubs of imitate's compiled core (`python/src/lib.rs`)."""
 
-from typing import Optional
+from typing import Callable, Optional
 
 import numpy as np
 import numpy.typing as npt
@@ -49,3 +49,14 @@ def append_round(
     episode: str = "episode_index",
     executed: Optional[str] = None,
 ) -> tuple[int, bool]: ...
+def learch_training_examples(params: str) -> int: ...
+
+class LearchShard:
+    """A worker's share of a LEARCH run: training examples start..stop, inputs loaded once."""
+
+    examples: int
+    def __init__(self, params: str, start: int, stop: int) -> None: ...
+    def plan(self, model: str) -> str:
+        """The shard's statistics (JSON) under the model (JSON), in example order."""
+
+def run_learch_distributed(params: str, plan: Callable[[str], list[str]]) -> str: ...
