@@ -77,10 +77,14 @@ def learch(
 
     text = json.dumps(_absolute(params), default=os.fspath)
     examples = _native.learch_training_examples(text)
+    # An actor plans on as many threads as the CPUs it holds, not on every core of
+    # its node.
+    threads = str(max(1, int(num_cpus_per_actor)))
     worker = ray.remote(
         num_cpus=num_cpus_per_actor,
         max_restarts=max_restarts,
         max_task_retries=max_restarts,
+        runtime_env={"env_vars": {"RAYON_NUM_THREADS": threads}},
     )(_LearchWorker)
     workers = [worker.remote(text, start, stop) for start, stop in shards(examples, actors)]
     rounds = [0]
