@@ -1,7 +1,8 @@
 //! The Python package (`python/`, built by `scripts/python-package.sh`) against the
 //! command line: the same artifacts, plans and errors, arrays that hold what the files
 //! hold, DAgger rounds from in-memory tables, a policy that acts as its ONNX export;
-//! and LEARCH on a local multi-node Ray cluster writing the single-machine artifact.
+//! and on a local multi-node Ray cluster, LEARCH writing the single-machine artifact and
+//! DAgger rounds rolled out as tasks in gymnasium's Pendulum.
 
 mod common;
 
@@ -63,4 +64,18 @@ fn learch_on_a_local_ray_cluster_writes_the_single_machine_artifact() {
     let digests: Vec<&str> = runs.iter().filter_map(|r| r["digest"].as_str()).collect();
     assert_eq!(digests.len(), 5, "{runs:?}");
     assert!(digests.iter().all(|d| *d == digests[0]), "{runs:?}");
+}
+
+#[test]
+fn dagger_rounds_rolled_out_on_ray_are_the_rounds_made_here() {
+    if !package_built() {
+        return;
+    }
+    let ws = tempfile::tempdir().unwrap();
+    let binary = std::path::PathBuf::from(env!("CARGO_BIN_EXE_imitate"));
+    let Some(rounds) = python_script("ray_dagger.py", &[ws.path(), &binary]) else {
+        return;
+    };
+    let steps: Vec<u64> = rounds.iter().filter_map(|r| r["steps"].as_u64()).collect();
+    assert_eq!(steps, [240, 240], "{rounds:?}");
 }

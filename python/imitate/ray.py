@@ -1,5 +1,7 @@
-"""LEARCH on a Ray cluster: actors plan shards of the training examples, the driver
-merges their statistics in example order and fits each round's learner.
+"""imitate on a Ray cluster. `learch`: actors plan shards of the training examples, the
+driver merges their statistics in example order and fits each round's learner.
+`dagger_round`: episodes in the user's own environment, one task each, appended to a
+DAgger dataset as one round.
 
 Each actor loads the run's inputs once (every map's features and the demonstrations,
 split as every run of the parameters splits them) and keeps its shard of the training
@@ -100,3 +102,140 @@ def learch(
     finally:
         for w in workers:
             ray.kill(w)
+
+
+# ---------------------------------------------------------------------------------
+# DAgger rollouts in the user's own environment, one Ray task per episode.
+
+
+def _actions(value: Any) -> list:
+    """An action (a number or a vector of them) as a list of floats."""
+    import numpy as np
+
+    return [float(v) for v in np.atleast_1d(np.asarray(value, dtype=np.float64)).ravel()]
+
+
+_POLICIES: dict = {}
+
+
+def _policy(path: str):
+    """A policy artifact, loaded once per worker process."""
+    if path not in _POLICIES:
+        _POLICIES[path] = _native.Policy(path)
+    return _POLICIES[path]
+
+
+def episode(
+    make_env: Callable[[], Any],
+    teacher: Callable[[Any], Any],
+    policy: Optional[str] = None,
+    *,
+    seed: int,
+    max_steps: int,
+    beta: float = 0.0,
+) -> dict:
+    """One episode in a gymnasium-style environment (`reset(seed=...)`, `step(action)`
+    giving (observation, reward, terminated, truncated, info)), the teacher labelling
+    every state visited. Without `policy` the teacher drives; with one (a policy
+    artifact folder) the policy drives, except that each step the teacher's action is
+    executed instead with probability `beta` (drawn from a generator seeded by `seed`).
+    Depends only on its arguments, so a retried task gives the same episode.
+
+    Returns the observations, the teacher's labels, the executed actions (lists of
+    float lists, one per step) and the return.
+    """
+    import numpy as np
+
+    env = make_env()
+    rng = np.random.default_rng(seed)
+    learner = _policy(os.path.abspath(policy)) if policy is not None else None
+    observation, _ = env.reset(seed=seed)
+    observations, labels, executed, total = [], [], [], 0.0
+    for _ in range(max_steps):
+        x = _actions(observation)
+        label = _actions(teacher(observation))
+        action = label
+        if learner is not None and not rng.random() < beta:
+            action = [float(a) for a in learner.act(np.asarray([x]))[0]]
+        observations.append(x)
+        labels.append(label)
+        executed.append(action)
+        step = np.asarray(action, dtype=np.float32)
+        shape = getattr(getattr(env, "action_space", None), "shape", None)
+        if shape is not None and shape != step.shape:
+            step = step.reshape(shape)
+        observation, reward, terminated, truncated, _ = env.step(step)
+        total += float(reward)
+        if terminated or truncated:
+            break
+    close = getattr(env, "close", None)
+    if close is not None:
+        close()
+    return {"observations": observations, "labels": labels, "executed": executed,
+            "return": total}
+
+
+def rollouts(
+    make_env: Callable[[], Any],
+    teacher: Callable[[Any], Any],
+    policy: Optional[str] = None,
+    *,
+    seeds: Sequence[int],
+    max_steps: int,
+    beta: float = 0.0,
+    local: bool = False,
+    max_retries: int = 3,
+) -> list:
+    """`episode` for every seed, one Ray task each (retried when a worker dies), in
+    seed order; `local=True` runs them here one after another (the same episodes)."""
+    kwargs = dict(max_steps=max_steps, beta=beta)
+    if local:
+        return [episode(make_env, teacher, policy, seed=int(s), **kwargs) for s in seeds]
+    import ray
+
+    one_thread = {"env_vars": {"RAYON_NUM_THREADS": "1"}}
+    task = ray.remote(max_retries=max_retries, runtime_env=one_thread)(episode)
+    path = None if policy is None else os.path.abspath(os.fspath(policy))
+    return ray.get([task.remote(make_env, teacher, path, seed=int(s), **kwargs) for s in seeds])
+
+
+def dagger_round(
+    dataset: Any,
+    make_env: Callable[[], Any],
+    teacher: Callable[[Any], Any],
+    policy: Optional[Any] = None,
+    *,
+    seeds: Sequence[int],
+    max_steps: int,
+    beta: float = 0.0,
+    local: bool = False,
+) -> tuple:
+    """One DAgger round in the user's environment: the episodes of `rollouts` (on the
+    cluster), appended to the DAgger dataset at `dataset` as one round (episode i the
+    i-th seed's; with a policy, the executed actions beside the teacher's labels).
+    The dataset must hold observations and actions of the environment's sizes
+    (`imitate dagger init DS --env log --observations ... --actions ...`). Returns
+    (round, whether it is new) and the episodes' returns."""
+    import pyarrow as pa
+
+    episodes = rollouts(make_env, teacher, policy, seeds=seeds, max_steps=max_steps,
+                        beta=beta, local=local)
+    ids, observations, labels, executed = [], [], [], []
+    for i, e in enumerate(episodes):
+        ids.extend([i] * len(e["observations"]))
+        observations.extend(e["observations"])
+        labels.extend(e["labels"])
+        executed.extend(e["executed"])
+    columns = {
+        "episode_index": pa.array(ids, pa.int64()),
+        "observation": pa.array(observations, pa.list_(pa.float64())),
+        "action": pa.array(labels, pa.list_(pa.float64())),
+    }
+    if policy is not None:
+        columns["action_executed"] = pa.array(executed, pa.list_(pa.float64()))
+    from . import append_round
+
+    appended = append_round(dataset, pa.table(columns), observations=["observation"],
+                            action="action",
+                            executed="action_executed" if policy is not None else None)
+    return appended, [e["return"] for e in episodes]
