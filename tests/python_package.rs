@@ -2,7 +2,8 @@
 //! command line: the same artifacts, plans and errors, arrays that hold what the files
 //! hold, DAgger rounds from in-memory tables, a policy that acts as its ONNX export;
 //! and on a local multi-node Ray cluster, LEARCH writing the single-machine artifact and
-//! DAgger rounds rolled out as tasks in gymnasium's Pendulum.
+//! logs ingested one task each, and DAgger rounds rolled out as tasks in gymnasium's
+//! Pendulum.
 
 mod common;
 
@@ -78,4 +79,20 @@ fn dagger_rounds_rolled_out_on_ray_are_the_rounds_made_here() {
     };
     let steps: Vec<u64> = rounds.iter().filter_map(|r| r["steps"].as_u64()).collect();
     assert_eq!(steps, [240, 240], "{rounds:?}");
+}
+
+#[test]
+fn logs_ingested_on_ray_give_the_dataset_ingested_here() {
+    if !package_built() {
+        return;
+    }
+    let ws = tempfile::tempdir().unwrap();
+    let binary = std::path::PathBuf::from(env!("CARGO_BIN_EXE_imitate"));
+    let repository = repo();
+    let Some(runs) = python_script("ray_ingest.py", &[ws.path(), &binary, &repository]) else {
+        return;
+    };
+    let digests: Vec<&str> = runs.iter().filter_map(|r| r["digest"].as_str()).collect();
+    assert_eq!(digests.len(), 3, "{runs:?}");
+    assert!(digests.iter().all(|d| *d == digests[0]), "{runs:?}");
 }

@@ -60,3 +60,9 @@ class LearchShard:
         """The shard's statistics (JSON) under the model (JSON), in example order."""
 
 def run_learch_distributed(params: str, plan: Callable[[str], list[str]]) -> str: ...
+def ingest_log_part(params: str, index: int) -> tuple[Optional[bytes], bytes]:
+    """Log `index` of the ingest parameters' logs: its map and demonstrations (Parquet)."""
+
+def run_ingest_distributed(
+    params: str, decode: Callable[[list[str]], list[tuple[Optional[bytes], bytes]]]
+) -> str: ...

@@ -1,5 +1,6 @@
 """imitate on a Ray cluster. `learch`: actors plan shards of the training examples, the
 driver merges their statistics in example order and fits each round's learner.
+`ingest`: robot logs decoded one task each, the dataset written on the driver.
 `dagger_round`: episodes in the user's own environment, one task each, appended to a
 DAgger dataset as one round.
 
@@ -102,6 +103,52 @@ def learch(
     finally:
         for w in workers:
             ray.kill(w)
+
+
+# ---------------------------------------------------------------------------------
+# Ingest: one Ray task per log.
+
+# The ingest stage's parameters that name files.
+_INGEST_PATHS = ("demonstrations", "out")
+_INGEST_PATH_LISTS = ("maps", "lerobot", "logs")
+
+
+def _ingest_absolute(params: dict) -> dict:
+    resolved = dict(params)
+    for key in _INGEST_PATHS:
+        if resolved.get(key) is not None:
+            resolved[key] = os.path.abspath(os.fspath(resolved[key]))
+    for key in _INGEST_PATH_LISTS:
+        if resolved.get(key):
+            resolved[key] = [os.path.abspath(os.fspath(p)) for p in resolved[key]]
+    return resolved
+
+
+def _ingest_log(params: str, index: int) -> tuple:
+    return _native.ingest_log_part(params, index)
+
+
+def ingest(*, max_retries: int = 3, num_cpus_per_task: float = 1, **params: Any) -> dict:
+    """Runs the ingest stage with `params` (those of its YAML entry and command: `logs`,
+    `maps`, `demonstrations`, `goal_topic`, `split`, `out`, ...) on the connected Ray
+    cluster: each log is decoded by a task of its own (retried when its worker dies),
+    its map and demonstrations come back as Parquet bytes, and the driver writes the
+    dataset. The artifact is the one `imitate ingest` writes with the same parameters,
+    byte for byte. Returns the stage's report: `output`, `digest`, `summary`."""
+    import ray
+
+    text = json.dumps(_ingest_absolute(params), default=os.fspath)
+    threads = str(max(1, int(num_cpus_per_task)))
+    task = ray.remote(
+        num_cpus=num_cpus_per_task,
+        max_retries=max_retries,
+        runtime_env={"env_vars": {"RAYON_NUM_THREADS": threads}},
+    )(_ingest_log)
+
+    def decode(logs: list) -> list:
+        return ray.get([task.remote(text, i) for i in range(len(logs))])
+
+    return json.loads(_native.run_ingest_distributed(text, decode))
 
 
 # ---------------------------------------------------------------------------------

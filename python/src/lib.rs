@@ -12,6 +12,8 @@ use imitate::Error;
 use imitate::grid::{Cell, FeatureStack, GeoRef, Grid};
 use imitate::ioc::{ExampleStatistics, LearchConfig, LogCostModel, PreparedExamples};
 use imitate::plan::{Connectivity, GridPlanner, Moves, unit_step_metres};
+use imitate::stage::StageReport;
+use imitate::stage::ingest::{IngestParams, LogPart};
 use imitate::stage::learch::LearchParams;
 use numpy::ndarray::{Array2, Array3};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyReadonlyArray2};
@@ -301,19 +303,10 @@ impl LearchShard {
 #[pyfunction]
 fn run_learch_distributed(py: Python<'_>, params: &str, plan: Py<PyAny>) -> PyResult<String> {
     let params = learch_params(params)?;
-    // The callable's own exception, raised as it is rather than as a message.
-    let failure: Mutex<Option<PyErr>> = Mutex::new(None);
+    let workers = Workers::new(plan);
     let mut remote = |model: &LogCostModel| -> Result<Vec<ExampleStatistics>, String> {
         let model = serde_json::to_string(model).map_err(|e| e.to_string())?;
-        let parts = Python::attach(|py| {
-            plan.call1(py, (model,))
-                .and_then(|parts| parts.extract::<Vec<String>>(py))
-        });
-        let parts = parts.map_err(|e| {
-            let message = e.to_string();
-            *failure.lock().expect("not poisoned") = Some(e);
-            format!("the workers failed: {message}")
-        })?;
+        let parts: Vec<String> = workers.call(|py, plan| plan.call1(py, (model,))?.extract(py))?;
         let mut statistics = Vec::new();
         for part in parts {
             let shard: Vec<ExampleStatistics> =
@@ -323,13 +316,120 @@ fn run_learch_distributed(py: Python<'_>, params: &str, plan: Py<PyAny>) -> PyRe
         Ok(statistics)
     };
     let report = py.detach(|| params.run_with(&[], Some(&mut remote)));
-    if let Some(e) = failure.lock().expect("not poisoned").take() {
-        return Err(e);
+    workers.report(report)
+}
+
+/// The Python callable that hands a stage's work to workers, called from Rust with the
+/// interpreter released. Its exception is kept and raised as it is, not as a message.
+struct Workers {
+    callable: Py<PyAny>,
+    failure: Mutex<Option<PyErr>>,
+}
+
+impl Workers {
+    fn new(callable: Py<PyAny>) -> Self {
+        Workers {
+            callable,
+            failure: Mutex::new(None),
+        }
     }
-    let report = report.map_err(raise)?;
-    Ok(json_text(
-        &serde_json::to_value(&report).expect("reports serialise"),
-    ))
+
+    fn call<T>(
+        &self,
+        call: impl FnOnce(Python<'_>, &Py<PyAny>) -> PyResult<T>,
+    ) -> Result<T, String> {
+        Python::attach(|py| call(py, &self.callable)).map_err(|e| {
+            let message = e.to_string();
+            *self.failure.lock().expect("not poisoned") = Some(e);
+            format!("the workers failed: {message}")
+        })
+    }
+
+    /// The stage's report (JSON), or the callable's exception where it raised one.
+    fn report(self, report: imitate::Result<StageReport>) -> PyResult<String> {
+        if let Some(e) = self.failure.into_inner().expect("not poisoned") {
+            return Err(e);
+        }
+        let report = report.map_err(raise)?;
+        Ok(json_text(
+            &serde_json::to_value(&report).expect("reports serialise"),
+        ))
+    }
+}
+
+/// Ingest parameters (JSON, as the stage's).
+fn ingest_params(text: &str) -> PyResult<IngestParams> {
+    serde_json::from_value(parse_json(text, "ingest parameters")?)
+        .map_err(|e| UsageError::new_err(format!("ingest parameters: {e}")))
+}
+
+/// A log's part as it travels from a worker: its map and its demonstrations as the
+/// tables the dataset holds (Parquet bytes), which read back exactly.
+type LogPartBytes = (Option<Vec<u8>>, Vec<u8>);
+
+fn encode_part((map, demonstrations): LogPart) -> imitate::Result<LogPartBytes> {
+    let folder = tempfile::tempdir().map_err(|e| Error::io("a temporary folder", e))?;
+    let read = |path: &std::path::Path| {
+        std::fs::read(path).map_err(|e| Error::io(format!("reading {}", path.display()), e))
+    };
+    let map = match map {
+        Some(map) => {
+            let path = folder.path().join("map.parquet");
+            imitate::io::tables::write_map(&path, &map)?;
+            Some(read(&path)?)
+        }
+        None => None,
+    };
+    let path = folder.path().join("demonstrations.parquet");
+    imitate::io::tables::write_demonstrations(&path, &demonstrations)?;
+    Ok((map, read(&path)?))
+}
+
+fn decode_part((map, demonstrations): LogPartBytes) -> imitate::Result<LogPart> {
+    let folder = tempfile::tempdir().map_err(|e| Error::io("a temporary folder", e))?;
+    let write = |name: &str, bytes: &[u8]| {
+        let path = folder.path().join(name);
+        std::fs::write(&path, bytes)
+            .map_err(|e| Error::io(format!("writing {}", path.display()), e))
+            .map(|()| path)
+    };
+    let map = match map {
+        Some(bytes) => Some(imitate::io::tables::read_map(&write(
+            "map.parquet",
+            &bytes,
+        )?)?),
+        None => None,
+    };
+    let path = write("demonstrations.parquet", &demonstrations)?;
+    Ok((map, imitate::io::demo_tables::read_demonstrations(&path)?))
+}
+
+/// Decodes log `index` of an ingest run's `logs` (what one worker does): its map and
+/// demonstrations as Parquet bytes for `run_ingest_distributed`.
+#[pyfunction]
+fn ingest_log_part(py: Python<'_>, params: &str, index: usize) -> PyResult<LogPartBytes> {
+    let params = ingest_params(params)?;
+    py.detach(|| params.read_log_part(index).and_then(encode_part))
+        .map_err(raise)
+}
+
+/// Runs the ingest stage with `params` (JSON), its logs decoded by `decode`: a callable
+/// given the logs' paths that returns each log's part (from `ingest_log_part`), in
+/// order. The artifact is the one `run_stage("ingest", ...)` writes. Returns the
+/// stage's report (JSON).
+#[pyfunction]
+fn run_ingest_distributed(py: Python<'_>, params: &str, decode: Py<PyAny>) -> PyResult<String> {
+    let params = ingest_params(params)?;
+    let workers = Workers::new(decode);
+    let mut remote = |logs: &[PathBuf]| -> imitate::Result<Vec<LogPart>> {
+        let logs: Vec<String> = logs.iter().map(|l| l.display().to_string()).collect();
+        let parts: Vec<LogPartBytes> = workers
+            .call(|py, decode| decode.call1(py, (logs,))?.extract(py))
+            .map_err(Error::Failed)?;
+        parts.into_iter().map(decode_part).collect()
+    };
+    let report = py.detach(|| params.run_with(&[], Some(&mut remote)));
+    workers.report(report)
 }
 
 /// A policy from a policy artifact (`dagger train`, the dagger stage).
@@ -432,6 +532,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
         wrap_pyfunction!(append_round, m)?,
         wrap_pyfunction!(learch_training_examples, m)?,
         wrap_pyfunction!(run_learch_distributed, m)?,
+        wrap_pyfunction!(ingest_log_part, m)?,
+        wrap_pyfunction!(run_ingest_distributed, m)?,
     ] {
         m.add_function(f)?;
     }

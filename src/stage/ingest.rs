@@ -215,8 +215,23 @@ impl IngestParams {
         Ok(demos)
     }
 
+    /// Log `index`'s map and demonstrations, as `run` reads them: what a worker that
+    /// ingests one log of many returns (see `run_with`).
+    pub fn read_log_part(&self, index: usize) -> Result<LogPart> {
+        let log = self
+            .logs
+            .get(index)
+            .ok_or_else(|| Error::Usage(format!("log {index} of {} logs", self.logs.len())))?;
+        let maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
+        let fallback = self
+            .default_map(&maps)?
+            .map(|m| (m.name.as_str(), m.geo.frame.as_str()));
+        let contents = read_log(log, &self.mapping()?, fallback)?;
+        Ok((contents.map, contents.demonstrations))
+    }
+
     /// The demonstrations and maps of every log, in the order the logs are given.
-    fn read_logs(&self, maps: &[Map]) -> Result<Vec<(Option<Map>, Vec<Demonstration>)>> {
+    fn read_logs(&self, maps: &[Map]) -> Result<Vec<LogPart>> {
         if self.logs.is_empty() {
             return Ok(Vec::new());
         }
@@ -256,6 +271,24 @@ impl StageParams for IngestParams {
     }
 
     fn run(&self, extra_deps: &[PathBuf]) -> Result<StageReport> {
+        self.run_with(extra_deps, None)
+    }
+}
+
+/// What one log gives: the map it records, if any, and its demonstrations.
+pub type LogPart = (Option<Map>, Vec<Demonstration>);
+
+/// Logs decoded elsewhere: given the logs, each one's part, in the order given (e.g.
+/// from workers that ran `read_log_part` on one log each).
+pub type RemoteLogs<'a> = dyn FnMut(&[PathBuf]) -> Result<Vec<LogPart>> + 'a;
+
+impl IngestParams {
+    /// Runs the stage, with the logs decoded by `remote` when given: the same artifact.
+    pub fn run_with(
+        &self,
+        extra_deps: &[PathBuf],
+        remote: Option<&mut RemoteLogs<'_>>,
+    ) -> Result<StageReport> {
         if self.demonstrations.is_none() && self.logs.is_empty() && self.lerobot.is_empty() {
             return Err(Error::Usage(
                 "ingest needs demonstrations: a Parquet table, LeRobot datasets or logs (MCAP)"
@@ -266,7 +299,21 @@ impl StageParams for IngestParams {
         let mut maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
         let mut sources: Vec<PathBuf> = self.maps.clone();
         let mut demos = self.read_tables(&maps)?;
-        for ((map, log_demos), log) in self.read_logs(&maps)?.into_iter().zip(&self.logs) {
+        let parts = match remote {
+            Some(remote) if !self.logs.is_empty() => {
+                let parts = remote(&self.logs)?;
+                if parts.len() != self.logs.len() {
+                    return Err(Error::Failed(format!(
+                        "{} logs' parts came back for {} logs",
+                        parts.len(),
+                        self.logs.len()
+                    )));
+                }
+                parts
+            }
+            _ => self.read_logs(&maps)?,
+        };
+        for ((map, log_demos), log) in parts.into_iter().zip(&self.logs) {
             maps.extend(map);
             sources.resize(maps.len(), log.clone());
             demos.extend(log_demos.into_iter().map(|d| (d, log.clone())));
