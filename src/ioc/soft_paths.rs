@@ -192,14 +192,20 @@ impl Rect {
 
     /// Window indices of the cells, row-major.
     fn indices(self, width: u32) -> impl Iterator<Item = usize> {
-        let cols = if self.is_empty() {
-            0..0
+        self.rows(width).flatten()
+    }
+
+    /// Window indices of each row's cells: what the hot loops walk, two plain loops
+    /// rather than one flattened iterator.
+    fn rows(self, width: u32) -> impl Iterator<Item = std::ops::Range<usize>> {
+        let (c0, c1) = if self.is_empty() {
+            (0, 0)
         } else {
-            self.c0..self.c1
+            (self.c0 as usize, self.c1 as usize)
         };
-        (self.r0..self.r1).flat_map(move |row| {
-            cols.clone()
-                .map(move |col| row as usize * width as usize + col as usize)
+        (self.r0..self.r1).map(move |row| {
+            let base = row as usize * width as usize;
+            base + c0..base + c1
         })
     }
 
@@ -309,6 +315,22 @@ fn exp(x: f64) -> f64 {
     if x < -708.0 { 0.0 } else { result }
 }
 
+/// −ln Σ exp(−q): the soft minimum over a cell's eight moves, ∞ when none reaches the
+/// goal. The exponentials go to an array before they are summed (in move order): the
+/// compiler then overlaps them, a quarter faster than summing as they come, same bits.
+#[inline(always)]
+fn soft_min(q: &[f64; 8]) -> f64 {
+    let least = q.iter().copied().fold(f64::INFINITY, f64::min);
+    if least == f64::INFINITY {
+        return least;
+    }
+    let mut terms = [0.0; 8];
+    for (t, &q) in terms.iter_mut().zip(q) {
+        *t = exp(least - q);
+    }
+    least - terms.iter().sum::<f64>().ln()
+}
+
 /// A window-sized copy of one layer (∞ outside it), so that the passes look up
 /// neighbours by window index without bounds tests.
 struct Scratch {
@@ -326,11 +348,14 @@ impl Scratch {
 
     /// Hold `layer` instead, touching only the two layers' cells.
     fn load(&mut self, layer: &Layer, width: u32) {
-        for x in self.rect.indices(width) {
-            self.values[x] = f64::INFINITY;
+        for row in self.rect.rows(width) {
+            self.values[row].fill(f64::INFINITY);
         }
-        for (x, &v) in layer.rect.indices(width).zip(&layer.data) {
-            self.values[x] = v;
+        let mut data = layer.data.as_slice();
+        for row in layer.rect.rows(width) {
+            let (this, rest) = data.split_at(row.len());
+            self.values[row].copy_from_slice(this);
+            data = rest;
         }
         self.rect = layer.rect;
     }
@@ -347,6 +372,12 @@ pub struct Visitation {
 
 /// Relative change below which a soft value counts as settled.
 const SETTLED: f64 = 1e-13;
+
+/// Mass (of the start's 1) below which a cell's share is dropped rather than moved on:
+/// far from the likely routes most cells hold next to nothing, and moving it costs as
+/// much as moving real mass. What is dropped, over every cell and step of a long path,
+/// stays below 1e-9 of a visit.
+const NEGLIGIBLE_MASS: f64 = 1e-18;
 
 impl SoftGoal {
     /// The backward pass towards `goal` with at most `horizon` steps, for any start in
@@ -441,9 +472,9 @@ impl SoftGoal {
         for k in 1..=self.horizon {
             let rect = self.region(k);
             let mut changed = false;
-            let data: Vec<f64> = rect
-                .indices(width)
-                .map(|x| {
+            let mut data = Vec::with_capacity(rect.len());
+            for row in rect.rows(width) {
+                for x in row {
                     let v = if x == self.goal {
                         0.0
                     } else {
@@ -452,18 +483,13 @@ impl SoftGoal {
                             let e = x * 8 + m;
                             *q = self.edge[e] + previous.values[self.next[e] as usize];
                         }
-                        let least = q.iter().copied().fold(f64::INFINITY, f64::min);
-                        if least == f64::INFINITY {
-                            least
-                        } else {
-                            least - q.iter().map(|&q| exp(least - q)).sum::<f64>().ln()
-                        }
+                        soft_min(&q)
                     };
                     let old = previous.values[x];
                     changed |= !(v == old || (v - old).abs() <= SETTLED * v.abs().max(1.0));
-                    v
-                })
-                .collect();
+                    data.push(v);
+                }
+            }
             let layer = Layer { rect, data };
             previous.load(&layer, width);
             self.values.push(layer);
@@ -523,15 +549,28 @@ impl SoftGoal {
         mass[self.window.index(start)] = 1.0;
         visits[self.window.index(start)] = 1.0;
         let mut moved = vec![0.0; n];
+        // V_left and V_left−1, and which layers they hold: a step's ahead is the next
+        // step's here.
         let (mut here, mut ahead) = (Scratch::new(n), Scratch::new(n));
+        let (mut here_k, mut ahead_k) = (None, None);
         // While both layers are the settled one the policy does not depend on the
         // steps left: its move probabilities are computed once.
         let mut settled_policy: Option<(Rect, Vec<f64>)> = None;
         for (taken, left) in (1..=steps).rev().enumerate() {
             let stationary = left > self.settled;
-            if !stationary || settled_policy.is_none() {
-                here.load(self.layer(left), width);
-                ahead.load(self.layer(left - 1), width);
+            let (want_here, want_ahead) = (left.min(self.settled), (left - 1).min(self.settled));
+            if here_k != Some(want_here) {
+                if ahead_k == Some(want_here) {
+                    std::mem::swap(&mut here, &mut ahead);
+                    std::mem::swap(&mut here_k, &mut ahead_k);
+                } else {
+                    here.load(self.layer(want_here), width);
+                    here_k = Some(want_here);
+                }
+            }
+            if ahead_k != Some(want_ahead) {
+                ahead.load(self.layer(want_ahead), width);
+                ahead_k = Some(want_ahead);
             }
             if stationary && settled_policy.is_none() {
                 let rect = self.layer(left).rect;
@@ -546,39 +585,53 @@ impl SoftGoal {
                 settled_policy = Some((rect, p));
             }
             let policy = settled_policy.as_ref().filter(|_| stationary);
-            moved.iter_mut().for_each(|m| *m = 0.0);
+            // Mass after `taken` steps lies within `taken` moves of the start, and after
+            // this step within one more: only there do `moved` and `visits` change.
+            let reach = Rect::ball(&self.window, start, taken + 1);
+            for row in reach.rows(width) {
+                moved[row].fill(0.0);
+            }
             let cells = Rect::ball(&self.window, start, taken).intersect(self.region(left));
-            for x in cells.indices(width) {
-                let m = mass[x];
-                if m == 0.0 || x == self.goal {
-                    continue;
-                }
-                let settled_row = policy.map(|(rect, p)| {
-                    let i = rect.offset(x, width).expect("mass stays where V is finite");
-                    &p[i * 8..i * 8 + 8]
-                });
-                // The cell's own half of its steps, summed here and stored once.
-                let mut outgoing = 0.0;
-                for mv in 0..8 {
-                    let e = x * 8 + mv;
-                    let y = self.next[e] as usize;
-                    let p = match settled_row {
-                        Some(row) => row[mv],
-                        None => exp(here.values[x] - self.edge[e] - ahead.values[y]),
-                    };
-                    if p > 0.0 {
-                        let flow = m * p;
-                        let half = flow * self.length[e] * 0.5;
-                        moved[y] += flow;
-                        outgoing += half;
-                        incidence[y] += half;
+            for row in cells.rows(width) {
+                for x in row {
+                    let m = mass[x];
+                    if m < NEGLIGIBLE_MASS || x == self.goal {
+                        continue;
                     }
+                    let mut p = [0.0; 8];
+                    match policy {
+                        Some((rect, settled)) => {
+                            let i = rect.offset(x, width).expect("mass stays where V is finite");
+                            p.copy_from_slice(&settled[i * 8..i * 8 + 8]);
+                        }
+                        None => {
+                            for (mv, p) in p.iter_mut().enumerate() {
+                                let e = x * 8 + mv;
+                                let y = self.next[e] as usize;
+                                *p = exp(here.values[x] - self.edge[e] - ahead.values[y]);
+                            }
+                        }
+                    }
+                    // The cell's own half of its steps, summed here and stored once.
+                    let mut outgoing = 0.0;
+                    for (mv, &p) in p.iter().enumerate() {
+                        if p > 0.0 {
+                            let e = x * 8 + mv;
+                            let flow = m * p;
+                            let half = flow * self.length[e] * 0.5;
+                            moved[self.next[e] as usize] += flow;
+                            outgoing += half;
+                            incidence[self.next[e] as usize] += half;
+                        }
+                    }
+                    incidence[x] += outgoing;
                 }
-                incidence[x] += outgoing;
             }
             // Arrivals are visits; mass already at the goal rests there uncounted.
-            for (v, &arrived) in visits.iter_mut().zip(&moved) {
-                *v += arrived;
+            for row in reach.rows(width) {
+                for (v, &arrived) in visits[row.clone()].iter_mut().zip(&moved[row]) {
+                    *v += arrived;
+                }
             }
             moved[self.goal] += mass[self.goal];
             std::mem::swap(&mut mass, &mut moved);

@@ -28,8 +28,9 @@ use crate::report::{Preview, render_preview};
 
 pub const KIND: &str = "learch";
 /// 7: previews with a colour bar and a scale bar; MaxEnt's own exponential; step
-/// lengths per row in geographic frames.
-const VERSION: u32 = 7;
+/// lengths per row in geographic frames. 8: MaxEnt's forward pass drops negligible
+/// mass.
+const VERSION: u32 = 8;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
