@@ -2,8 +2,8 @@
 //! command line: the same artifacts, plans and errors, arrays that hold what the files
 //! hold, DAgger rounds from in-memory tables, a policy that acts as its ONNX export;
 //! and on a local multi-node Ray cluster, LEARCH writing the single-machine artifact and
-//! logs ingested one task each, and DAgger rounds rolled out as tasks in gymnasium's
-//! Pendulum.
+//! logs ingested one task each, DAgger rounds rolled out as tasks in gymnasium's
+//! Pendulum, and a whole pipeline run with its stages as tasks.
 
 mod common;
 
@@ -95,4 +95,44 @@ fn logs_ingested_on_ray_give_the_dataset_ingested_here() {
     let digests: Vec<&str> = runs.iter().filter_map(|r| r["digest"].as_str()).collect();
     assert_eq!(digests.len(), 3, "{runs:?}");
     assert!(digests.iter().all(|d| *d == digests[0]), "{runs:?}");
+}
+
+#[test]
+fn a_pipeline_run_on_ray_gives_the_digests_of_imitate_run() {
+    if !package_built() {
+        return;
+    }
+    let here = quickstart_workspace();
+    let out = imitate(here.path(), &["run", "pipelines/quickstart.yaml"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let expected: Vec<(String, String)> = stdout(&out)
+        .lines()
+        .map(|l| {
+            let fields: Vec<&str> = l.split('\t').collect();
+            (fields[0].to_string(), fields[2].to_string())
+        })
+        .collect();
+    let cluster = quickstart_workspace();
+    let pipeline = std::path::Path::new("pipelines/quickstart.yaml");
+    let Some(runs) = python_script("ray_pipeline.py", &[cluster.path(), pipeline]) else {
+        return;
+    };
+    assert_eq!(runs.len(), 2, "{runs:?}");
+    for run in &runs {
+        let stages: Vec<(String, String)> = run["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| {
+                (
+                    s["name"].as_str().unwrap().into(),
+                    s["digest"].as_str().unwrap().into(),
+                )
+            })
+            .collect();
+        assert_eq!(stages, expected, "{run:?}");
+    }
+    let ran = |i: usize| runs[i]["ran"].as_array().unwrap().len();
+    assert_eq!(ran(0), expected.len(), "{runs:?}");
+    assert_eq!(ran(1), 0, "the second run reruns nothing: {runs:?}");
 }

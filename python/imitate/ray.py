@@ -2,7 +2,8 @@
 driver merges their statistics in example order and fits each round's learner.
 `ingest`: robot logs decoded one task each, the dataset written on the driver.
 `dagger_round`: episodes in the user's own environment, one task each, appended to a
-DAgger dataset as one round.
+DAgger dataset as one round. `run_pipeline` (and `python -m imitate.ray run PIPELINE`):
+a pipeline's stale stages as tasks, with `imitate run`'s keys, lock file and cache.
 
 Each actor loads the run's inputs once (every map's features and the demonstrations,
 split as every run of the parameters splits them) and keeps its shard of the training
@@ -20,8 +21,10 @@ same, since an actor's work depends only on the parameters and the model.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
+import sys
 from typing import Any, Callable, Optional, Sequence
 
 from . import _native
@@ -286,3 +289,105 @@ def dagger_round(
                             action="action",
                             executed="action_executed" if policy is not None else None)
     return appended, [e["return"] for e in episodes]
+
+
+# ---------------------------------------------------------------------------------
+# Pipelines: every stage that must run is a Ray task.
+
+
+def _run_stage(workdir: str, kind: str, params: str, extra_deps: list) -> str:
+    # The pipeline's paths are relative to the directory it was run from.
+    os.chdir(workdir)
+    return _native.run_stage(kind, params, extra_deps)
+
+
+def run_pipeline(
+    pipeline: Any,
+    *,
+    jobs: Optional[int] = None,
+    force: bool = False,
+    only: Optional[str] = None,
+    num_cpus_per_stage: float = 1,
+    max_retries: int = 3,
+) -> list:
+    """Runs a pipeline file as `imitate run` does, on the connected Ray cluster: the
+    driver (this process) builds the DAG, decides what is stale from the lock file,
+    restores cached outputs and records every stage; each stage that must run is a Ray
+    task (retried when its worker dies), up to `jobs` independent ones at once (by
+    default as many as the cluster's CPUs allow). The working directory, every input
+    and every output must be on a filesystem all nodes see, at the same path. Returns
+    each stage's outcome (`name`, `kind`, `out`, `reasons`, `ran`, `digest`,
+    `summary`) in the run's order: the digests `imitate run` gives."""
+    import ray
+
+    if jobs is None:
+        cpus = ray.cluster_resources().get("CPU", 1)
+        jobs = max(1, int(cpus // max(num_cpus_per_stage, 1e-9)))
+    workdir = os.getcwd()
+    threads = str(max(1, int(num_cpus_per_stage)))
+    task = ray.remote(
+        num_cpus=num_cpus_per_stage,
+        max_retries=max_retries,
+        runtime_env={"env_vars": {"RAYON_NUM_THREADS": threads}},
+    )(_run_stage)
+
+    def execute(kind: str, params: str, extra_deps: list) -> str:
+        return ray.get(task.remote(workdir, kind, params, list(extra_deps)))
+
+    text = _native.run_pipeline(os.fspath(pipeline), force=force, only=only, jobs=jobs,
+                                execute=execute)
+    return json.loads(text)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """`python -m imitate.ray run PIPELINE [--address ADDR] ...`: prints what
+    `imitate run` prints (each stage's outcome on stderr, `name, output, digest` lines
+    on stdout). Exit 0, 2 on bad input, 1 when a stage fails."""
+    parser = argparse.ArgumentParser(
+        prog="python -m imitate.ray",
+        description="Runs an imitate pipeline on a Ray cluster.")
+    commands = parser.add_subparsers(dest="command", required=True)
+    run = commands.add_parser("run", help="run a pipeline's stale stages as Ray tasks")
+    run.add_argument("pipeline", help="the pipeline file (YAML)")
+    run.add_argument("--address", default=None,
+                     help="the Ray cluster (e.g. auto, HEAD_IP:6379, ray://HOST:10001); "
+                          "without it a local one is started")
+    run.add_argument("--jobs", type=int, default=None,
+                     help="stages at once (default: the cluster's CPUs / --cpus-per-stage)")
+    run.add_argument("--cpus-per-stage", type=float, default=1,
+                     help="CPUs each stage task holds and computes on (default 1)")
+    run.add_argument("--force", action="store_true", help="rerun stages even when up to date")
+    run.add_argument("--stage", default=None, help="only this stage")
+    args = parser.parse_args(argv)
+
+    import ray
+
+    from . import ImitateError, InputError, UsageError
+
+    ray.init(address=args.address, log_to_driver=False)
+    try:
+        outcomes = run_pipeline(args.pipeline, jobs=args.jobs, force=args.force,
+                                only=args.stage, num_cpus_per_stage=args.cpus_per_stage)
+    except (InputError, UsageError) as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
+    except ImitateError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 1
+    finally:
+        ray.shutdown()
+    for o in outcomes:
+        if not o["reasons"]:
+            print(f"{o['name']}: up to date", file=sys.stderr)
+        else:
+            print(f"{o['name']}: {o['summary']} ({'; '.join(o['reasons'])})", file=sys.stderr)
+    for o in outcomes:
+        print(f"{o['name']}\t{o['out']}\t{o['digest']}")
+    return 0
+
+
+if __name__ == "__main__":
+    # Run as the package's module, so that the tasks Ray ships name `imitate.ray`.
+    from imitate.ray import main as _main
+
+    sys.exit(_main())

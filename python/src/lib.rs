@@ -60,11 +60,19 @@ fn parse_json(text: &str, what: &str) -> PyResult<serde_json::Value> {
 
 /// Runs one stage of kind `kind` with `params` (JSON: the parameters of its YAML entry
 /// and command) and returns its report as JSON: output folder, digest, summary.
+/// `extra_deps`: inputs a pipeline declares for the stage beyond those its parameters
+/// name (they join its lineage).
 #[pyfunction]
-fn run_stage(py: Python<'_>, kind: &str, params: &str) -> PyResult<String> {
+#[pyo3(signature = (kind, params, extra_deps = Vec::new()))]
+fn run_stage(
+    py: Python<'_>,
+    kind: &str,
+    params: &str,
+    extra_deps: Vec<PathBuf>,
+) -> PyResult<String> {
     let params = parse_json(params, "stage parameters")?;
     let stage = imitate::stage::build(kind, params).map_err(raise)?;
-    let report = py.detach(|| stage.run(&[])).map_err(raise)?;
+    let report = py.detach(|| stage.run(&extra_deps)).map_err(raise)?;
     Ok(json_text(
         &serde_json::to_value(&report).expect("reports serialise"),
     ))
@@ -78,15 +86,19 @@ fn stage_kinds() -> Vec<&'static str> {
 
 /// Runs a pipeline file as `imitate run` does (keys, lock file, cache, only what is
 /// stale; paths relative to the working directory); returns each stage's outcome as
-/// JSON, in the run's order.
+/// JSON, in the run's order. With `execute`, each stage that must run is handed to it
+/// as (kind, resolved parameters as JSON, extra dependencies) and it returns the
+/// stage's report as JSON (`run_stage`'s, run wherever it likes on a filesystem this
+/// process sees); it may be called from several threads at once (`jobs`).
 #[pyfunction]
-#[pyo3(signature = (pipeline, force = false, only = None, jobs = 1))]
+#[pyo3(signature = (pipeline, force = false, only = None, jobs = 1, execute = None))]
 fn run_pipeline(
     py: Python<'_>,
     pipeline: PathBuf,
     force: bool,
     only: Option<String>,
     jobs: usize,
+    execute: Option<Py<PyAny>>,
 ) -> PyResult<String> {
     let options = imitate::pipeline::RunOptions {
         force,
@@ -94,9 +106,31 @@ fn run_pipeline(
         jobs,
         ..Default::default()
     };
-    let outcomes = py
-        .detach(|| imitate::pipeline::run(&pipeline, &options, |_| {}))
-        .map_err(raise)?;
+    let outcomes = match execute {
+        None => py
+            .detach(|| imitate::pipeline::run(&pipeline, &options, |_| {}))
+            .map_err(raise)?,
+        Some(execute) => {
+            let workers = Workers::new(execute);
+            let executor = |stage: &dyn imitate::stage::Stage, extra: &[PathBuf]| {
+                let params = json_text(&stage.params());
+                let extra: Vec<String> = extra.iter().map(|p| p.display().to_string()).collect();
+                let report: String = workers
+                    .call(|py, execute| {
+                        execute
+                            .call1(py, (stage.kind(), params, extra))?
+                            .extract(py)
+                    })
+                    .map_err(Error::Failed)?;
+                serde_json::from_str::<StageReport>(&report)
+                    .map_err(|e| Error::Failed(format!("stage {}'s report: {e}", stage.kind())))
+            };
+            let outcomes =
+                py.detach(|| imitate::pipeline::run_with(&pipeline, &options, &executor, |_| {}));
+            workers.failure()?;
+            outcomes.map_err(raise)?
+        }
+    };
     Ok(json_text(
         &serde_json::to_value(&outcomes).expect("outcomes serialise"),
     ))
@@ -345,11 +379,17 @@ impl Workers {
         })
     }
 
+    /// The callable's exception, where it raised one.
+    fn failure(self) -> PyResult<()> {
+        match self.failure.into_inner().expect("not poisoned") {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
     /// The stage's report (JSON), or the callable's exception where it raised one.
     fn report(self, report: imitate::Result<StageReport>) -> PyResult<String> {
-        if let Some(e) = self.failure.into_inner().expect("not poisoned") {
-            return Err(e);
-        }
+        self.failure()?;
         let report = report.map_err(raise)?;
         Ok(json_text(
             &serde_json::to_value(&report).expect("reports serialise"),

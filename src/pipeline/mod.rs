@@ -30,7 +30,7 @@ use serde::Serialize;
 
 use crate::artifact::{Lineage, MANIFEST, Manifest};
 use crate::error::{Error, Result, read_input};
-use crate::stage::{self, Stage};
+use crate::stage::{self, Stage, StageReport};
 
 /// Parses a pipeline file; errors name the file, line and column.
 pub fn load(path: &Path) -> Result<PipelineSpec> {
@@ -252,9 +252,16 @@ fn sweep_leftovers(outs: &[PathBuf], lock_file: &Path) {
     }
 }
 
+/// Runs one stage that must run, given its extra dependencies: here
+/// (`Stage::run`), or elsewhere (e.g. a cluster task that builds the stage from its
+/// kind and resolved parameters) on a filesystem this process sees, since the run
+/// reads the stage's manifest from its output folder afterwards.
+pub type StageExecutor<'a> = dyn Fn(&dyn Stage, &[PathBuf]) -> Result<StageReport> + Sync + 'a;
+
 /// What every stage's processing shares.
 struct Context<'a> {
     options: &'a RunOptions,
+    executor: &'a StageExecutor<'a>,
     lock: Mutex<LockFile>,
     lock_file: PathBuf,
     cache: cache::OutputCache,
@@ -318,7 +325,7 @@ fn process(
         }
         None => {
             tracing::info!(stage = %name, kind = stage.kind(), reasons = ?outcome.reasons, "running");
-            stage.run(extra_deps)?.summary
+            (ctx.executor)(stage, extra_deps)?.summary
         }
     };
     let bytes = read_input(&out.join(MANIFEST))?;
@@ -354,6 +361,17 @@ fn process(
 pub fn run(
     path: &Path,
     options: &RunOptions,
+    on_event: impl FnMut(&StageOutcome),
+) -> Result<Vec<StageOutcome>> {
+    run_with(path, options, &|stage, extra| stage.run(extra), on_event)
+}
+
+/// `run`, each stage that must run handed to `executor`: the same keys, lock file,
+/// cache and order, whoever does the work.
+pub fn run_with(
+    path: &Path,
+    options: &RunOptions,
+    executor: &StageExecutor<'_>,
     mut on_event: impl FnMut(&StageOutcome),
 ) -> Result<Vec<StageOutcome>> {
     let spec = load(path)?;
@@ -428,6 +446,7 @@ pub fn run(
     }
     let ctx = Context {
         options,
+        executor,
         lock_file: lock_path(path),
         lock: Mutex::new(lock::read(&lock_path(path))?),
         cache: cache::OutputCache::in_workspace(),

@@ -16,14 +16,14 @@ pub mod report;
 
 use std::path::{Path, PathBuf};
 
-use serde::Serialize;
 use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
 use crate::artifact::{ArtifactBuilder, Lineage, digest_input, digest_input_with};
 use crate::error::{Error, Result};
 
 /// What a finished stage tells its caller.
-#[derive(Debug, Clone, Serialize)]
+#[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct StageReport {
     pub output: PathBuf,
     pub digest: String,
