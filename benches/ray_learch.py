@@ -4,8 +4,10 @@ Writes a synthetic world (`imitate testdata world`), ingests it and computes its
 features, then times `imitate learch` (in-process, at 1 thread and at all threads) and
 `imitate.ray.learch` with each number of actors on a local Ray cluster of one node
 with as many CPUs as the machine has (or --cpus). Every run must give the same
-artifact digest. Reports the time per round and the overhead of Ray per round over the
-in-process trainer at the same parallelism.
+artifact digest. Reports the time per round, the overhead of Ray per round over the
+in-process trainer at the same parallelism, and the peak resident memory of each actor
+and of the driver (which holds every map's features: it fits and evaluates).
+`--in-process none` skips the in-process runs (for worlds too large to run twice).
 
     scripts/python-deps.sh && scripts/python-package.sh && cargo build --release
     PYTHONPATH=target/python-package:target/python-deps python3 benches/ray_learch.py \\
@@ -15,6 +17,7 @@ in-process trainer at the same parallelism.
 import argparse
 import json
 import os
+import resource
 import subprocess
 import sys
 import tempfile
@@ -32,6 +35,8 @@ parser.add_argument("--demonstrations-per-map", type=int, default=16)
 parser.add_argument("--rounds", type=int, default=5)
 parser.add_argument("--actors", type=int, nargs="+", default=[1, 2])
 parser.add_argument("--cpus", type=int, default=os.cpu_count())
+parser.add_argument("--in-process", choices=["all", "none"], default="all")
+parser.add_argument("--work", default=None, help="folder for the world (default: a temporary one)")
 args = parser.parse_args()
 binary = os.path.abspath(args.binary)
 
@@ -50,8 +55,10 @@ def digest(folder):
         return json.load(f)["digest"]
 
 
-work = tempfile.mkdtemp(prefix="imitate-ray-bench-")
+work = args.work or tempfile.mkdtemp(prefix="imitate-ray-bench-")
+os.makedirs(work, exist_ok=True)
 world = os.path.join(work, "world")
+made = time.perf_counter()
 imitate_cli("testdata", "world", "--out", world, "--maps", str(args.maps), "--width",
             str(args.size), "--height", str(args.size), "--demonstrations-per-map",
             str(args.demonstrations_per_map))
@@ -62,6 +69,7 @@ for m in maps:
 dataset, features = os.path.join(work, "ds"), os.path.join(work, "fs")
 imitate_cli(*ingest, "--out", dataset)
 imitate_cli("features", "--dataset", dataset, "--out", features)
+print(f"world, dataset and features made in {time.perf_counter() - made:.0f} s")
 params = dict(dataset=dataset, features=features, rounds=args.rounds)
 cells = args.maps * args.size * args.size
 print(f"world: {args.maps} maps of {args.size}² ({cells} cells), "
@@ -70,7 +78,7 @@ print(f"world: {args.maps} maps of {args.size}² ({cells} cells), "
 
 rows = []
 expected = None
-for threads in sorted({1, args.cpus}):
+for threads in sorted({1, args.cpus}) if args.in_process == "all" else []:
     out = os.path.join(work, f"in-process-{threads}")
     began = time.perf_counter()
     imitate_cli("learch", "--dataset", dataset, "--features", features, "--out", out,
@@ -86,8 +94,11 @@ for actors in args.actors:
     began = time.perf_counter()
     report = imitate.ray.learch(actors=actors, out=out, **params)
     seconds = time.perf_counter() - began
+    expected = expected or report["digest"]
     assert report["digest"] == expected, (report, expected)
     rows.append((f"Ray, {actors} actor(s)", actors, seconds))
+    peaks = ", ".join(f"{p / 2**20:.0f}" for p in report["actors_peak_memory"])
+    print(f"{actors} actor(s): {seconds:.1f} s; actors' peak memory (MiB): {peaks}")
 ray.shutdown()
 
 in_process = {threads: s for name, threads, s in rows if name.startswith("in-process")}
@@ -99,3 +110,5 @@ for name, parallel, seconds in rows:
         overhead = f"{(seconds - in_process[parallel]) / args.rounds:+.3f} s"
     print(f"| {name} | {seconds:.2f} | {seconds / args.rounds:.3f} | {overhead} |")
 print(f"every run: {expected}")
+driver = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
+print(f"driver's peak memory: {driver:.0f} MiB")

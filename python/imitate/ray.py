@@ -5,9 +5,9 @@ driver merges their statistics in example order and fits each round's learner.
 DAgger dataset as one round. `run_pipeline` (and `python -m imitate.ray run PIPELINE`):
 a pipeline's stale stages as tasks, with `imitate run`'s keys, lock file and cache.
 
-Each actor loads the run's inputs once (every map's features and the demonstrations,
-split as every run of the parameters splits them) and keeps its shard of the training
-examples; per round the driver sends the model and gets back each shard's statistics.
+Each actor loads the run's inputs once (the demonstrations, split as every run of the
+parameters splits them, and the features of the maps its shard's examples lie on) and
+keeps its shard of the training examples; per round the driver sends the model and gets back each shard's statistics.
 The artifact is the one `imitate learch` (or `run_stage("learch", ...)`) writes with
 the same parameters, byte for byte, whatever the number of nodes and actors: the
 statistics are merged in example order and the learner is fitted on the driver.
@@ -45,6 +45,12 @@ class _LearchWorker:
     def examples(self) -> int:
         return self._shard.examples
 
+    def peak_memory(self) -> int:
+        """The actor process's peak resident memory so far, in bytes."""
+        import resource
+
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
 
 def _absolute(params: dict) -> dict:
     resolved = dict(params)
@@ -77,7 +83,9 @@ def learch(
     `actors` actors. Returns the stage's report: `output`, `digest`, `summary`.
 
     `on_round(round, actors)` is called before each round's plans are sent, for
-    monitoring (or, in tests, for killing an actor).
+    monitoring (or, in tests, for killing an actor). Each actor loads the features of
+    only the maps its shard's examples lie on; the report's `actors_peak_memory` lists
+    each actor's peak resident memory in bytes.
     """
     import ray
 
@@ -102,7 +110,9 @@ def learch(
         return ray.get([w.plan.remote(model) for w in workers])
 
     try:
-        return json.loads(_native.run_learch_distributed(text, plan))
+        report = json.loads(_native.run_learch_distributed(text, plan))
+        report["actors_peak_memory"] = ray.get([w.peak_memory.remote() for w in workers])
+        return report
     finally:
         for w in workers:
             ray.kill(w)

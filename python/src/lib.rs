@@ -276,12 +276,11 @@ fn learch_params(text: &str) -> PyResult<LearchParams> {
 #[pyfunction]
 fn learch_training_examples(py: Python<'_>, params: &str) -> PyResult<usize> {
     let params = learch_params(params)?;
-    let inputs = py.detach(|| params.inputs()).map_err(raise)?;
-    Ok(inputs.training.len())
+    py.detach(|| params.training_examples()).map_err(raise)
 }
 
-/// A worker's share of a LEARCH run: training examples `start..stop` with every map's
-/// features, loaded and prepared once; `plan` is the map step of a round.
+/// A worker's share of a LEARCH run: training examples `start..stop` with the features
+/// of the maps they lie on, loaded and prepared once; `plan` is the map step of a round.
 #[pyclass(frozen)]
 struct LearchShard {
     stacks: Vec<FeatureStack>,
@@ -294,13 +293,10 @@ impl LearchShard {
     #[new]
     fn new(py: Python<'_>, params: &str, start: usize, stop: usize) -> PyResult<Self> {
         let params = learch_params(params)?;
-        let inputs = py.detach(|| params.inputs()).map_err(raise)?;
-        if start > stop || stop > inputs.training.len() {
-            return Err(UsageError::new_err(format!(
-                "examples {start}..{stop} of a run with {} training examples",
-                inputs.training.len()
-            )));
-        }
+        // Features only for the maps of the shard's examples.
+        let inputs = py
+            .detach(|| params.shard_inputs(start..stop))
+            .map_err(raise)?;
         let config = params.config();
         let examples = inputs.training[start..stop].to_vec();
         let prepared = py.detach(|| PreparedExamples::new(&inputs.stacks, examples, &config));

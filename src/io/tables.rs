@@ -554,6 +554,39 @@ pub fn write_features(
 }
 
 /// Reads a feature stack with its map name and the spec that made it.
+/// The map name and georeference of a features table, from its footer alone: what a
+/// worker that loads only some maps' features needs to know of the others.
+pub fn read_features_header(path: &Path) -> Result<(String, GeoRef)> {
+    use parquet::file::reader::{FileReader, SerializedFileReader};
+    let file = std::fs::File::open(path)
+        .map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
+    let reader = guard_decoder(path, "reading a features table's footer", || {
+        SerializedFileReader::new(file)
+            .map_err(|e| Error::input(path, format!("not a readable Parquet file: {e}")))
+    })?;
+    let header = reader
+        .metadata()
+        .file_metadata()
+        .key_value_metadata()
+        .into_iter()
+        .flatten()
+        .find(|kv| kv.key == RASTER_KEY)
+        .and_then(|kv| kv.value.clone())
+        .ok_or_else(|| {
+            Error::input(
+                path,
+                format!("'{}' table has no '{RASTER_KEY}' metadata", Table::FEATURES),
+            )
+        })?;
+    let header: RasterHeader = serde_json::from_str(&header)
+        .map_err(|e| Error::input(path, format!("'{RASTER_KEY}' metadata: {e}")))?;
+    header
+        .geo
+        .validate()
+        .map_err(|e| Error::input(path, format!("'{RASTER_KEY}' metadata: {e}")))?;
+    Ok((header.name, header.geo))
+}
+
 pub fn read_features(path: &Path) -> Result<(String, FeatureStack, serde_json::Value)> {
     let raster = read_raster(path, Table::FEATURES)?;
     let spec = raster

@@ -3,7 +3,7 @@
 //! previews, and metrics on held-out demonstrations.
 
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -11,13 +11,16 @@ use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
 
 use super::{StageParams, StageReport, commit_artifact};
+use rayon::prelude::*;
+
 use crate::artifact::{ArtifactBuilder, read_manifest};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, first_error_in_order};
 use crate::grid::{FeatureStack, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::io::png::write_png;
 use crate::io::tables::{
-    EpisodePath, read_costmap, read_features, read_paths, write_costmap, write_paths,
+    EpisodePath, read_costmap, read_features, read_features_header, read_paths, write_costmap,
+    write_paths,
 };
 use crate::ioc::{
     self, Example, ExampleEvaluation, GridMethod, LearchConfig, LossKind, StepSchedule,
@@ -296,6 +299,26 @@ impl StageParams for LearchParams {
 
 /// What a LEARCH run reads: every map's features, and the demonstrations split into
 /// training, validation and held-out examples.
+/// A map's features and the bank's spec, refused where a feature is not finite.
+fn read_checked_features(path: &Path) -> Result<(FeatureStack, serde_json::Value)> {
+    let (name, stack, spec) = read_features(path)?;
+    for (j, plane) in stack.planes().enumerate() {
+        if let Some(i) = plane.iter().position(|v| !v.is_finite()) {
+            return Err(Error::input(
+                path,
+                format!(
+                    "feature '{}' is {} at cell {} of map '{name}': features must be finite \
+                     (the features stage fills no-data cells)",
+                    stack.names[j],
+                    plane[i],
+                    stack.geo.cell_at(i)
+                ),
+            ));
+        }
+    }
+    Ok((stack, spec))
+}
+
 pub struct LearchInputs {
     pub map_names: Vec<String>,
     pub stacks: Vec<FeatureStack>,
@@ -310,37 +333,39 @@ impl LearchParams {
     /// Reads and checks the inputs, and splits the examples as every run of these
     /// parameters does (seeded), so that workers elsewhere find the same training set.
     pub fn inputs(&self) -> Result<LearchInputs> {
+        self.read_inputs(None)
+    }
+
+    /// The inputs a worker planning training examples `shard` needs: every map's name
+    /// and georeference, but features only for the maps those examples lie on (the
+    /// others' stacks hold no features), and no reference costmaps.
+    pub fn shard_inputs(&self, shard: std::ops::Range<usize>) -> Result<LearchInputs> {
+        self.read_inputs(Some(shard))
+    }
+
+    /// How many training examples the split gives, reading no features.
+    pub fn training_examples(&self) -> Result<usize> {
+        Ok(self.read_inputs(Some(0..0))?.training.len())
+    }
+
+    fn read_inputs(&self, shard: Option<std::ops::Range<usize>>) -> Result<LearchInputs> {
         self.validate()?;
         let dataset = read_manifest(&self.dataset, "dataset")?;
         let features = read_manifest(&self.features, "features")?;
-        let mut map_names = Vec::new();
-        let mut stacks: Vec<FeatureStack> = Vec::new();
-        let mut feature_spec = serde_json::Value::Null;
-        for f in features.files_with_role("features") {
-            let path = self.features.join(&f.path);
-            let (name, stack, spec) = read_features(&path)?;
-            for (j, plane) in stack.planes().enumerate() {
-                if let Some(i) = plane.iter().position(|v| !v.is_finite()) {
-                    return Err(Error::input(
-                        &path,
-                        format!(
-                            "feature '{}' is {} at cell {} of map '{name}': features must be finite \
-                             (the features stage fills no-data cells)",
-                            stack.names[j],
-                            plane[i],
-                            stack.geo.cell_at(i)
-                        ),
-                    ));
-                }
-            }
-            map_names.push(name);
-            stacks.push(stack);
-            feature_spec = spec;
-        }
-        if stacks.is_empty() {
+        let files: Vec<PathBuf> = features
+            .files_with_role("features")
+            .map(|f| self.features.join(&f.path))
+            .collect();
+        if files.is_empty() {
             return Err(Error::input(&self.features, "lists no feature stacks"));
         }
-        let references = self.load_references(&map_names, &stacks)?;
+        let headers = first_error_in_order(
+            files
+                .par_iter()
+                .map(|path| read_features_header(path))
+                .collect(),
+        )?;
+        let map_names: Vec<String> = headers.iter().map(|(name, _)| name.clone()).collect();
         let paths_file = dataset
             .files_with_role("paths")
             .next()
@@ -357,7 +382,7 @@ impl LearchParams {
                     ),
                 )
             })?;
-            let geo = &stacks[map].geo;
+            let geo = &headers[map].1;
             if let Some(cell) = p.cells.iter().find(|c| !geo.contains(**c)) {
                 return Err(Error::input(
                     &paths_file,
@@ -381,6 +406,44 @@ impl LearchParams {
         }
         let (training, holdout) = split(examples, self.holdout, self.seed);
         let (training, validation) = split(training, self.validation, self.seed.wrapping_add(1));
+        let mut needed = vec![shard.is_none(); files.len()];
+        if let Some(shard) = &shard {
+            let examples = training.get(shard.clone()).ok_or_else(|| {
+                Error::Usage(format!(
+                    "examples {}..{} of a run with {} training examples",
+                    shard.start,
+                    shard.end,
+                    training.len()
+                ))
+            })?;
+            examples.iter().for_each(|ex| needed[ex.map] = true);
+        }
+        let loaded = first_error_in_order(
+            files
+                .par_iter()
+                .zip(&needed)
+                .map(|(path, &needed)| needed.then(|| read_checked_features(path)).transpose())
+                .collect(),
+        )?;
+        let mut feature_spec = serde_json::Value::Null;
+        let mut stacks = Vec::with_capacity(files.len());
+        for (stack, (_, geo)) in loaded.into_iter().zip(headers) {
+            stacks.push(match stack {
+                Some((stack, spec)) => {
+                    feature_spec = spec;
+                    stack
+                }
+                None => FeatureStack {
+                    geo,
+                    names: Vec::new(),
+                    data: Vec::new(),
+                },
+            });
+        }
+        let references = match shard {
+            None => self.load_references(&map_names, &stacks)?,
+            Some(_) => None,
+        };
         Ok(LearchInputs {
             map_names,
             stacks,
