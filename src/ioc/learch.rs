@@ -312,6 +312,56 @@ fn loss_shares(stack: &FeatureStack, ex: &Example, config: &LearchConfig) -> Vec
     }
 }
 
+/// An example's loss shares (`loss_shares`), kept row by row only where they are below
+/// 1 (near the demonstration): an example then holds memory in proportion to its
+/// path, not to its map (750 examples on 1000² maps held 3 GB as dense vectors).
+#[derive(Debug, Clone, PartialEq)]
+struct CompactShares {
+    width: usize,
+    /// Per row: the first column of its stored span and the span's range in `values`.
+    rows: Vec<(usize, std::ops::Range<usize>)>,
+    values: Vec<f32>,
+}
+
+impl CompactShares {
+    fn new(dense: &[f32], width: usize) -> Self {
+        let mut rows = Vec::with_capacity(dense.len() / width.max(1));
+        let mut values = Vec::new();
+        for row in dense.chunks(width.max(1)) {
+            let first = row.iter().position(|&s| s != 1.0);
+            let span = match first {
+                Some(first) => {
+                    let last = row.iter().rposition(|&s| s != 1.0).unwrap_or(first);
+                    first..last + 1
+                }
+                None => 0..0,
+            };
+            let at = values.len();
+            values.extend_from_slice(&row[span.clone()]);
+            rows.push((span.start, at..values.len()));
+        }
+        CompactShares {
+            width,
+            rows,
+            values,
+        }
+    }
+
+    /// Every cell's share, in cell order: the dense vector this was made from.
+    fn iter(&self) -> impl Iterator<Item = f32> + '_ {
+        self.rows.iter().flat_map(move |(first, stored)| {
+            let (before, after) = if stored.is_empty() {
+                (self.width, 0)
+            } else {
+                (*first, self.width - first - stored.len())
+            };
+            std::iter::repeat_n(1.0, before)
+                .chain(self.values[stored.clone()].iter().copied())
+                .chain(std::iter::repeat_n(1.0, after))
+        })
+    }
+}
+
 /// Runs LEARCH. `stacks[i]` are the features of map `i` (named `map_names[i]`); the
 /// optional `references` are costmaps to score plans against (e.g. a synthetic world's
 /// true costs). `validation` examples steer early stopping; `holdout` ones are only
@@ -477,14 +527,17 @@ pub fn train_with(
 /// A worker holding a share of the examples keeps one of these for every round.
 pub struct PreparedExamples {
     examples: Vec<Example>,
-    shares: Vec<Vec<f32>>,
+    shares: Vec<CompactShares>,
 }
 
 impl PreparedExamples {
     pub fn new(stacks: &[FeatureStack], examples: Vec<Example>, config: &LearchConfig) -> Self {
         let shares = examples
             .par_iter()
-            .map(|ex| loss_shares(&stacks[ex.map], ex, config))
+            .map(|ex| {
+                let stack = &stacks[ex.map];
+                CompactShares::new(&loss_shares(stack, ex, config), stack.geo.width as usize)
+            })
             .collect();
         PreparedExamples { examples, shares }
     }
@@ -777,7 +830,7 @@ fn example_statistics(
     stack: &FeatureStack,
     costs: &Grid<f32>,
     ex: &Example,
-    shares: &[f32],
+    shares: &CompactShares,
     config: &LearchConfig,
 ) -> Result<ExampleStatistics, String> {
     match config.method {
@@ -823,7 +876,7 @@ fn planned_gradient(
     stack: &FeatureStack,
     costs: &Grid<f32>,
     ex: &Example,
-    shares: &[f32],
+    shares: &CompactShares,
     config: &LearchConfig,
 ) -> Result<ExampleStatistics, String> {
     let loss = config.loss;
@@ -835,8 +888,8 @@ fn planned_gradient(
     }
     let augmented = if loss > 0.0 {
         // The loss off the demonstration, as a share of each cell's cost.
-        let per_cell: Vec<f32> = (0..costs.data.len())
-            .map(|i| loss as f32 * shares[i] * costs.data[i])
+        let per_cell: Vec<f32> = (shares.iter().zip(&costs.data))
+            .map(|(share, &cost)| loss as f32 * share * cost)
             .collect();
         std::borrow::Cow::Owned(loss_augmented(costs, &per_cell, LOSS_FLOOR))
     } else {
@@ -1264,6 +1317,28 @@ mod tests {
         let off = (0..geo.cell_count()).find(|&i| hamming[i] == 1.0).unwrap();
         assert!(shares[off] > 0.0 && shares[off] <= 1.0);
         assert!(shares.iter().all(|s| (0.0..=1.0).contains(s)));
+        // Kept compact, they read back as they were, far cells (exactly 1) included.
+        for dense in [&shares, &hamming] {
+            let compact = CompactShares::new(dense, geo.width as usize);
+            assert!(compact.values.len() < dense.len());
+            assert_eq!(compact.iter().collect::<Vec<_>>(), *dense);
+        }
+    }
+
+    #[test]
+    fn compact_shares_read_back_any_pattern() {
+        let width = 5;
+        let dense: Vec<f32> = [
+            [1.0, 1.0, 1.0, 1.0, 1.0],
+            [0.0, 1.0, 1.0, 1.0, 1.0],
+            [1.0, 1.0, 1.0, 1.0, 0.5],
+            [1.0, 0.2, 1.0, 0.3, 1.0],
+            [0.1, 0.2, 0.3, 0.4, 0.5],
+        ]
+        .concat();
+        let compact = CompactShares::new(&dense, width);
+        assert_eq!(compact.values.len(), 1 + 1 + 3 + 5);
+        assert_eq!(compact.iter().collect::<Vec<_>>(), dense);
     }
 
     #[test]
