@@ -7,7 +7,7 @@ with as many CPUs as the machine has (or --cpus). Every run must give the same
 artifact digest. Reports the time per round, the overhead of Ray per round over the
 in-process trainer at the same parallelism, and the peak resident memory of each actor
 and of the driver (which holds every map's features: it fits and evaluates).
-`--in-process none` skips the in-process runs (for worlds too large to run twice).
+`--in-process most` runs it at all threads only, `none` not at all (for large worlds).
 
     scripts/python-deps.sh && scripts/python-package.sh && cargo build --release
     PYTHONPATH=target/python-package:target/python-deps python3 benches/ray_learch.py \\
@@ -35,19 +35,26 @@ parser.add_argument("--demonstrations-per-map", type=int, default=16)
 parser.add_argument("--rounds", type=int, default=5)
 parser.add_argument("--actors", type=int, nargs="+", default=[1, 2])
 parser.add_argument("--cpus", type=int, default=os.cpu_count())
-parser.add_argument("--in-process", choices=["all", "none"], default="all")
+parser.add_argument("--in-process", choices=["all", "most", "none"], default="all",
+                    help="in-process runs at 1 and all threads, at all threads only, or none")
 parser.add_argument("--work", default=None, help="folder for the world (default: a temporary one)")
 args = parser.parse_args()
 binary = os.path.abspath(args.binary)
 
 
 def imitate_cli(*argv, threads=None):
+    """Runs the binary; returns its peak resident memory in bytes."""
     env = dict(os.environ)
     if threads:
         env["RAYON_NUM_THREADS"] = str(threads)
-    run = subprocess.run([binary, *argv], capture_output=True, text=True, env=env)
-    if run.returncode != 0:
-        sys.exit(f"imitate {' '.join(argv)}: {run.stderr}")
+    child = subprocess.Popen([binary, *argv], stdout=subprocess.DEVNULL,
+                             stderr=subprocess.PIPE, text=True, env=env)
+    stderr = child.stderr.read()
+    _, status, usage = os.wait4(child.pid, 0)
+    child.returncode = os.waitstatus_to_exitcode(status)
+    if child.returncode != 0:
+        sys.exit(f"imitate {' '.join(argv)}: {stderr}")
+    return usage.ru_maxrss * 1024
 
 
 def digest(folder):
@@ -78,15 +85,17 @@ print(f"world: {args.maps} maps of {args.size}² ({cells} cells), "
 
 rows = []
 expected = None
-for threads in sorted({1, args.cpus}) if args.in_process == "all" else []:
+in_process_threads = {"all": sorted({1, args.cpus}), "most": [args.cpus], "none": []}
+for threads in in_process_threads[args.in_process]:
     out = os.path.join(work, f"in-process-{threads}")
     began = time.perf_counter()
-    imitate_cli("learch", "--dataset", dataset, "--features", features, "--out", out,
-                "--rounds", str(args.rounds), threads=threads)
+    peak = imitate_cli("learch", "--dataset", dataset, "--features", features, "--out", out,
+                       "--rounds", str(args.rounds), threads=threads)
     seconds = time.perf_counter() - began
     expected = expected or digest(out)
     assert digest(out) == expected
     rows.append((f"in-process, {threads} thread(s)", threads, seconds))
+    print(f"in-process, {threads} thread(s): {seconds:.1f} s; peak memory {peak / 2**20:.0f} MiB")
 
 ray.init(num_cpus=args.cpus, include_dashboard=False, log_to_driver=False)
 for actors in args.actors:
@@ -112,3 +121,4 @@ for name, parallel, seconds in rows:
 print(f"every run: {expected}")
 driver = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 2**10
 print(f"driver's peak memory: {driver:.0f} MiB")
+
