@@ -78,6 +78,12 @@ fn cat_decodes_ros1_logs_exactly_as_foxgloves_ros1_decoder() {
         for (i, (a, b)) in ours.iter().zip(&theirs).enumerate() {
             assert_eq!(a, b, "{name}: message {i}");
         }
+        // 413 chunks, decoded on all threads: the same bytes at any thread count.
+        for threads in ["1", "3"] {
+            let args = ["cat", "--json", file.to_str().unwrap()];
+            let again = imitate_env(&repo(), &args, &[("RAYON_NUM_THREADS", threads)]);
+            assert_eq!(again.stdout, out.stdout, "{name} at {threads} threads");
+        }
         let report = inspect(&file, &[]);
         assert_eq!(report["profile"], "ros1");
         for channel in report["channels"].as_array().unwrap() {

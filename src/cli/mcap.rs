@@ -8,8 +8,8 @@ use serde::Serialize;
 
 use crate::error::{Error, Result};
 use crate::io::mcap::inspect::{McapReport, Source, describe_damage, inspect};
-use crate::io::mcap::reader::scan_until_damage;
-use crate::io::mcap::{Decoders, Event, Value, scan};
+use crate::io::mcap::reader::{ChannelInfo, MessageHeader, scan_messages};
+use crate::io::mcap::{Decoders, Value};
 
 #[derive(Debug, clap::Args)]
 pub struct InspectArgs {
@@ -159,29 +159,90 @@ struct CatLine<'a> {
     message: &'a Value,
 }
 
+/// One message of `cat` as printed: its line, and when it could not be decoded (it is
+/// then printed as an error record) its topic and why.
+struct CatMessage {
+    line: Vec<u8>,
+    undecodable: Option<(String, String)>,
+}
+
+/// A message decoded and written as `cat` prints it (a line of text or of JSON).
+fn cat_message(
+    decoders: &Decoders,
+    channel: &ChannelInfo,
+    header: &MessageHeader,
+    data: &[u8],
+    json: bool,
+) -> std::result::Result<CatMessage, String> {
+    let decoded = decoders
+        .get(channel)
+        .and_then(|decoder| decoder.decode(data));
+    let mut line = Vec::new();
+    let written = match (&decoded, json) {
+        (Ok(message), true) => serde_json::to_writer(
+            &mut line,
+            &CatLine {
+                topic: &channel.topic,
+                schema: channel.schema_name(),
+                log_time: header.log_time,
+                sequence: header.sequence,
+                message,
+            },
+        ),
+        (Ok(message), false) => {
+            line.extend(format!("{} {} ", seconds(header.log_time), channel.topic).bytes());
+            serde_json::to_writer(&mut line, message)
+        }
+        // As Foxglove's tools do: say what could not be decoded, and go on.
+        (Err(e), true) => serde_json::to_writer(
+            &mut line,
+            &CatError {
+                topic: &channel.topic,
+                schema: channel.schema_name(),
+                log_time: header.log_time,
+                sequence: header.sequence,
+                error: e,
+            },
+        ),
+        (Err(e), false) => {
+            let text = format!("{} {} error: {e}", seconds(header.log_time), channel.topic);
+            line.extend(text.bytes());
+            Ok(())
+        }
+    };
+    written.map_err(|e| e.to_string())?;
+    line.push(b'\n');
+    Ok(CatMessage {
+        line,
+        undecodable: decoded.err().map(|e| (channel.topic.clone(), e)),
+    })
+}
+
+/// Prints a log's messages in file order. They are decoded and formatted on all
+/// threads, chunk by chunk (`scan_messages`), and written in order: the same output
+/// at any thread count.
 pub fn cat_command(args: CatArgs) -> Result<()> {
     let wanted: BTreeSet<&str> = args.topics.iter().map(String::as_str).collect();
-    let mut seen = BTreeSet::new();
+    if !wanted.is_empty() {
+        // Refused before anything is printed: a topic no channel carries.
+        let report = inspect(&args.file, Source::Summary, args.allow_truncated)?;
+        let topics: BTreeSet<&str> = report.channels.iter().map(|c| c.topic.as_str()).collect();
+        let missing: Vec<&str> = wanted.difference(&topics).copied().collect();
+        if !missing.is_empty() {
+            return Err(Error::input(
+                &args.file,
+                format!(
+                    "no channel on topic {} (topics: {})",
+                    missing.join(", "),
+                    topics.into_iter().collect::<Vec<_>>().join(", ")
+                ),
+            ));
+        }
+    }
     let decoders = Decoders::default();
-    let stdout = std::io::stdout();
-    let mut out = std::io::BufWriter::new(stdout.lock());
-    let write_error = |e: std::io::Error| Error::io("writing to stdout", e);
-    let mut printed = 0u64;
-    let mut undecodable: std::collections::BTreeMap<String, u64> = Default::default();
-    let visit = |event: Event<'_>| {
-        let Event::Message {
-            channel,
-            header,
-            data,
-        } = event
-        else {
-            if let Event::Channel(channel) = event {
-                seen.insert(channel.topic.clone());
-            }
-            return Ok(());
-        };
+    let prepare = |channel: &ChannelInfo, header: &MessageHeader, data: &[u8]| {
         if !wanted.is_empty() && !wanted.contains(channel.topic.as_str()) {
-            return Ok(());
+            return Ok(None);
         }
         let problem = |message: String| {
             Error::input(
@@ -192,60 +253,30 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
                 ),
             )
         };
-        let decoded = decoders
-            .get(channel)
-            .and_then(|decoder| decoder.decode(data));
-        let message = match decoded {
-            Ok(message) => message,
-            Err(e) if args.strict => return Err(problem(e)),
-            Err(e) => {
-                // As Foxglove's tools do: say what could not be decoded, and go on.
-                *undecodable.entry(channel.topic.clone()).or_insert(0u64) += 1;
-                if args.json {
-                    let line = CatError {
-                        topic: &channel.topic,
-                        schema: channel.schema_name(),
-                        log_time: header.log_time,
-                        sequence: header.sequence,
-                        error: &e,
-                    };
-                    serde_json::to_writer(&mut out, &line).map_err(|e| write_error(e.into()))?;
-                    return writeln!(out).map_err(write_error);
-                }
-                return writeln!(
-                    out,
-                    "{} {} error: {e}",
-                    seconds(header.log_time),
-                    channel.topic
-                )
-                .map_err(write_error);
-            }
-        };
-        printed += 1;
-        if args.json {
-            let line = CatLine {
-                topic: &channel.topic,
-                schema: channel.schema_name(),
-                log_time: header.log_time,
-                sequence: header.sequence,
-                message: &message,
-            };
-            serde_json::to_writer(&mut out, &line).map_err(|e| write_error(e.into()))?;
-            writeln!(out).map_err(write_error)
-        } else {
-            write!(out, "{} {} ", seconds(header.log_time), channel.topic).map_err(write_error)?;
-            serde_json::to_writer(&mut out, &message).map_err(|e| write_error(e.into()))?;
-            writeln!(out).map_err(write_error)
+        let message = cat_message(&decoders, channel, header, data, args.json).map_err(problem)?;
+        match &message.undecodable {
+            Some((_, why)) if args.strict => Err(problem(why.clone())),
+            _ => Ok(Some(message)),
         }
     };
-    let damage = if args.allow_truncated {
-        scan_until_damage(&args.file, visit)?
-    } else {
-        scan(&args.file, visit)?;
-        None
+    let stdout = std::io::stdout();
+    let mut out = std::io::BufWriter::new(stdout.lock());
+    let write_error = |e: std::io::Error| Error::io("writing to stdout", e);
+    let mut printed = 0u64;
+    let mut undecodable: std::collections::BTreeMap<String, u64> = Default::default();
+    let consume = |message: CatMessage| {
+        match message.undecodable {
+            Some((topic, _)) => *undecodable.entry(topic).or_insert(0u64) += 1,
+            None => printed += 1,
+        }
+        out.write_all(&message.line).map_err(write_error)
     };
+    let damage = scan_messages(&args.file, prepare, consume)?;
     out.flush().map_err(write_error)?;
     if let Some(damage) = damage {
+        if !args.allow_truncated {
+            return Err(damage.into_error(&args.file));
+        }
         eprintln!(
             "warning: {}: {}; printed the {printed} messages before it",
             args.file.display(),
@@ -264,21 +295,6 @@ pub fn cat_command(args: CatArgs) -> Result<()> {
             args.file.display(),
             topics.join(", ")
         );
-    }
-    let missing: Vec<&str> = wanted
-        .iter()
-        .filter(|t| !seen.contains(**t))
-        .copied()
-        .collect();
-    if !missing.is_empty() {
-        return Err(Error::input(
-            &args.file,
-            format!(
-                "no channel on topic {} (topics: {})",
-                missing.join(", "),
-                seen.into_iter().collect::<Vec<_>>().join(", ")
-            ),
-        ));
     }
     Ok(())
 }
