@@ -17,7 +17,9 @@ use std::path::Path;
 use super::query::nearest_within;
 use super::{Actor, Step};
 use crate::error::{Error, Result};
-use crate::io::mcap::{Decoders, Event, Value, scan};
+use crate::io::mcap::inspect::{Source, inspect};
+use crate::io::mcap::reader::{ChannelInfo, MessageHeader, scan_messages};
+use crate::io::mcap::{Decoders, Value};
 
 /// Which topics hold what, and how far apart in time a match may be.
 #[derive(Debug, Clone)]
@@ -82,61 +84,19 @@ fn message_numbers(message: &Value) -> Vec<f64> {
 
 /// Reads the round from the log at `path`, whose actions hold `actions` numbers.
 pub fn read_log_round(path: &Path, topics: &LogTopics, actions: usize) -> Result<LogRound> {
-    let decoders = Decoders::default();
-    let mut seen = std::collections::BTreeSet::new();
-    // (log time, numbers) per topic: observation, action, label.
-    let mut series: [Vec<(u64, Vec<f64>)>; 3] = Default::default();
     let demonstration = topics.action.is_none();
     let action_topic = topics
         .action
         .clone()
         .unwrap_or_else(|| topics.label.clone());
     let wanted = [&topics.observation, &action_topic, &topics.label];
-    scan(path, |event| {
-        match event {
-            Event::Channel(channel) => {
-                seen.insert(channel.topic.clone());
-            }
-            Event::Message {
-                channel,
-                header,
-                data,
-            } => {
-                // With no action topic, the label topic also gives the executed action.
-                for k in (0..3).filter(|&k| *wanted[k] == channel.topic) {
-                    let message =
-                        decoders
-                            .get(channel)
-                            .and_then(|d| d.decode(data))
-                            .map_err(|e| {
-                                Error::input(
-                                    path,
-                                    format!(
-                                        "topic {} message {}: {e}",
-                                        channel.topic, header.sequence
-                                    ),
-                                )
-                            })?;
-                    let values = message_numbers(&message);
-                    if k > 0 && values.len() != actions {
-                        return Err(Error::input(
-                            path,
-                            format!(
-                                "topic {} message {}: the dataset's actions hold {actions} \
-                                 numbers, this message has {}",
-                                channel.topic,
-                                header.sequence,
-                                values.len()
-                            ),
-                        ));
-                    }
-                    series[k].push((header.log_time, values));
-                }
-            }
-            _ => {}
-        }
-        Ok(())
-    })?;
+    // The channel list (the summary when there is one) names a missing topic before
+    // any message is decoded.
+    let seen: std::collections::BTreeSet<String> = inspect(path, Source::Summary, false)?
+        .channels
+        .into_iter()
+        .map(|c| c.topic)
+        .collect();
     for topic in wanted {
         if !seen.contains(topic.as_str()) {
             return Err(Error::input(
@@ -147,6 +107,47 @@ pub fn read_log_round(path: &Path, topics: &LogTopics, actions: usize) -> Result
                 ),
             ));
         }
+    }
+    // Messages are decoded on all threads (`scan_messages`) and taken in log order:
+    // each as (log time, numbers) for the series it belongs to (observation, action,
+    // label; with no action topic the label topic gives the executed action too).
+    let decoders = Decoders::default();
+    let prepare = |channel: &ChannelInfo, header: &MessageHeader, data: &[u8]| {
+        let series: Vec<usize> = (0..3).filter(|&k| *wanted[k] == channel.topic).collect();
+        if series.is_empty() {
+            return Ok(None);
+        }
+        let at = |e: String| {
+            Error::input(
+                path,
+                format!("topic {} message {}: {e}", channel.topic, header.sequence),
+            )
+        };
+        let message = decoders
+            .get(channel)
+            .and_then(|d| d.decode(data))
+            .map_err(at)?;
+        let values = message_numbers(&message);
+        if series.iter().any(|&k| k > 0) && values.len() != actions {
+            return Err(at(format!(
+                "the dataset's actions hold {actions} numbers, this message has {}",
+                values.len()
+            )));
+        }
+        Ok(Some((series, header.log_time, values)))
+    };
+    let mut series: [Vec<(u64, Vec<f64>)>; 3] = Default::default();
+    let consume = |(ks, time, values): (Vec<usize>, u64, Vec<f64>)| {
+        if let Some((&last, others)) = ks.split_last() {
+            for &k in others {
+                series[k].push((time, values.clone()));
+            }
+            series[last].push((time, values));
+        }
+        Ok(())
+    };
+    if let Some(damage) = scan_messages(path, prepare, consume)? {
+        return Err(damage.into_error(path));
     }
     for s in &mut series {
         s.sort_by_key(|(t, _)| *t);
