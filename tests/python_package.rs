@@ -117,7 +117,7 @@ fn a_pipeline_run_on_ray_gives_the_digests_of_imitate_run() {
     let Some(runs) = python_script("ray_pipeline.py", &[cluster.path(), pipeline]) else {
         return;
     };
-    assert_eq!(runs.len(), 2, "{runs:?}");
+    assert_eq!(runs.len(), 3, "{runs:?}");
     for run in &runs {
         let stages: Vec<(String, String)> = run["stages"]
             .as_array()
@@ -135,4 +135,9 @@ fn a_pipeline_run_on_ray_gives_the_digests_of_imitate_run() {
     let ran = |i: usize| runs[i]["ran"].as_array().unwrap().len();
     assert_eq!(ran(0), expected.len(), "{runs:?}");
     assert_eq!(ran(1), 0, "the second run reruns nothing: {runs:?}");
+    assert_eq!(
+        ran(2),
+        expected.len(),
+        "forced, every stage reruns: {runs:?}"
+    );
 }

@@ -65,7 +65,9 @@ class LearchShard:
     def plan(self, model: str) -> str:
         """The shard's statistics (JSON) under the model (JSON), in example order."""
 
-def run_learch_distributed(params: str, plan: Callable[[str], list[str]]) -> str: ...
+def run_learch_distributed(
+    params: str, plan: Callable[[str], list[str]], extra_deps: list[str] = ...
+) -> str: ...
 def ingest_log_part(params: str, index: int) -> tuple[Optional[bytes], bytes]:
     """Log `index` of the ingest parameters' logs: its map and demonstrations (Parquet)."""
 

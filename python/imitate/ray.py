@@ -36,7 +36,9 @@ _PATH_PARAMETERS = ("dataset", "features", "out")
 class _LearchWorker:
     """One actor: a shard of the training examples, its inputs loaded once."""
 
-    def __init__(self, params: str, start: int, stop: int) -> None:
+    def __init__(self, params: str, start: int, stop: int, workdir: str) -> None:
+        # Relative paths in the parameters are relative to the driver's directory.
+        os.chdir(workdir)
         self._shard = _native.LearchShard(params, start, stop)
 
     def plan(self, model: str) -> str:
@@ -87,9 +89,24 @@ def learch(
     only the maps its shard's examples lie on; the report's `actors_peak_memory` lists
     each actor's peak resident memory in bytes.
     """
+    text = json.dumps(_absolute(params), default=os.fspath)
+    return _learch_on_actors(text, actors=actors, num_cpus_per_actor=num_cpus_per_actor,
+                             max_restarts=max_restarts, on_round=on_round)
+
+
+def _learch_on_actors(
+    text: str,
+    *,
+    actors: int,
+    num_cpus_per_actor: float = 1,
+    max_restarts: int = 3,
+    on_round: Optional[Callable[[int, Sequence[Any]], None]] = None,
+    extra_deps: Sequence[str] = (),
+) -> dict:
+    """`learch` with its parameters as JSON (paths relative to this directory, which the
+    actors take as theirs too) and the pipeline's extra dependencies."""
     import ray
 
-    text = json.dumps(_absolute(params), default=os.fspath)
     examples = _native.learch_training_examples(text)
     # An actor plans on as many threads as the CPUs it holds, not on every core of
     # its node.
@@ -100,7 +117,9 @@ def learch(
         max_task_retries=max_restarts,
         runtime_env={"env_vars": {"RAYON_NUM_THREADS": threads}},
     )(_LearchWorker)
-    workers = [worker.remote(text, start, stop) for start, stop in shards(examples, actors)]
+    workdir = os.getcwd()
+    workers = [worker.remote(text, start, stop, workdir)
+               for start, stop in shards(examples, actors)]
     rounds = [0]
 
     def plan(model: str) -> list:
@@ -110,7 +129,7 @@ def learch(
         return ray.get([w.plan.remote(model) for w in workers])
 
     try:
-        report = json.loads(_native.run_learch_distributed(text, plan))
+        report = json.loads(_native.run_learch_distributed(text, plan, list(extra_deps)))
         report["actors_peak_memory"] = ray.get([w.peak_memory.remote() for w in workers])
         return report
     finally:
@@ -319,6 +338,7 @@ def run_pipeline(
     only: Optional[str] = None,
     num_cpus_per_stage: float = 1,
     max_retries: int = 3,
+    learch_actors: Optional[int] = None,
 ) -> list:
     """Runs a pipeline file as `imitate run` does, on the connected Ray cluster: the
     driver (this process) builds the DAG, decides what is stale from the lock file,
@@ -327,7 +347,9 @@ def run_pipeline(
     default as many as the cluster's CPUs allow). The working directory, every input
     and every output must be on a filesystem all nodes see, at the same path. Returns
     each stage's outcome (`name`, `kind`, `out`, `reasons`, `ran`, `digest`,
-    `summary`) in the run's order: the digests `imitate run` gives."""
+    `summary`) in the run's order: the digests `imitate run` gives. With
+    `learch_actors`, a learch stage is run as `learch` runs, its rounds planned on that
+    many actors (of `num_cpus_per_stage` CPUs each), rather than as one task."""
     import ray
 
     if jobs is None:
@@ -342,6 +364,12 @@ def run_pipeline(
     )(_run_stage)
 
     def execute(kind: str, params: str, extra_deps: list) -> str:
+        if kind == "learch" and learch_actors:
+            report = _learch_on_actors(params, actors=learch_actors,
+                                       num_cpus_per_actor=num_cpus_per_stage,
+                                       max_restarts=max_retries, extra_deps=extra_deps)
+            report.pop("actors_peak_memory", None)
+            return json.dumps(report)
         return ray.get(task.remote(workdir, kind, params, list(extra_deps)))
 
     text = _native.run_pipeline(os.fspath(pipeline), force=force, only=only, jobs=jobs,
@@ -368,6 +396,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                      help="CPUs each stage task holds and computes on (default 1)")
     run.add_argument("--force", action="store_true", help="rerun stages even when up to date")
     run.add_argument("--stage", default=None, help="only this stage")
+    run.add_argument("--learch-actors", type=int, default=None,
+                     help="plan a learch stage's rounds on this many actors "
+                          "(default: the stage is one task)")
     args = parser.parse_args(argv)
 
     import ray
@@ -377,7 +408,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     ray.init(address=args.address, log_to_driver=False)
     try:
         outcomes = run_pipeline(args.pipeline, jobs=args.jobs, force=args.force,
-                                only=args.stage, num_cpus_per_stage=args.cpus_per_stage)
+                                only=args.stage, num_cpus_per_stage=args.cpus_per_stage,
+                                learch_actors=args.learch_actors)
     except (InputError, UsageError) as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

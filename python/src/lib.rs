@@ -330,8 +330,15 @@ impl LearchShard {
 /// `plan`: a callable given the model (JSON) that returns the statistics of every
 /// shard (JSON each, from `LearchShard.plan`), shards in example order. The artifact is
 /// the one `run_stage("learch", ...)` writes. Returns the stage's report (JSON).
+/// `extra_deps`: inputs a pipeline declares for the stage beyond its parameters'.
 #[pyfunction]
-fn run_learch_distributed(py: Python<'_>, params: &str, plan: Py<PyAny>) -> PyResult<String> {
+#[pyo3(signature = (params, plan, extra_deps = Vec::new()))]
+fn run_learch_distributed(
+    py: Python<'_>,
+    params: &str,
+    plan: Py<PyAny>,
+    extra_deps: Vec<PathBuf>,
+) -> PyResult<String> {
     let params = learch_params(params)?;
     let workers = Workers::new(plan);
     let mut remote = |model: &LogCostModel| -> Result<Vec<ExampleStatistics>, String> {
@@ -345,7 +352,7 @@ fn run_learch_distributed(py: Python<'_>, params: &str, plan: Py<PyAny>) -> PyRe
         }
         Ok(statistics)
     };
-    let report = py.detach(|| params.run_with(&[], Some(&mut remote)));
+    let report = py.detach(|| params.run_with(&extra_deps, Some(&mut remote)));
     workers.report(report)
 }
 
