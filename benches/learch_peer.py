@@ -7,9 +7,11 @@ imitate makes the inputs: a synthetic world (`imitate testdata world`, 4 maps of
 bench learch`: the 4 layers, blurs, slope, roughness, distances, a product, the bias).
 Then:
 
-- imitate: `imitate learch --weak-learner ridge` with 1 and with 1 + R rounds, at 1
-  and at all threads; a round's time is the difference over R (setup and the held-out
-  evaluation cancel).
+- imitate: `imitate learch --weak-learner ridge --holdout 0` (and `tree`, timed beside
+  the same ridge peer) with 1 and with 1 + R
+  rounds, at 1 and at all threads; a round's time is the difference over R (setup and
+  the final evaluation cancel; with nothing held out no round plans held-out paths for
+  the learning curves).
 - the peer, with as many worker processes as imitate has threads: each worker loads
   the features once and holds the CSR graph of the 8-connected grid (built once; each
   plan sets its weights: step length × the mean of the two cells' loss-augmented
@@ -19,9 +21,10 @@ Then:
   moments (NumPy); the driver solves the ridge system (λ 1e-3) and takes the step
   1/√t, as imitate does.
 
-Both use imitate's split (the held-out episodes listed in its metrics) and print the
-held-out share of planned cells within 2 cells of the demonstration after 1 + R rounds,
-so the two are seen to learn the same thing. Run from the repository root:
+Rounds are timed on every example. Then both learn on imitate's split (a quarter held
+out, the episodes its metrics list) and print the held-out share of planned cells
+within 2 cells of the demonstration after 1 + R rounds, so the two are seen to learn
+the same thing. Run from the repository root:
 
     scripts/python-deps.sh && cargo build --release
     PYTHONPATH=target/python-deps python3 benches/learch_peer.py [--size 512] \\
@@ -43,8 +46,9 @@ import pyarrow.parquet as pq
 import scipy.sparse
 import scipy.sparse.csgraph
 
-IMITATE = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", "target", "release",
-                                       "imitate"))
+# The binary to time (IMITATE overrides it, e.g. to time an earlier build).
+IMITATE = os.environ.get("IMITATE") or os.path.abspath(
+    os.path.join(os.path.dirname(__file__), "..", "target", "release", "imitate"))
 LOSS, FLOOR, LAMBDA, LOG_COST_LIMIT = 0.3, 1e-6, 1e-3, 40.0
 OPS = [
     {"op": "blur", "layer": "elevation", "sigmas": [2, 8]},
@@ -198,6 +202,7 @@ def within_two(job):
 
 
 def peer(maps, paths, training, holdout, rounds, processes):
+    """Per-round seconds of training on `training`, then the held-out agreement."""
     scale = scales(maps)
     dims = next(iter(maps.values()))[0].shape[1]
     weights = np.zeros(dims)  # raw weights: log cost = x · weights
@@ -217,24 +222,34 @@ def peer(maps, paths, training, holdout, rounds, processes):
             times.append(time.perf_counter() - began)
         counts = pool.map(within_two, [(paths[e][0], paths[e][1], weights) for e in holdout])
     planned = sum(c[0] for c in counts)
-    return times, sum(c[1] for c in counts) / planned
+    return times, sum(c[1] for c in counts) / planned if planned else float("nan")
 
 
-def imitate_round(work, rounds, threads):
-    """Seconds per round (1 + rounds against 1 round) and the held-out agreement."""
-    seconds = {}
-    for r in (1, 1 + rounds):
-        out = os.path.join(work, f"costmap-{threads}-{r}")
-        began = time.perf_counter()
-        imitate("learch", "--dataset", os.path.join(work, "ds"), "--features",
-                os.path.join(work, "fs"), "--out", out, "--rounds", str(r),
-                "--weak-learner", "ridge", threads=threads)
-        seconds[r] = time.perf_counter() - began
+def imitate_learch(work, rounds, threads, holdout, learner="ridge"):
+    out = os.path.join(work, f"costmap-{learner}-{threads}-{rounds}-{holdout}")
+    began = time.perf_counter()
+    imitate("learch", "--dataset", os.path.join(work, "ds"), "--features",
+            os.path.join(work, "fs"), "--out", out, "--rounds", str(rounds),
+            "--weak-learner", learner, "--holdout", str(holdout), threads=threads)
+    return time.perf_counter() - began, out
+
+
+def imitate_round(work, rounds, threads, learner):
+    """Seconds per round of training on every example (1 + rounds against 1 round,
+    nothing held out, so no round evaluates held-out plans)."""
+    one, _ = imitate_learch(work, 1, threads, 0, learner)
+    more, _ = imitate_learch(work, 1 + rounds, threads, 0, learner)
+    return (more - one) / rounds
+
+
+def imitate_agreement(work, rounds):
+    """The held-out agreement after `rounds` rounds with a quarter held out, and the
+    held-out episodes."""
+    _, out = imitate_learch(work, rounds, None, 0.25)
     with open(os.path.join(out, "metrics.json")) as f:
         metrics = json.load(f)
-    agreement = metrics["holdout"]["summary"]["within_radius"]
     held = [e["example"] for e in metrics["holdout"]["examples"]]
-    return (seconds[1 + rounds] - seconds[1]) / rounds, agreement, held
+    return metrics["holdout"]["summary"]["within_radius"], held
 
 
 def main():
@@ -249,20 +264,26 @@ def main():
     maps, paths = load_maps(work), load_paths(work)
     print(f"4 maps of {args.size}², {len(paths)} demonstrations, "
           f"{next(iter(maps.values()))[0].shape[1]} features; 1 + {args.rounds} rounds")
-    rows = []
-    for threads in sorted({1, args.threads}):
-        per_round, agreement, held = imitate_round(work, args.rounds, threads)
-        rows.append((f"imitate, {threads} thread(s)", threads, per_round, agreement))
+    agreement, held = imitate_agreement(work, 1 + args.rounds)
     held = set(held)
     training = [e for e in sorted(paths) if e not in held]
     holdout = [e for e in sorted(paths) if e in held]
-    times, agreement = peer(maps, paths, training, holdout, 1 + args.rounds, args.threads)
+    rows = [(f"imitate, ridge, {threads} thread(s)",
+             imitate_round(work, args.rounds, threads, "ridge"), agreement)
+            for threads in sorted({1, args.threads})]
+    # Trees (depth 3) fit another learner on the same plans: the round is timed beside
+    # the same ridge peer, its agreement left out (it learns another cost).
+    rows += [(f"imitate, trees, {threads} thread(s)",
+              imitate_round(work, args.rounds, threads, "tree"), float("nan"))
+             for threads in sorted({1, args.threads})]
+    times, _ = peer(maps, paths, sorted(paths), [], 1 + args.rounds, args.threads)
     peer_round = min(times[1:]) if len(times) > 1 else times[0]
-    rows.append((f"NumPy/SciPy, {args.threads} process(es)", args.threads, peer_round,
-                 agreement))
-    print("| run | seconds per round | held-out cells within 2 cells | peer / this |")
+    _, peer_agreement = peer(maps, paths, training, holdout, 1 + args.rounds, args.threads)
+    rows.append((f"NumPy/SciPy, {args.threads} process(es)", peer_round, peer_agreement))
+    print("| run | seconds per round (all examples) | held-out cells within 2 cells "
+          "(a quarter held out) | peer / this |")
     print("|---|---|---|---|")
-    for name, _, seconds, agreement in rows:
+    for name, seconds, agreement in rows:
         print(f"| {name} | {seconds:.3f} | {agreement:.3f} | {peer_round / seconds:.1f}× |")
 
 

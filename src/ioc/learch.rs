@@ -37,7 +37,7 @@ use crate::error::first_error_in_order;
 use crate::features::distance_transform;
 use crate::grid::{Cell, CellPath, FeatureStack, Grid};
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
-use crate::plan::{StepLengths, loss_augmented, path_cost, shortest_path};
+use crate::plan::{Moves, StepLengths, dijkstra, loss_augmented, path_cost, shortest_path};
 
 /// The most MaxEnt's log-cost may change on any cell in one round.
 const MAXENT_LOG_COST_STEP: f64 = 10.0;
@@ -897,7 +897,16 @@ fn planned_gradient(
     };
     let start = ex.path[0];
     let goal = ex.path[ex.path.len() - 1];
-    let route = shortest_path(&augmented, start, goal).ok_or_else(|| unreachable(ex))?;
+    // LEARCH plans with the bucket-queue Dijkstra that stops at the goal (twice A*'s
+    // speed on learned costmaps, whose cheapest cell makes A*'s heuristic weak); among
+    // equally cheap paths it returns the first one its queue completes, a fixed order
+    // (the same plans at any thread count). MMP keeps A*, whose goal-directed tie-break
+    // suits its floored costs' many ties.
+    let route = match config.method {
+        GridMethod::Learch => dijkstra(&augmented, start, goal, Moves::default()),
+        _ => shortest_path(&augmented, start, goal),
+    }
+    .ok_or_else(|| unreachable(ex))?;
     let demo_cost = path_cost(&augmented, &ex.path);
     // μ* − μ, with μ already subtracted above.
     for &cell in &route.cells {

@@ -32,8 +32,8 @@ use crate::report::{Preview, render_preview};
 pub const KIND: &str = "learch";
 /// 7: previews with a colour bar and a scale bar; MaxEnt's own exponential; step
 /// lengths per row in geographic frames. 8: MaxEnt's forward pass drops negligible
-/// mass.
-const VERSION: u32 = 8;
+/// mass. 9: LEARCH plans its examples with Dijkstra (other ties than A*'s).
+const VERSION: u32 = 9;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
