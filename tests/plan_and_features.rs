@@ -472,3 +472,45 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     );
     assert_eq!(bad.status.code(), Some(2));
 }
+
+/// `--features oracle` gives the learners the teacher's hidden cost itself: the
+/// ceiling that tells a learner's shortfall from the features'. On the SPOT image's
+/// step teacher, trees on it plan within a hair of the teacher's cost.
+#[test]
+fn bench_terrain_measures_the_learners_ceiling_on_the_hidden_cost() {
+    let Some(rasters) = common::shared_data("raster") else {
+        return;
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let spot = rasters.join("osgeo_spot_chicago_utm.tif");
+    let out = imitate(
+        dir.path(),
+        &[
+            "bench",
+            "terrain",
+            spot.to_str().unwrap(),
+            "--teacher",
+            "threshold",
+            "--method",
+            "learch-tree",
+            "--features",
+            "oracle",
+            "--cells",
+            "80",
+            "--paths",
+            "24",
+            "--json",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["features"], "oracle");
+    let tree = report["results"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|r| r["method"] == "learch-tree")
+        .unwrap();
+    let ratio = tree["mean_cost_ratio"].as_f64().unwrap();
+    assert!((1.0 - 1e-9..1.02).contains(&ratio), "{tree}");
+}

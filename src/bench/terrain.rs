@@ -37,6 +37,19 @@ pub enum Teacher {
     Margin,
 }
 
+/// What the learners are given to learn from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Features {
+    /// The feature bank (`--bank`): what a user who only names the layers gets.
+    Bank,
+    /// The raster's bands as they are, and a bias: what the bank adds, measured.
+    Layers,
+    /// The teacher's hidden cost as the only layer, and a bias: the learner's ceiling
+    /// with perfect features, which tells a learner's shortfall from the features'.
+    Oracle,
+}
+
 #[derive(Debug, clap::Args)]
 pub struct TerrainArgs {
     /// GeoTIFF rasters (every band a layer).
@@ -52,6 +65,9 @@ pub struct TerrainArgs {
     /// The feature bank.
     #[arg(long, value_enum, default_value = "auto")]
     pub bank: Bank,
+    /// What the learners learn from: the bank, the bands alone, or the hidden cost.
+    #[arg(long, value_enum, default_value = "bank")]
+    pub features: Features,
     /// Cells along the raster's longer side after block averaging (0 keeps the raster).
     #[arg(long, default_value_t = 160)]
     pub cells: u32,
@@ -88,6 +104,7 @@ pub struct TerrainArgs {
 #[derive(Serialize)]
 struct TerrainReport {
     schema: &'static str,
+    features: Features,
     cells: u32,
     paths: usize,
     results: Vec<MethodResult>,
@@ -240,19 +257,32 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
     }
 }
 
-/// One raster and teacher: features from the bank, seeded teacher paths between cells at
-/// least half the map apart, a quarter held out.
+/// One raster and teacher: features as `--features` says, seeded teacher paths between
+/// cells at least half the map apart, a quarter held out.
 fn terrain(map: &Map, teacher: Teacher, args: &TerrainArgs) -> Result<Terrain> {
     let geo = map.geo.clone();
+    let truth = Grid::from_vec(geo.clone(), teacher_cost(map, teacher));
     let spec = FeatureSpec {
         layers: None,
         ops: Vec::new(),
         bias: true,
         nodata_fill: 0.0,
-        bank: Some(args.bank),
+        bank: (args.features == Features::Bank).then_some(args.bank),
     };
-    let stack = compute(map, &spec).map_err(Error::Failed)?;
-    let truth = Grid::from_vec(geo.clone(), teacher_cost(map, teacher));
+    let stack = if args.features == Features::Oracle {
+        let oracle = Map {
+            name: map.name.clone(),
+            geo: geo.clone(),
+            layers: vec![Layer {
+                name: "teacher_cost".into(),
+                values: truth.data.clone(),
+            }],
+        };
+        compute(&oracle, &spec)
+    } else {
+        compute(map, &spec)
+    }
+    .map_err(Error::Failed)?;
     let examples = teacher_paths(&truth, args.paths, args.seed, "teacher")
         .map_err(|e| Error::Failed(format!("{}: {e}", map.name)))?;
     let (training, holdout) = hold_out_every(examples, 4);
@@ -383,6 +413,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
     }
     let report = TerrainReport {
         schema: "imitate.bench-terrain/2",
+        features: args.features,
         cells: args.cells,
         paths: args.paths,
         results,
