@@ -171,7 +171,7 @@ fn forecast_refuses_what_it_cannot_use() {
         stderr(&off)
     );
     assert!(!ws.path().join("fc").exists());
-    // Weak learners are LEARCH's.
+    // MMP learns a linear cost: trees are refused, naming the setting.
     let tree = imitate(
         ws.path(),
         &[
@@ -189,5 +189,6 @@ fn forecast_refuses_what_it_cannot_use() {
         ],
     );
     assert_eq!(tree.status.code(), Some(2), "{}", stderr(&tree));
+    assert!(stderr(&tree).contains("weak_learner"), "{}", stderr(&tree));
     assert!(!ws.path().join("t").exists());
 }

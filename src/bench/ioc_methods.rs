@@ -293,7 +293,11 @@ pub(super) fn methods(rounds: Option<usize>) -> Vec<(&'static str, LearchConfig)
             with(GridMethod::Learch, WeakLearnerKind::Alternate),
         ),
         ("mmp", with(GridMethod::Mmp, WeakLearnerKind::Ridge)),
-        ("maxent", with(GridMethod::Maxent, WeakLearnerKind::Ridge)),
+        ("maxent", with(GridMethod::Maxent, WeakLearnerKind::Tree)),
+        (
+            "maxent-linear",
+            with(GridMethod::Maxent, WeakLearnerKind::Ridge),
+        ),
     ]
 }
 

@@ -58,8 +58,9 @@ pub struct TerrainArgs {
     /// Teachers to run (repeat the flag); default: every one.
     #[arg(long = "teacher", value_enum)]
     pub teachers: Vec<Teacher>,
-    /// Methods to run (repeat the flag): learch-ridge, learch-tree, mmp, maxent;
-    /// default: every one. The uniform-cost baseline always runs.
+    /// Methods to run (repeat the flag): learch-ridge, learch-tree, learch-alternate,
+    /// mmp, maxent (trees), maxent-linear; default: every one. The uniform-cost
+    /// baseline always runs.
     #[arg(long = "method")]
     pub methods: Vec<String>,
     /// The feature bank.

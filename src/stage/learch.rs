@@ -51,11 +51,11 @@ mod defaults {
     pub fn preview_scale() -> u32 {
         4
     }
-    /// Trees for LEARCH; MMP and MaxEnt learn a linear model.
+    /// Trees for LEARCH and MaxEnt (a nonlinear cost); MMP learns a linear one.
     pub fn weak_learner(method: crate::ioc::GridMethod) -> crate::ioc::WeakLearnerKind {
         match method {
-            crate::ioc::GridMethod::Learch => crate::ioc::WeakLearnerKind::Tree,
-            _ => crate::ioc::WeakLearnerKind::Ridge,
+            crate::ioc::GridMethod::Mmp => crate::ioc::WeakLearnerKind::Ridge,
+            _ => crate::ioc::WeakLearnerKind::Tree,
         }
     }
     pub fn tree_depth() -> usize {
@@ -115,10 +115,12 @@ pub struct LearchParams {
     #[arg(long, default_value_t = defaults::schedule_offset())]
     #[serde(default = "defaults::schedule_offset")]
     pub schedule_offset: f64,
-    /// LEARCH's weak learner: regression trees (a nonlinear cost; the default), ridge
-    /// regression (a log-linear cost) or both in turn (alternate). Trees imitate best
-    /// across real terrains (`imitate bench terrain`, BENCHMARKS.md); ridge only where
-    /// the true cost is log-linear in the features.
+    /// The weak learner of LEARCH and MaxEnt: regression trees (a nonlinear cost; the
+    /// default), ridge regression (a log-linear cost) or both in turn (alternate); MMP's
+    /// is ridge. Trees imitate best across real terrains (`imitate bench terrain`,
+    /// BENCHMARKS.md); ridge only where the true cost is log-linear in the features.
+    /// MaxEnt's trees fit its functional gradient, expected minus demonstrated visits
+    /// times the cost, per cell.
     #[arg(long, value_enum)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weak_learner: Option<WeakLearnerKind>,
@@ -227,12 +229,12 @@ impl LearchParams {
         if !(self.schedule_offset.is_finite() && self.schedule_offset >= 0.0) {
             return bad("schedule_offset must be >= 0");
         }
-        if self.method != GridMethod::Learch
+        if self.method == GridMethod::Mmp
             && self
                 .weak_learner
                 .is_some_and(|w| w != WeakLearnerKind::Ridge)
         {
-            return bad("weak_learner is LEARCH's; mmp and maxent learn a linear model");
+            return bad("mmp learns a linear cost: its weak_learner is ridge");
         }
         if !(self.horizon_factor.is_finite() && self.horizon_factor >= 1.0) {
             return bad("horizon_factor must be at least 1");
