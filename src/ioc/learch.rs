@@ -15,12 +15,15 @@
 //!   planning, and the regularised subgradient w ← w − α(λw + Φ(demo) − Φ(plan)), Φ the
 //!   path's feature counts weighted as the planner weighs cells (half a step's length to
 //!   each end of every step);
-//! - MaxEnt IOC (Ziebart et al. 2008): a log-linear cost, the soft backward pass and the
-//!   expected visitation forward (`soft_paths`, within a horizon), and the gradient of
-//!   the demonstrations' log-likelihood, expected minus demonstrated cost-weighted counts.
+//! - MaxEnt IOC (Ziebart et al. 2008): the soft backward pass and the expected
+//!   visitation forward (`soft_paths`, within a horizon), and the gradient of the
+//!   demonstrations' log-likelihood: per cell, expected minus demonstrated visits times
+//!   the cost, which trees fit as LEARCH's do (a nonlinear log-cost, the default, as in
+//!   deep MaxEnt IRL with trees for the network), or summed into feature counts for a
+//!   log-linear cost (ridge).
 //!
-//! Their rounds are linear updates, kept as ridge-kind learners, so the artifact,
-//! checkpoints and resuming are LEARCH's.
+//! MMP's and linear MaxEnt's rounds are linear updates, kept as ridge-kind learners, so
+//! the artifact, checkpoints and resuming are LEARCH's.
 //!
 //! Examples are planned in parallel; each returns its own sufficient statistics, and
 //! they are merged in example order, so the result does not depend on the thread count.
@@ -110,7 +113,7 @@ pub enum GridMethod {
     Learch,
     /// Maximum-margin planning: linear cost, regularised subgradient.
     Mmp,
-    /// Maximum-entropy IOC: log-linear cost, likelihood gradient.
+    /// Maximum-entropy IOC: soft paths, likelihood gradient (trees or log-linear).
     Maxent,
 }
 
@@ -962,9 +965,11 @@ fn planned_gradient(
     })
 }
 
-/// MaxEnt: expected minus demonstrated cost-weighted feature counts (the gradient of
-/// the log-likelihood with respect to the log-linear weights: ∂c/∂w = c · f), within a
-/// window around the demonstration and a horizon of `horizon_factor` times its steps.
+/// MaxEnt: per cell, expected minus demonstrated visits times the cost (the gradient
+/// of the log-likelihood with respect to the log-cost), as points for a tree, and
+/// summed into cost-weighted feature counts for the log-linear weights (∂c/∂w = c · f),
+/// within a window around the demonstration and a horizon of `horizon_factor` times
+/// its steps.
 /// The loss reported is the negative log-likelihood per step.
 fn maxent_gradient(
     model: &LogCostModel,
