@@ -9,6 +9,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data};
+use imitate::features::{FeatureSpec, Op};
 use imitate::grid::Map;
 use imitate::io::geotiff::read_geotiff;
 
@@ -48,6 +49,12 @@ fn every_gdal_variant_reads_to_the_same_grid() {
             read_geotiff(&path(&format!("{source}--float-pred3")), "m").unwrap(),
         );
     }
+    for source in ["rgb8", "rgba8"] {
+        references.insert(
+            source.into(),
+            read_geotiff(&path(&format!("{source}--none")), "m").unwrap(),
+        );
+    }
     let aerial = &references["aerial"];
     // rasterio's aerial image: about 1.380 × 1.379 m cells, kept as they are.
     let [x, y] = aerial.geo.cell_size();
@@ -79,24 +86,31 @@ fn every_gdal_variant_reads_to_the_same_grid() {
         if file["lossless"].as_bool().unwrap() {
             assert!(same_values(&map, reference), "{name}: values differ");
         } else {
-            // JPEG: what GDAL decodes from the same file, within the rounding of two
-            // inverse DCTs.
-            let gdal = read_geotiff(&path(&format!("gdal-decoded--{source}-jpeg")), "m").unwrap();
-            let (a, b) = (&map.layers[0].values, &gdal.layers[0].values);
-            let largest = a
-                .iter()
-                .zip(b)
-                .map(|(p, q)| (p - q).abs())
-                .fold(0.0, f32::max);
-            let mean = a.iter().zip(b).map(|(p, q)| (p - q).abs()).sum::<f32>() / a.len() as f32;
-            assert!(
-                largest <= 2.0 && mean < 0.5,
-                "{name}: largest {largest}, mean {mean}"
-            );
+            // JPEG or lossy WebP: what GDAL decodes from the same file, within the
+            // rounding of two decoders, in every band.
+            let codec = name.rsplit("--").next().unwrap();
+            let gdal =
+                read_geotiff(&path(&format!("gdal-decoded--{source}-{codec}")), "m").unwrap();
+            assert_eq!(map.layers.len(), gdal.layers.len(), "{name}");
+            for (ours, theirs) in map.layers.iter().zip(&gdal.layers) {
+                let (a, b) = (&ours.values, &theirs.values);
+                let largest = a
+                    .iter()
+                    .zip(b)
+                    .map(|(p, q)| (p - q).abs())
+                    .fold(0.0, f32::max);
+                let mean =
+                    a.iter().zip(b).map(|(p, q)| (p - q).abs()).sum::<f32>() / a.len() as f32;
+                assert!(
+                    largest <= 2.0 && mean < 0.5,
+                    "{name} {}: largest {largest}, mean {mean}",
+                    ours.name
+                );
+            }
         }
         checked += 1;
     }
-    assert!(checked >= 24, "only {checked} variants checked");
+    assert!(checked >= 32, "only {checked} variants checked");
     // The float copy keeps the NaN block in the file's north-west corner (our top rows).
     let float = &references["aerial-float"];
     let (w, h) = (float.geo.width as usize, float.geo.height as usize);
@@ -119,6 +133,55 @@ fn projected_units_in_feet_become_metres() {
     assert!((feet.geo.origin[0] - spot.geo.origin[0] * foot).abs() < 1e-6);
 }
 
+/// The median slope (degrees) over the cells of `map` at least `margin` cells inside its
+/// edges (GDAL's warp leaves a resampled border).
+fn median_slope(map: &Map, margin: usize) -> f64 {
+    let spec = FeatureSpec {
+        layers: Some(Vec::new()),
+        ops: vec![Op::Slope {
+            layer: "band1".into(),
+        }],
+        bias: false,
+        nodata_fill: 0.0,
+        bank: None,
+    };
+    let stack = imitate::features::compute(map, &spec).unwrap();
+    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    let mut inner: Vec<f64> = (margin..h - margin)
+        .flat_map(|r| (margin..w - margin).map(move |c| r * w + c))
+        .map(|i| f64::from(stack.plane(0)[i]))
+        .collect();
+    inner.sort_by(f64::total_cmp);
+    inner[inner.len() / 2]
+}
+
+#[test]
+fn web_mercator_cells_are_measured_on_the_ground() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    // A plane of slope atan √0.05 = 12.6° in UTM at 60° N, and GDAL's warp of it into
+    // Web Mercator, whose 59.9 "metre" cells span about 30 m on the ground there.
+    let utm = read_geotiff(&dir.path().join("units--utm-plane.tif"), "m").unwrap();
+    let mercator = read_geotiff(&dir.path().join("units--web-mercator-plane.tif"), "m").unwrap();
+    assert!(mercator.geo.web_mercator && !utm.geo.web_mercator);
+    let [east, north] = mercator.geo.cell_metres();
+    assert!((mercator.geo.resolution - 59.95).abs() < 0.01);
+    assert!(
+        (east - 30.0).abs() < 0.2 && (north - 30.0).abs() < 0.2,
+        "{east} × {north}"
+    );
+    let truth = 0.05f64.sqrt().atan().to_degrees();
+    let (flat, warped) = (median_slope(&utm, 2), median_slope(&mercator, 4));
+    assert!((flat - truth).abs() < 0.01, "UTM: {flat} against {truth}");
+    // Read as frame metres the warped plane would slope atan(√0.05 / 2) = 6.4°.
+    assert!(
+        (warped - truth).abs() < 0.2,
+        "Web Mercator: {warped} against {truth}"
+    );
+}
+
 #[test]
 fn rasters_that_cannot_be_used_are_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
@@ -128,6 +191,10 @@ fn rasters_that_cannot_be_used_are_refused_by_name() {
     for (name, needles) in [
         ("bad--rotated", vec!["bad--rotated.tif", "rotated"]),
         ("bad--all-nodata", vec!["bad--all-nodata.tif", "nodata"]),
+        (
+            "bad--lzma",
+            vec!["bad--lzma.tif", "tag Compression = 34925", "LZMA"],
+        ),
     ] {
         let out = dir.path().join(format!("out-{name}.png"));
         let map = dir.path().join(format!("{name}.tif"));

@@ -17,6 +17,7 @@ fn walled(dir: &std::path::Path) -> std::path::PathBuf {
         origin: [10.0, 20.0],
         frame: "map".into(),
         degrees: false,
+        web_mercator: false,
     };
     let mut costs = Grid::filled(geo, 1.0f32);
     for row in 0..3 {
@@ -167,6 +168,7 @@ fn unreachable_goals_fail_with_exit_code_1() {
         origin: [0.0, 0.0],
         frame: "map".into(),
         degrees: false,
+        web_mercator: false,
     };
     let costs = Grid::from_vec(geo, vec![1.0, f32::INFINITY, 1.0]);
     write_costmap(&dir.path().join("walled.parquet"), "cut", &costs).unwrap();

@@ -47,6 +47,7 @@ fn generate(path: &Path, megabytes: u64) -> Result<()> {
         origin: [-12.8, -12.8],
         frame: "map".into(),
         degrees: false,
+        web_mercator: false,
     };
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     // zstd takes about 17 % off random occupancies: write enough grids for the size.

@@ -151,6 +151,7 @@ fn geo(width: u32, height: u32) -> GeoRef {
         origin: [0.0, 0.0],
         frame: "bench".into(),
         degrees: false,
+        web_mercator: false,
     }
 }
 

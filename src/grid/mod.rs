@@ -42,6 +42,11 @@ pub struct GeoRef {
     /// Lengths on the ground then come from the latitude (`cell_metres`).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub degrees: bool,
+    /// The frame is Web Mercator (EPSG:3857): its units are metres only on the
+    /// equator, a unit spanning cos φ ground metres at latitude φ (0.77 at 39.6° N).
+    /// Lengths on the ground then come from the northing (`cell_metres`).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub web_mercator: bool,
 }
 
 impl GeoRef {
@@ -55,6 +60,7 @@ impl GeoRef {
             origin: [0.0, 0.0],
             frame: "map".into(),
             degrees: false,
+            web_mercator: false,
         }
     }
 
@@ -76,59 +82,71 @@ impl GeoRef {
         ]
     }
 
-    /// Cell size (x, y) in metres on the ground. In a geographic frame it is measured
-    /// at the raster's middle latitude on the WGS 84 ellipsoid (rasters spanning many
-    /// degrees of latitude are stretched away from it: `scale_variation` says how much;
-    /// planners and derivatives use `cell_metres_by_row`).
+    /// Cell size (x, y) in metres on the ground. In a geographic or Web Mercator frame
+    /// it is measured at the raster's middle row (rasters spanning many degrees of
+    /// latitude are stretched away from it: `scale_variation` says how much; planners
+    /// and derivatives use `cell_metres_by_row`).
     pub fn cell_metres(&self) -> [f64; 2] {
-        let [sx, sy] = self.cell_size();
-        if !self.degrees {
-            return [sx, sy];
-        }
-        let [east, north] = geodesy::metres_per_degree(self.middle_latitude());
-        [sx * east, sy * north]
+        self.cell_metres_at(0.5 * f64::from(self.height))
     }
 
-    /// Cell size (x, y) in metres on the ground, row by row: one pair for every row in
-    /// a geographic frame, measured at the row's middle latitude (a degree of longitude
-    /// shortens towards the poles), and one pair for them all elsewhere.
+    /// Whether ground lengths of a frame unit change from row to row (geographic and
+    /// Web Mercator frames).
+    pub fn varies_by_row(&self) -> bool {
+        self.degrees || self.web_mercator
+    }
+
+    /// Cell size (x, y) in metres on the ground, row by row: one pair for every row
+    /// where the frame's scale changes with latitude, measured at the row's middle, and
+    /// one pair for them all elsewhere.
     pub fn cell_metres_by_row(&self) -> Vec<[f64; 2]> {
-        if !self.degrees {
+        if !self.varies_by_row() {
             return vec![self.cell_metres()];
         }
-        let [sx, sy] = self.cell_size();
         (0..self.height)
-            .map(|r| {
-                let [east, north] = geodesy::metres_per_degree(self.latitude(f64::from(r) + 0.5));
-                [sx * east, sy * north]
-            })
+            .map(|r| self.cell_metres_at(f64::from(r) + 0.5))
             .collect()
     }
 
-    /// The latitude `rows` rows north of the raster's southern edge, in a geographic frame.
-    pub fn latitude(&self, rows: f64) -> f64 {
-        (self.origin[1] + rows * self.cell_size()[1]).clamp(-90.0, 90.0)
+    /// Cell size (x, y) in ground metres `rows` rows north of the southern edge (where
+    /// the frame's scale varies, it is taken there).
+    pub fn cell_metres_at(&self, rows: f64) -> [f64; 2] {
+        let [sx, sy] = self.cell_size();
+        let y = self.origin[1] + rows * sy;
+        let [east, north] = if self.degrees {
+            geodesy::metres_per_degree(y.clamp(-90.0, 90.0))
+        } else if self.web_mercator {
+            geodesy::metres_per_web_mercator_unit(y)
+        } else {
+            [1.0, 1.0]
+        };
+        [sx * east, sy * north]
+    }
+
+    /// The latitude of the southern edge and of the northern one, where the frame
+    /// knows it (geographic and Web Mercator frames).
+    pub fn latitudes(&self) -> Option<[f64; 2]> {
+        let [_, y0, _, y1] = self.bounds();
+        if self.degrees {
+            Some([y0, y1])
+        } else if self.web_mercator {
+            Some([y0, y1].map(geodesy::web_mercator_latitude))
+        } else {
+            None
+        }
     }
 
     /// The largest relative difference between the east-west cell size at the raster's
-    /// middle latitude and at its north or south edge: 0 in a projected frame.
+    /// middle row and at its north or south edge: 0 where the frame's scale is fixed.
     pub fn scale_variation(&self) -> f64 {
-        if !self.degrees {
+        if !self.varies_by_row() {
             return 0.0;
         }
-        let [_, y0, _, y1] = self.bounds();
-        let middle = geodesy::metres_per_degree(self.middle_latitude())[0];
-        [y0, y1]
+        let middle = self.cell_metres()[0];
+        [0.0, f64::from(self.height)]
             .iter()
-            .map(|&lat| {
-                (geodesy::metres_per_degree(lat.clamp(-90.0, 90.0))[0] / middle - 1.0).abs()
-            })
+            .map(|&rows| (self.cell_metres_at(rows)[0] / middle - 1.0).abs())
             .fold(0.0, f64::max)
-    }
-
-    fn middle_latitude(&self) -> f64 {
-        let [_, y0, _, y1] = self.bounds();
-        (0.5 * (y0 + y1)).clamp(-90.0, 90.0)
     }
 
     /// Whether the ground cells are square (within a relative 1e-9).
@@ -193,6 +211,9 @@ impl GeoRef {
             if !(size.is_finite() && size > 0.0) {
                 return Err(format!("resolution must be > 0, got {size}"));
             }
+        }
+        if self.degrees && self.web_mercator {
+            return Err("a frame cannot be both in degrees and Web Mercator".into());
         }
         if !self.origin.iter().all(|v| v.is_finite()) {
             return Err(format!("origin must be finite, got {:?}", self.origin));

@@ -87,6 +87,7 @@ mod tests {
             origin: [0.0, 0.0],
             frame: "map".into(),
             degrees: false,
+            web_mercator: false,
         }
     }
 

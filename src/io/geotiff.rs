@@ -1,11 +1,12 @@
 //! GeoTIFF map layers through the `tiff` crate, as GDAL and rasterio write them: strips
 //! or tiles, BigTIFF, cloud-optimised files (the full-resolution first image), pixel- or
 //! band-interleaved, uncompressed or LZW, Deflate (with either predictor), PackBits,
-//! ZSTD, JPEG or LERC (`lerc`). Every band becomes a layer (`band1`, ...), cells equal to the GDAL
-//! nodata value become NaN (our nodata mask), and the georeference comes from the
-//! pixel-scale + tiepoint tags or the transformation matrix. Cells may be rectangles;
-//! a geographic CRS keeps its degrees as frame units and is measured in metres from the
-//! latitude (`GeoRef::cell_metres`); projected units in feet become metres. Rasters
+//! ZSTD, JPEG, LERC (`lerc`) or WebP (`webp`). Every band becomes a layer (`band1`, ...),
+//! cells equal to the GDAL nodata value become NaN (our nodata mask), and the
+//! georeference comes from the pixel-scale + tiepoint tags or the transformation matrix.
+//! Cells may be rectangles; a geographic CRS keeps its degrees as frame units and is
+//! measured in metres from the latitude, Web Mercator from the northing
+//! (`GeoRef::cell_metres`); projected units in feet become metres. Rasters
 //! stored north-up (row 0 at the top) are flipped to our south-first rows.
 
 use std::io::Cursor;
@@ -17,7 +18,9 @@ use tiff::tags::{PlanarConfiguration, Tag};
 use crate::error::{Error, Result, read_input};
 use crate::grid::{GeoRef, Layer, Map};
 
+mod chunks;
 mod lerc;
+mod webp;
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
 const GT_MODEL_TYPE: u16 = 1024;
@@ -33,6 +36,8 @@ const PIXEL_IS_POINT: u16 = 2;
 const USER_DEFINED: u16 = 32767;
 const ANGULAR_DEGREE: u16 = 9102;
 const ANGULAR_RADIAN: u16 = 9101;
+/// Web Mercator's EPSG codes that fit a GeoKey: 3857 and its deprecated 3785.
+const WEB_MERCATOR: [u16; 2] = [3857, 3785];
 
 /// Metres per linear unit, for the EPSG unit codes rasters use.
 fn metres_per_linear_unit(code: u16) -> Option<f64> {
@@ -93,6 +98,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let values: Vec<f32> = if compression == LERC {
         lerc::read(&mut decoder, &bytes, width, height, planar)
             .map_err(|e| problem(format!("LERC (tag Compression = {compression}): {e}")))?
+    } else if compression == webp::WEBP {
+        webp::read(&mut decoder, &bytes, width, height, planar)
+            .map_err(|e| problem(format!("WebP (tag Compression = {compression}): {e}")))?
     } else {
         // Into a buffer of the file's sample type, every plane of a band-interleaved
         // file included (`read_image` would read only the first).
@@ -194,10 +202,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         ],
         frame,
         degrees: units.degrees,
+        web_mercator: !units.degrees
+            && key(PROJECTED_CRS).is_some_and(|code| WEB_MERCATOR.contains(&code)),
     };
     geo.validate().map_err(problem)?;
-    if geo.degrees {
-        let [_, south, _, north] = geo.bounds();
+    if let Some([south, north]) = geo.latitudes() {
         if south < -90.0 - 1e-6 || north > 90.0 + 1e-6 {
             return Err(problem(format!(
                 "the raster is in degrees but spans latitudes {south} to {north}"
@@ -206,11 +215,16 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         let variation = geo.scale_variation();
         if variation > 0.05 {
             tracing::warn!(
-                "{}: a geographic raster spanning latitudes {south:.2}° to {north:.2}°: \
+                "{}: a {} raster spanning latitudes {south:.2}° to {north:.2}°: \
                  steps, slopes and aspects are measured at each row's latitude, but blurs \
                  and distances at the middle latitude, and east-west lengths differ by up \
                  to {:.0} % at its edges; reproject it (gdalwarp) for exact neighbourhoods",
                 path.display(),
+                if geo.degrees {
+                    "geographic"
+                } else {
+                    "Web Mercator"
+                },
                 100.0 * variation
             );
         }
@@ -434,6 +448,12 @@ mod tests {
         assert_eq!((geo.width, geo.height), (1024, 1024));
         assert_eq!(geo.frame, "EPSG:3857");
         assert!((geo.resolution - 9.5546285343).abs() < 1e-9);
+        // Web Mercator metres are ground metres only on the equator: at 39.6° N a cell
+        // spans 9.555 · cos 39.6° ≈ 7.37 m (N·cos φ / A east, M·cos φ / A north).
+        assert!(geo.web_mercator);
+        let [east, north] = geo.cell_metres();
+        assert!((east - 7.371).abs() < 0.005, "{east}");
+        assert!((north - 7.342).abs() < 0.005, "{north}");
         // The tiepoint is the north-west corner; our origin is the south-west one.
         assert!((geo.origin[0] - -11858134.818413004).abs() < 1e-6);
         assert!((geo.origin[1] - (4813698.2926443005 - 1024.0 * 9.5546285343)).abs() < 1e-6);
@@ -519,6 +539,7 @@ mod tests {
             origin: [500.0, 1000.0],
             frame: "EPSG:32633".into(),
             degrees: false,
+            web_mercator: false,
         };
         let values = [1.0, 2.0, f32::NAN, 4.0, 5.0, 6.5];
         let path = dir.path().join("c.tif");
@@ -542,6 +563,12 @@ mod tests {
         let path = dir.path().join("g.tif");
         write_geotiff(&path, &geo, &[1.0; 6]).unwrap();
         assert_eq!(read_geotiff(&path, "g").unwrap().geo, geo);
+        let mercator = GeoRef {
+            web_mercator: true,
+            ..GeoRef::square(3, 2, 30.0, [-11_858_134.8, 4_803_914.4], "EPSG:3857")
+        };
+        write_geotiff(&path, &mercator, &[1.0; 6]).unwrap();
+        assert_eq!(read_geotiff(&path, "m").unwrap().geo, mercator);
     }
 
     #[test]

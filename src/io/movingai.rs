@@ -55,6 +55,7 @@ pub fn read_map(path: &Path) -> Result<Grid<f32>> {
         origin: [0.0, 0.0],
         frame: "movingai".into(),
         degrees: false,
+        web_mercator: false,
     };
     let mut grid = Grid::filled(geo, f32::INFINITY);
     for (y, (n, line)) in rows.iter().enumerate() {

@@ -96,6 +96,7 @@ pub fn read_nav2_map(path: &Path, name: &str) -> Result<Map> {
         origin: [x, y],
         frame: "map".into(),
         degrees: false,
+        web_mercator: false,
     };
     geo.validate().map_err(|e| Error::input(path, e))?;
     let (free, occupied) = (yaml.free_thresh, yaml.occupied_thresh);

@@ -767,6 +767,7 @@ mod tests {
             origin: [1.0, 2.0],
             frame: "odom".into(),
             degrees: false,
+            web_mercator: false,
         }
     }
 

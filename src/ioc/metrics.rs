@@ -128,6 +128,7 @@ mod tests {
             origin: [0.0, 0.0],
             frame: "m".into(),
             degrees: false,
+            web_mercator: false,
         };
         let costs = Grid::filled(geo, 1.0f32);
         let demo: Vec<Cell> = (0..8).map(|i| Cell::new(i, i)).collect();

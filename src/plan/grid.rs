@@ -605,6 +605,7 @@ mod tests {
         Square,
         Rectangles(f64),
         Degrees(f64),
+        WebMercator(f64),
     }
 
     fn grid(width: u32, height: u32, data: Vec<f32>) -> Grid<f32> {
@@ -673,13 +674,15 @@ mod tests {
                 prop::collection::vec(prop_oneof![4 => 0.1f32..10.0, 1 => Just(f32::INFINITY)], n),
                 0..n,
                 0..n,
-                // Square cells, rectangles either way round, or 10° cells in degrees
+                // Square cells, rectangles either way round, 10° cells in degrees
                 // from a southern edge (narrower towards the pole, each row its own
-                // lengths).
+                // lengths), or 1000 km Web Mercator cells from a southern northing
+                // (−15 000 km is about 80° S).
                 prop_oneof![
                     2 => Just(Frame::Square),
                     1 => (0.3f64..3.0).prop_map(Frame::Rectangles),
                     1 => (-80.0f64..10.0).prop_map(Frame::Degrees),
+                    1 => (-15e6f64..1e6).prop_map(Frame::WebMercator),
                 ],
             )
                 .prop_map(move |(data, s, t, frame)| {
@@ -690,6 +693,11 @@ mod tests {
                         Frame::Degrees(south) => {
                             g.geo.degrees = true;
                             g.geo.resolution = 10.0;
+                            g.geo.origin = [0.0, south];
+                        }
+                        Frame::WebMercator(south) => {
+                            g.geo.web_mercator = true;
+                            g.geo.resolution = 1e6;
                             g.geo.origin = [0.0, south];
                         }
                     }

@@ -27,7 +27,7 @@ impl StepLengths {
 
     /// The steps of a raster's cells, in units of its shortest step.
     pub fn of(geo: &GeoRef) -> Self {
-        if !geo.degrees {
+        if !geo.varies_by_row() {
             return StepLengths {
                 rows: Cow::Owned(vec![RowSteps::of_cells(geo.cell_metres())]),
             };
@@ -116,7 +116,7 @@ impl StepLengths {
     }
 }
 
-/// Metres on the ground per row of a geographic raster: each row's cell width and
+/// Metres on the ground per row of a geographic or Web Mercator raster: each row's cell width and
 /// height at its middle latitude, and the distance between neighbouring rows' centres.
 struct RowMetres {
     x: Vec<f64>,
@@ -131,9 +131,8 @@ impl RowMetres {
             .into_iter()
             .map(|[x, y]| (x, y))
             .unzip();
-        let sy = geo.cell_size()[1];
         let between = (1..geo.height)
-            .map(|r| sy * crate::grid::metres_per_degree(geo.latitude(f64::from(r)))[1])
+            .map(|r| geo.cell_metres_at(f64::from(r))[1])
             .collect();
         RowMetres { x, y, between }
     }
@@ -151,7 +150,7 @@ impl RowMetres {
 /// Metres in one unit of step length on `geo`: costs of routes times this are cost ×
 /// metres.
 pub fn unit_step_metres(geo: &GeoRef) -> f64 {
-    if geo.degrees {
+    if geo.varies_by_row() {
         RowMetres::of(geo).unit()
     } else {
         let [mx, my] = geo.cell_metres();

@@ -424,6 +424,7 @@ mod tests {
             origin: [0.0, 0.0],
             frame: "m".into(),
             degrees: false,
+            web_mercator: false,
         };
         Grid::from_vec(geo, values)
     }

@@ -106,6 +106,7 @@ mod tests {
             origin: [0.0, 0.0],
             frame: "m".into(),
             degrees: false,
+            web_mercator: false,
         };
         // Cost grows to the north.
         let costs = Grid::from_vec(

@@ -122,6 +122,7 @@ fn terrain(name: &str, config: &WorldConfig, rng: &mut ChaCha8Rng) -> Map {
         origin: [0.0, 0.0],
         frame: "map".into(),
         degrees: false,
+        web_mercator: false,
     };
     let height_field = fractal_noise(w, h, rng);
     let mut vegetation = fractal_noise(w, h, rng);

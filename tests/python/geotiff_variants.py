@@ -77,6 +77,43 @@ def variants(source, path, jpeg=False):
           MAX_Z_ERROR=0, tiled=True, blockxsize=256, blockysize=256)
 
 
+# 8-bit RGB and RGBA images from the SPOT band (GDAL writes WebP for these only): the
+# lossless WebP variants must read to the same samples, the lossy one is compared with
+# what GDAL decodes from it. The alpha band is half-opaque on a block and opaque
+# elsewhere (libwebp may rewrite the colour of fully transparent pixels).
+def webp_variants(source, data, profile):
+    profile = dict(profile, driver="GTiff", count=data.shape[0], dtype="uint8",
+                   interleave="pixel")
+    for key in ("compress", "predictor", "tiled", "blockxsize", "blockysize", "photometric",
+                "nodata"):
+        profile.pop(key, None)
+    base = f"{source}--"
+    write(base + "none", source, profile, data)
+    write(base + "webp-lossless", source, profile, data, compress="webp",
+          WEBP_LOSSLESS=True, tiled=True, blockxsize=256, blockysize=256)
+    write(base + "webp-lossless-strips", source, profile, data, compress="webp",
+          WEBP_LOSSLESS=True, blockysize=64)
+    cog = dict(profile, driver="COG")
+    write(base + "cog-webp-lossless", source, cog, data, compress="webp",
+          QUALITY=100, BLOCKSIZE=256, OVERVIEWS="AUTO")
+    write(base + "webp", source, profile, data, lossless=False, compress="webp",
+          WEBP_LEVEL=80, tiled=True, blockxsize=256, blockysize=256)
+    with rasterio.open(os.path.join(out, base + "webp.tif")) as src:
+        decoded = src.read()
+    with rasterio.open(os.path.join(out, f"gdal-decoded--{source}-webp.tif"), "w",
+                       **profile) as dst:
+        dst.write(decoded)
+
+
+with rasterio.open(os.path.join(src_dir, "osgeo_spot_chicago_utm.tif")) as src:
+    grey = src.read(1)
+    spot_profile = src.profile.copy()
+rgb = np.stack([grey, 255 - grey, grey // 2 + 60]).astype("uint8")
+webp_variants("rgb8", rgb, spot_profile)
+alpha = np.full_like(grey, 255)
+alpha[100:300, 200:500] = 128
+webp_variants("rgba8", np.concatenate([rgb, alpha[None]]), spot_profile)
+
 variants("aerial", os.path.join(src_dir, "rasterio_RGBA.uint16.tif"))
 variants("spot", os.path.join(src_dir, "osgeo_spot_chicago_utm.tif"), jpeg=True)
 
@@ -99,3 +136,31 @@ write("bad--rotated", "bad", rotated, data)
 empty = dict(profile)
 empty.update(nodata=0)
 write("bad--all-nodata", "bad", empty, np.zeros_like(data))
+# LZMA: GDAL writes it, no decoder here reads it.
+write("bad--lzma", "bad", profile, data, compress="lzma")
+
+# A DEM in UTM zone 10N (EPSG:32610) on its central meridian at 60° N, a plane rising
+# 0.2 m per metre north and 0.1 east (slope atan √0.05 = 12.6°), and GDAL's warp of it
+# into Web Mercator (EPSG:3857), whose "metres" span about cos 60° = 0.5 ground metres
+# there: read in ground metres, both give the same slope.
+from rasterio.warp import Resampling, calculate_default_transform, reproject
+
+cells, size, west, south = 200, 30.0, 497000.0, 6650000.0
+rows = np.arange(cells)[:, None]
+cols = np.arange(cells)[None, :]
+north = (cells - 1 - rows + 0.5) * size
+east = (cols + 0.5) * size
+plane = (0.2 * north + 0.1 * east + 100.0).astype(np.float32)
+utm = dict(driver="GTiff", width=cells, height=cells, count=1, dtype="float32",
+           crs="EPSG:32610", nodata=-9999.0,
+           transform=Affine(size, 0.0, west, 0.0, -size, south + cells * size))
+write("units--utm-plane", "units", utm, plane[None])
+bounds = (west, south, west + cells * size, south + cells * size)
+transform, width, height = calculate_default_transform(
+    "EPSG:32610", "EPSG:3857", cells, cells, *bounds)
+warped = np.full((height, width), -9999.0, dtype=np.float32)
+reproject(plane, warped, src_transform=utm["transform"], src_crs="EPSG:32610",
+          src_nodata=-9999.0, dst_transform=transform, dst_crs="EPSG:3857",
+          dst_nodata=-9999.0, resampling=Resampling.bilinear)
+mercator = dict(utm, crs="EPSG:3857", transform=transform, width=width, height=height)
+write("units--web-mercator-plane", "units", mercator, warped[None])

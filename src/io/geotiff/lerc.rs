@@ -8,18 +8,11 @@ use std::io::{Read, Seek};
 use tiff::decoder::Decoder;
 use tiff::tags::{PlanarConfiguration, Tag};
 
+use super::chunks::Layout;
+
 /// GDAL's LercParameters tag: [LERC version, additional compression (0 none, 1
 /// Deflate, 2 ZSTD)].
 const LERC_PARAMETERS: u16 = 50674;
-
-/// One strip or tile: where it lies in the file and in the image.
-struct Chunk {
-    offset: u64,
-    length: u64,
-    plane: usize,
-    row0: usize,
-    col0: usize,
-}
 
 /// The image's samples as `f32`, laid out as the `tiff` crate lays them out (pixel-
 /// interleaved, or band after band when `planar`).
@@ -30,123 +23,43 @@ pub(super) fn read<R: Read + Seek>(
     height: u32,
     planar: PlanarConfiguration,
 ) -> Result<Vec<f32>, String> {
-    let e = |e: tiff::TiffError| e.to_string();
-    let (w, h) = (width as usize, height as usize);
-    let samples = decoder
-        .find_tag_unsigned::<u16>(Tag::SamplesPerPixel)
-        .map_err(e)?
-        .unwrap_or(1) as usize;
-    let planes = if planar == PlanarConfiguration::Planar {
-        samples
-    } else {
-        1
-    };
-    let depth = samples / planes;
+    let layout = Layout::of(decoder, width, height, planar)?;
     let extra = decoder
         .find_tag_unsigned_vec::<u32>(Tag::Unknown(LERC_PARAMETERS))
-        .map_err(e)?
+        .map_err(|e| e.to_string())?
         .and_then(|p| p.get(1).copied())
         .unwrap_or(0);
-    let u64s = |decoder: &mut Decoder<R>, tag: Tag| -> Result<Vec<u64>, String> {
-        decoder
-            .find_tag_unsigned_vec::<u64>(tag)
-            .map_err(e)?
-            .ok_or_else(|| format!("tag {tag:?} is missing"))
-    };
-    let tile_width = decoder
-        .find_tag_unsigned::<u32>(Tag::TileWidth)
-        .map_err(e)?;
-    let (chunk_width, chunk_height, offsets, lengths) = match tile_width {
-        Some(tw) => {
-            let th = decoder
-                .find_tag_unsigned::<u32>(Tag::TileLength)
-                .map_err(e)?
-                .ok_or("tag TileLength is missing")?;
-            (
-                tw as usize,
-                th as usize,
-                u64s(decoder, Tag::TileOffsets)?,
-                u64s(decoder, Tag::TileByteCounts)?,
-            )
-        }
-        None => {
-            let rows = decoder
-                .find_tag_unsigned::<u32>(Tag::RowsPerStrip)
-                .map_err(e)?
-                .map_or(h, |r| (r as usize).min(h));
-            (
-                w,
-                rows,
-                u64s(decoder, Tag::StripOffsets)?,
-                u64s(decoder, Tag::StripByteCounts)?,
-            )
-        }
-    };
-    if chunk_width == 0 || chunk_height == 0 {
-        return Err("strips or tiles of zero size".into());
-    }
-    let (across, down) = (w.div_ceil(chunk_width), h.div_ceil(chunk_height));
-    let expected = across * down * planes;
-    if offsets.len() != expected || lengths.len() != expected {
-        return Err(format!(
-            "{} offsets and {} byte counts for {expected} strips or tiles",
-            offsets.len(),
-            lengths.len()
-        ));
-    }
-    let chunks = (0..expected).map(|i| Chunk {
-        offset: offsets[i],
-        length: lengths[i],
-        plane: i / (across * down),
-        row0: (i % (across * down)) / across * chunk_height,
-        col0: i % across * chunk_width,
-    });
-    let cells = w * h;
-    let mut values = vec![0f32; cells * samples];
-    for (index, chunk) in chunks.enumerate() {
-        let raw = usize::try_from(chunk.offset)
-            .ok()
-            .zip(usize::try_from(chunk.length).ok())
-            .and_then(|(start, len)| file.get(start..start.checked_add(len)?))
-            .ok_or_else(|| format!("strip or tile {index} lies beyond the end of the file"))?;
-        let blob = unwrap(raw, extra).map_err(|m| format!("strip or tile {index}: {m}"))?;
-        let decoded = lerc_reader::decode_first_to_f64(&blob)
-            .map_err(|m| format!("strip or tile {index}: {m}"))?;
+    let depth = layout.depth();
+    let mut values = layout.buffer();
+    for (index, chunk) in layout.chunks(file).enumerate() {
+        let chunk = chunk?;
+        let in_chunk = |m: String| format!("strip or tile {index}: {m}");
+        let blob = unwrap(chunk.bytes, extra).map_err(in_chunk)?;
+        let decoded =
+            lerc_reader::decode_first_to_f64(&blob).map_err(|e| in_chunk(e.to_string()))?;
         let info = &decoded.info;
         let (bw, bh) = (info.width as usize, info.height as usize);
         if decoded.pixels.len() < bw * bh * depth
             || decoded.mask.as_ref().is_some_and(|m| m.len() < bw * bh)
         {
-            return Err(format!(
-                "strip or tile {index}: the blob holds fewer samples than it declares"
+            return Err(in_chunk(
+                "the blob holds fewer samples than it declares".into(),
             ));
         }
-        if info.depth as usize != depth || bw < (w - chunk.col0).min(chunk_width) {
-            return Err(format!(
-                "strip or tile {index} holds {bw}×{bh}×{} samples, not {chunk_width} wide × {depth}",
+        if info.depth as usize != depth {
+            return Err(in_chunk(format!(
+                "it holds {} samples per pixel, not {depth}",
                 info.depth
-            ));
+            )));
         }
-        for r in 0..bh.min(h.saturating_sub(chunk.row0)) {
-            for c in 0..bw.min(w - chunk.col0) {
-                let pixel = r * bw + c;
-                let valid = decoded.mask.as_ref().is_none_or(|m| m[pixel] != 0);
-                let (row, col) = (chunk.row0 + r, chunk.col0 + c);
-                for d in 0..depth {
-                    let v = if valid {
-                        decoded.pixels[pixel * depth + d] as f32
-                    } else {
-                        f32::NAN
-                    };
-                    let at = if planes > 1 {
-                        chunk.plane * cells + row * w + col
-                    } else {
-                        (row * w + col) * samples + d
-                    };
-                    values[at] = v;
-                }
+        layout.check_decoded(&chunk, bw, bh).map_err(in_chunk)?;
+        layout.place(&mut values, &chunk, bw, bh, |pixel, d| {
+            if decoded.mask.as_ref().is_none_or(|m| m[pixel] != 0) {
+                decoded.pixels[pixel * depth + d] as f32
+            } else {
+                f32::NAN
             }
-        }
+        });
     }
     Ok(values)
 }

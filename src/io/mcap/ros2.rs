@@ -579,6 +579,7 @@ fn occupancy_map(message: &Value, name: &str) -> Result<Map, String> {
         origin: [number(origin, "position.x")?, number(origin, "position.y")?],
         frame: text(message, "header.frame_id")?.to_string(),
         degrees: false,
+        web_mercator: false,
     })?;
     let data = field(message, "data")?;
     let values: Vec<f32> = match data {
@@ -642,6 +643,7 @@ fn grid_map_map(message: &Value, name: &str) -> Result<Map, String> {
         ],
         frame: text(message, "header.frame_id")?.to_string(),
         degrees: false,
+        web_mercator: false,
     })?;
     let names = field(message, "layers")?
         .as_list()
@@ -737,6 +739,7 @@ fn foxglove_grid_map(message: &Value, name: &str) -> Result<Map, String> {
         origin: [number(pose, "position.x")?, number(pose, "position.y")?],
         frame: text(message, "frame_id")?.to_string(),
         degrees: false,
+        web_mercator: false,
     })?;
     if (width as usize) * cell_stride > row_stride {
         return Err(format!(
@@ -852,6 +855,7 @@ mod tests {
             origin: [10.0, -2.0],
             frame: "map".into(),
             degrees: false,
+            web_mercator: false,
         };
         let layer = |k: f32| Layer {
             name: format!("l{k}"),
