@@ -183,6 +183,26 @@ fn web_mercator_cells_are_measured_on_the_ground() {
 }
 
 #[test]
+fn gdal_scales_and_offsets_give_physical_values() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    // The plane in metres, and stored as int16 decimetres above 100 m with GDAL's
+    // scale 0.1 and offset 100: the same metres (to the stored rounding) and slopes.
+    let metres = read_geotiff(&dir.path().join("units--utm-plane.tif"), "m").unwrap();
+    let stored = read_geotiff(&dir.path().join("units--utm-plane-decimetres.tif"), "m").unwrap();
+    let (a, b) = (&metres.layers[0].values, &stored.layers[0].values);
+    let largest = a
+        .iter()
+        .zip(b)
+        .map(|(p, q)| (p - q).abs())
+        .fold(0.0, f32::max);
+    assert!(largest <= 0.051, "largest difference {largest} m");
+    assert!((median_slope(&metres, 2) - median_slope(&stored, 2)).abs() < 0.01);
+}
+
+#[test]
 fn rasters_that_cannot_be_used_are_refused_by_name() {
     let dir = tempfile::tempdir().unwrap();
     if write_variants(dir.path()).is_none() {

@@ -2,7 +2,8 @@
 //! or tiles, BigTIFF, cloud-optimised files (the full-resolution first image), pixel- or
 //! band-interleaved, uncompressed or LZW, Deflate (with either predictor), PackBits,
 //! ZSTD, JPEG, LERC (`lerc`) or WebP (`webp`). Every band becomes a layer (`band1`, ...),
-//! cells equal to the GDAL nodata value become NaN (our nodata mask), and the
+//! cells equal to the GDAL nodata value become NaN (our nodata mask), the others are
+//! scaled and offset as GDAL's metadata says (`metadata`), and the
 //! georeference comes from the pixel-scale + tiepoint tags or the transformation matrix.
 //! Cells may be rectangles; a geographic CRS keeps its degrees as frame units and is
 //! measured in metres from the latitude, Web Mercator from the northing
@@ -20,6 +21,7 @@ use crate::grid::{GeoRef, Layer, Map};
 
 mod chunks;
 mod lerc;
+mod metadata;
 mod webp;
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
@@ -240,6 +242,22 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         Some(n) => f64::from(v) == n,
         None => false,
     };
+    // Stored values times GDAL's per-band scale, plus its offset, are the physical ones.
+    let scaling = match decoder
+        .find_tag(Tag::Unknown(metadata::GDAL_METADATA))
+        .map_err(tiff_error)?
+        .and_then(|v| v.into_string().ok())
+    {
+        Some(xml) => {
+            metadata::scales_and_offsets(xml.trim_end_matches('\0'), bands).map_err(|e| {
+                problem(format!(
+                    "tag GDAL_METADATA ({}): {e}",
+                    metadata::GDAL_METADATA
+                ))
+            })?
+        }
+        None => vec![(1.0, 0.0); bands],
+    };
     // Where sample `band` of the file's row `row`, column `col` lies in `values`.
     let sample = |band: usize, row: usize, col: usize| match planar {
         PlanarConfiguration::Planar => band * cells + row * width as usize + col,
@@ -248,6 +266,14 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let layers: Vec<Layer> = (0..bands)
         .map(|band| {
             let mut layer = vec![0f32; cells];
+            let (scale, offset) = scaling[band];
+            let physical = |v: f32| {
+                if (scale, offset) == (1.0, 0.0) {
+                    v
+                } else {
+                    (f64::from(v) * scale + offset) as f32
+                }
+            };
             for row in 0..height as usize {
                 let source_row = if north_up {
                     height as usize - 1 - row
@@ -256,7 +282,8 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                 };
                 for col in 0..width as usize {
                     let v = values[sample(band, source_row, col)];
-                    layer[row * width as usize + col] = if is_nodata(v) { f32::NAN } else { v };
+                    layer[row * width as usize + col] =
+                        if is_nodata(v) { f32::NAN } else { physical(v) };
                 }
             }
             Layer {

@@ -164,3 +164,13 @@ reproject(plane, warped, src_transform=utm["transform"], src_crs="EPSG:32610",
           dst_nodata=-9999.0, resampling=Resampling.bilinear)
 mercator = dict(utm, crs="EPSG:3857", transform=transform, width=width, height=height)
 write("units--web-mercator-plane", "units", mercator, warped[None])
+
+# The same plane stored as int16 decimetres above 100 m, with GDAL's scale 0.1 and
+# offset 100 in its metadata: read as metres once scaled.
+decimetres = dict(utm, dtype="int16", nodata=-32768)
+path = os.path.join(out, "units--utm-plane-decimetres.tif")
+with rasterio.open(path, "w", **decimetres) as dst:
+    dst.write(np.round((plane - 100.0) * 10.0).astype("int16")[None])
+    dst.scales = (0.1,)
+    dst.offsets = (100.0,)
+print(json.dumps({"name": "units--utm-plane-decimetres", "source": "units", "lossless": True}))
