@@ -133,6 +133,19 @@ fn projected_units_in_feet_become_metres() {
     assert!((feet.geo.origin[0] - spot.geo.origin[0] * foot).abs() < 1e-6);
 }
 
+#[test]
+fn rotation_terms_of_float_noise_are_not_a_rotation() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    // 1e-13 m per cell on 10 m cells (the SPOT image's grid, a ModelTransformation).
+    let noise = read_geotiff(&dir.path().join("units--rotation-noise.tif"), "m").unwrap();
+    let spot = read_geotiff(&dir.path().join("spot--none.tif"), "m").unwrap();
+    assert_eq!(noise.geo, spot.geo);
+    assert!(same_values(&noise, &spot));
+}
+
 /// The median slope (degrees) over the cells of `map` at least `margin` cells inside its
 /// edges (GDAL's warp leaves a resampled border).
 fn median_slope(map: &Map, margin: usize) -> f64 {

@@ -168,7 +168,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
 
     // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform).
     let [a, b, c, d, e, f] = geotransform(&mut decoder).map_err(problem)?;
-    if b != 0.0 || d != 0.0 {
+    // Rotation terms below a billionth of a cell are the writer's float noise (a
+    // ModelTransformation computed in floating point): over a million rows they shift
+    // the raster by a thousandth of a cell.
+    let noise = 1e-9 * a.abs().min(e.abs());
+    if b.abs() > noise || d.abs() > noise {
         return Err(problem(format!(
             "the raster is rotated (geotransform row/column terms {b}, {d}); only \
              axis-aligned rasters are supported: warp it first (gdalwarp)"

@@ -125,6 +125,12 @@ with rasterio.open(os.path.join(src_dir, "osgeo_spot_chicago_utm.tif")) as src:
 feet = dict(profile)
 feet.update(crs="EPSG:2263", compress="lzw")
 write("units--us-feet", "units", feet, data)
+# Rotation terms of float noise (a transformation computed in floating point): the
+# same grid as the SPOT image, not a rotated raster.
+noise = dict(profile)
+t = profile["transform"]
+noise["transform"] = Affine(t.a, 1e-13, t.c, -1e-13, t.e, t.f)
+write("units--rotation-noise", "units", noise, data)
 
 # Rasters the reader must refuse, each for one reason.
 with rasterio.open(os.path.join(src_dir, "osgeo_spot_chicago_utm.tif")) as src:
