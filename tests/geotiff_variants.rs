@@ -195,24 +195,39 @@ fn web_mercator_cells_are_measured_on_the_ground() {
     );
 }
 
-#[test]
-fn gdal_scales_and_offsets_give_physical_values() {
+/// Reads the UTM plane in metres and `name`, the same plane stored another way, and
+/// checks that they hold the same heights (within `tolerance` metres) and slopes.
+fn reads_to_the_plane_in_metres(name: &str, tolerance: f32) {
     let dir = tempfile::tempdir().unwrap();
     if write_variants(dir.path()).is_none() {
         return;
     }
-    // The plane in metres, and stored as int16 decimetres above 100 m with GDAL's
-    // scale 0.1 and offset 100: the same metres (to the stored rounding) and slopes.
     let metres = read_geotiff(&dir.path().join("units--utm-plane.tif"), "m").unwrap();
-    let stored = read_geotiff(&dir.path().join("units--utm-plane-decimetres.tif"), "m").unwrap();
-    let (a, b) = (&metres.layers[0].values, &stored.layers[0].values);
+    let other = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+    let (a, b) = (&metres.layers[0].values, &other.layers[0].values);
     let largest = a
         .iter()
         .zip(b)
         .map(|(p, q)| (p - q).abs())
         .fold(0.0, f32::max);
-    assert!(largest <= 0.051, "largest difference {largest} m");
-    assert!((median_slope(&metres, 2) - median_slope(&stored, 2)).abs() < 0.01);
+    assert!(
+        largest <= tolerance,
+        "{name}: largest difference {largest} m"
+    );
+    assert!((median_slope(&metres, 2) - median_slope(&other, 2)).abs() < 0.01);
+}
+
+#[test]
+fn gdal_scales_and_offsets_give_physical_values() {
+    // Stored as int16 decimetres above 100 m with GDAL's scale 0.1 and offset 100: the
+    // same metres to the stored rounding.
+    reads_to_the_plane_in_metres("units--utm-plane-decimetres", 0.051);
+}
+
+#[test]
+fn heights_in_feet_become_metres() {
+    // Heights in US survey feet, CRS EPSG:32610+6360 (NAVD88 height, ftUS).
+    reads_to_the_plane_in_metres("units--utm-plane-feet-navd88", 0.001);
 }
 
 #[test]

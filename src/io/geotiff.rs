@@ -7,7 +7,7 @@
 //! georeference comes from the pixel-scale + tiepoint tags or the transformation matrix.
 //! Cells may be rectangles; a geographic CRS keeps its degrees as frame units and is
 //! measured in metres from the latitude, Web Mercator from the northing
-//! (`GeoRef::cell_metres`); projected units in feet become metres. Rasters
+//! (`GeoRef::cell_metres`); projected units and heights in feet become metres. Rasters
 //! stored north-up (row 0 at the top) are flipped to our south-first rows.
 
 use std::io::Cursor;
@@ -40,6 +40,36 @@ const ANGULAR_DEGREE: u16 = 9102;
 const ANGULAR_RADIAN: u16 = 9101;
 /// Web Mercator's EPSG codes that fit a GeoKey: 3857 and its deprecated 3785.
 const WEB_MERCATOR: [u16; 2] = [3857, 3785];
+const VERTICAL_CRS: u16 = 4096;
+const VERTICAL_UNITS: u16 = 4099;
+
+/// Metres per unit of height, for the vertical CRSs (EPSG) that US elevation data
+/// comes in feet with: NAVD88 and NGVD29 heights in US survey feet, NAVD88 in feet.
+/// GDAL writes the vertical CRS of a compound CRS (EPSG:2263+6360) but not its units.
+fn metres_per_height_unit(vertical_crs: u16) -> Option<f64> {
+    match vertical_crs {
+        6360 | 5702 => metres_per_linear_unit(9003),
+        8228 => metres_per_linear_unit(9002),
+        _ => None,
+    }
+}
+
+/// Metres per unit of the raster's values where its GeoKeys give them a vertical CRS
+/// (its values are heights): from VerticalUnits, else from the vertical CRS; 1 where
+/// neither says feet (or there is none).
+fn height_scale(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<f64, String> {
+    match key(VERTICAL_UNITS) {
+        Some(code) => metres_per_linear_unit(code).ok_or_else(|| {
+            format!(
+                "the vertical unit {code} (GeoKey VerticalUnits) cannot be measured in \
+                 metres"
+            )
+        }),
+        None => Ok(key(VERTICAL_CRS)
+            .and_then(metres_per_height_unit)
+            .unwrap_or(1.0)),
+    }
+}
 
 /// Metres per linear unit, for the EPSG unit codes rasters use.
 fn metres_per_linear_unit(code: u16) -> Option<f64> {
@@ -165,6 +195,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         .filter(|&code| code != 0 && code != USER_DEFINED)
         .map_or_else(|| "map".to_string(), |code| format!("EPSG:{code}"));
     let units = crs_units(&key).map_err(problem)?;
+    let heights = height_scale(&key).map_err(problem)?;
 
     // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform).
     let [a, b, c, d, e, f] = geotransform(&mut decoder).map_err(problem)?;
@@ -246,7 +277,8 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         Some(n) => f64::from(v) == n,
         None => false,
     };
-    // Stored values times GDAL's per-band scale, plus its offset, are the physical ones.
+    // Stored values times GDAL's per-band scale, plus its offset, are the physical ones;
+    // heights in feet then become metres.
     let scaling = match decoder
         .find_tag(Tag::Unknown(metadata::GDAL_METADATA))
         .map_err(tiff_error)?
@@ -272,10 +304,10 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             let mut layer = vec![0f32; cells];
             let (scale, offset) = scaling[band];
             let physical = |v: f32| {
-                if (scale, offset) == (1.0, 0.0) {
+                if (scale, offset, heights) == (1.0, 0.0, 1.0) {
                     v
                 } else {
-                    (f64::from(v) * scale + offset) as f32
+                    ((f64::from(v) * scale + offset) * heights) as f32
                 }
             };
             for row in 0..height as usize {
@@ -535,11 +567,27 @@ mod tests {
         assert!(geo.scale_variation() > 0.05, "it spans many latitudes");
     }
 
+    /// GeoKeys as the reader looks them up, from (id, value) pairs.
+    fn keys(pairs: &'static [(u16, u16)]) -> impl Fn(u16) -> Option<u16> {
+        move |id| pairs.iter().find(|(k, _)| *k == id).map(|(_, v)| *v)
+    }
+
+    #[test]
+    fn heights_in_feet_are_known_by_their_vertical_crs_or_units() {
+        let us_foot = 1200.0 / 3937.0;
+        // EPSG:2263+6360 as GDAL writes it: NAVD88 height (ftUS), no VerticalUnits.
+        let navd88_feet = height_scale(&keys(&[(3072, 2263), (4096, 6360)])).unwrap();
+        assert!((navd88_feet - us_foot).abs() < 1e-12);
+        assert_eq!(height_scale(&keys(&[(4096, 5703)])).unwrap(), 1.0); // NAVD88 (m)
+        assert_eq!(height_scale(&keys(&[(4096, 8228)])).unwrap(), 0.3048);
+        assert_eq!(height_scale(&keys(&[(4099, 9002)])).unwrap(), 0.3048);
+        assert_eq!(height_scale(&keys(&[(3072, 32616)])).unwrap(), 1.0);
+        let odd = height_scale(&keys(&[(4099, 9005)])).unwrap_err();
+        assert!(odd.contains("VerticalUnits"), "{odd}");
+    }
+
     #[test]
     fn crs_units_are_metres_feet_or_degrees_and_nothing_else() {
-        let keys = |pairs: &'static [(u16, u16)]| {
-            move |id: u16| pairs.iter().find(|(k, _)| *k == id).map(|(_, v)| *v)
-        };
         let projected_feet = crs_units(&keys(&[(1024, 1), (3072, 2263), (3076, 9003)])).unwrap();
         assert!((projected_feet.scale - 0.3048006).abs() < 1e-6 && !projected_feet.degrees);
         assert!(

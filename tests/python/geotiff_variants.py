@@ -180,3 +180,13 @@ with rasterio.open(path, "w", **decimetres) as dst:
     dst.scales = (0.1,)
     dst.offsets = (100.0,)
 print(json.dumps({"name": "units--utm-plane-decimetres", "source": "units", "lossless": True}))
+
+# The plane's heights in US survey feet under a compound CRS (UTM 10N + NAVD88 height
+# (ftUS), as US LiDAR DEMs come): GDAL records the vertical CRS, and the heights read
+# as metres.
+from rasterio.crs import CRS
+
+us_foot = 1200.0 / 3937.0
+feet_heights = dict(utm, crs=CRS.from_string("EPSG:32610+6360"))
+write("units--utm-plane-feet-navd88", "units", feet_heights,
+      (plane / us_foot).astype(np.float32)[None])
