@@ -42,6 +42,9 @@ impl Layout {
             .find_tag_unsigned::<u16>(Tag::SamplesPerPixel)
             .map_err(e)?
             .unwrap_or(1) as usize;
+        if samples == 0 {
+            return Err("tag SamplesPerPixel is 0".into());
+        }
         let planes = if planar == PlanarConfiguration::Planar {
             samples
         } else {
