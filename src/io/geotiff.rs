@@ -1,9 +1,12 @@
 //! GeoTIFF map layers through the `tiff` crate, as GDAL and rasterio write them: strips
 //! or tiles, BigTIFF, cloud-optimised files (the full-resolution first image), pixel- or
-//! band-interleaved, uncompressed or LZW, Deflate (with either predictor), PackBits,
-//! ZSTD, JPEG, LERC (`lerc`) or WebP (`webp`). Every band becomes a layer (`band1`, ...),
-//! cells equal to the GDAL nodata value become NaN (our nodata mask), the others are
-//! scaled and offset as GDAL's metadata says (`metadata`), and the
+//! band-interleaved, either byte order, uncompressed or Deflate (with either
+//! predictor), PackBits, ZSTD or JPEG (`samples`, YCbCr converted to RGB), LZW and LZMA
+//! (`unpack`), LERC (`lerc`) or WebP (`webp`). Every band becomes a layer (`band1`,
+//! ...); cells GDAL reads as nodata become NaN (our nodata mask): equal to the GDAL
+//! nodata value in the band's type, empty in GDAL's internal mask (`mask`), or in a
+//! tile a sparse file leaves out. The others are scaled and offset as GDAL's metadata
+//! says (`metadata`); palette images read as their class codes (`grey`). The
 //! georeference comes from the pixel-scale + tiepoint tags or the transformation matrix.
 //! Cells may be rectangles; a geographic CRS keeps its degrees as frame units and is
 //! measured in metres from the latitude, Web Mercator from the northing
@@ -13,15 +16,19 @@
 use std::io::Cursor;
 use std::path::Path;
 
-use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
 use crate::error::{Error, Result, read_input};
 use crate::grid::{GeoRef, Layer, Map};
 
 mod chunks;
+mod grey;
 mod lerc;
+mod mask;
 mod metadata;
+mod samples;
+mod unpack;
 mod webp;
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
@@ -106,7 +113,13 @@ const MAX_DECODED_BYTES: usize = 16 << 30;
 
 /// Reads the GeoTIFF at `path` as the map `name`.
 pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
-    let bytes = read_input(path)?;
+    let mut bytes = read_input(path)?;
+    if grey::relabel_grey(&mut bytes) {
+        tracing::debug!(
+            "{}: a palette image: its layers hold the class codes",
+            path.display()
+        );
+    }
     let problem = |message: String| Error::input(path, message);
     let tiff_error = |e: tiff::TiffError| problem(format!("not a readable TIFF: {e}"));
     let mut limits = Limits::default();
@@ -127,38 +140,54 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         .map_err(tiff_error)?
         .and_then(PlanarConfiguration::from_u16)
         .unwrap_or(PlanarConfiguration::Chunky);
+    // SAR images come as complex integers or floats (SampleFormat 5, 6).
+    if let Some(format @ (5 | 6)) = decoder
+        .find_tag_unsigned_vec::<u16>(Tag::SampleFormat)
+        .map_err(tiff_error)?
+        .and_then(|f| f.first().copied())
+    {
+        return Err(problem(format!(
+            "complex samples (tag SampleFormat = {format}) are not a map layer: write \
+             their magnitude or power as a real band first (gdal_calc.py, rasterio)"
+        )));
+    }
+    let nodata = decoder
+        .find_tag(Tag::GdalNodata)
+        .map_err(tiff_error)?
+        .and_then(|v| v.into_string().ok())
+        .and_then(|s| s.trim_end_matches('\0').trim().parse::<f64>().ok());
+    // GDAL compares in the band's type: the "-3.40282346639e+38" that GDAL and ArcGIS
+    // write for a float32 DEM's nodata (f32::MIN to 12 digits) is not f32::MIN as a
+    // double. Our samples are f32, and integers and doubles round to f32 as it does.
+    let nodata_sample = nodata.map(|n| n as f32);
+    // Strips or tiles a sparse file leaves out read as the nodata value (GDAL's rule).
+    let image = chunks::Image {
+        file: &bytes,
+        width,
+        height,
+        planar,
+        fill: nodata_sample.unwrap_or(0.0),
+    };
     let values: Vec<f32> = if compression == LERC {
-        lerc::read(&mut decoder, &bytes, width, height, planar)
+        lerc::read(&mut decoder, &image)
             .map_err(|e| problem(format!("LERC (tag Compression = {compression}): {e}")))?
     } else if compression == webp::WEBP {
-        webp::read(&mut decoder, &bytes, width, height, planar)
+        webp::read(&mut decoder, &image)
             .map_err(|e| problem(format!("WebP (tag Compression = {compression}): {e}")))?
+    } else if compression == unpack::LZW || compression == unpack::LZMA {
+        unpack::read(&mut decoder, &image, compression).map_err(|e| {
+            problem(format!(
+                "{} (tag Compression = {compression}): {e}",
+                compression_name(compression)
+            ))
+        })?
     } else {
-        // Into a buffer of the file's sample type, every plane of a band-interleaved
-        // file included (`read_image` would read only the first).
-        let mut image = DecodingResult::U8(Vec::new());
-        decoder
-            .read_image_to_buffer(&mut image)
-            .map_err(|e| match e {
-                tiff::TiffError::UnsupportedError(_) => problem(format!(
-                    "the image cannot be decoded (tag Compression = {compression}, {}): {e}",
-                    compression_name(compression)
-                )),
-                e => tiff_error(e),
-            })?;
-        match image {
-            DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
-            DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
-            DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
-            DecodingResult::U64(v) => v.into_iter().map(|x| x as f32).collect(),
-            DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
-            DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
-            DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
-            DecodingResult::I64(v) => v.into_iter().map(|x| x as f32).collect(),
-            DecodingResult::F16(v) => v.into_iter().map(f32::from).collect(),
-            DecodingResult::F32(v) => v,
-            DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
-        }
+        samples::read(&mut decoder, &image).map_err(|e| {
+            problem(format!(
+                "the image cannot be decoded (tag Compression = {compression}, {}): {e}",
+                compression_name(compression)
+            ))
+        })?
     };
     let cells = width as usize * height as usize;
     if cells == 0 || !values.len().is_multiple_of(cells) {
@@ -267,14 +296,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         }
     }
 
-    let nodata = decoder
-        .find_tag(Tag::GdalNodata)
-        .map_err(tiff_error)?
-        .and_then(|v| v.into_string().ok())
-        .and_then(|s| s.trim_end_matches('\0').trim().parse::<f64>().ok());
-    let is_nodata = |v: f32| match nodata {
+    let is_nodata = |v: f32| match nodata_sample {
         Some(n) if n.is_nan() => v.is_nan(),
-        Some(n) => f64::from(v) == n,
+        Some(n) => v == n,
         None => false,
     };
     // Stored values times GDAL's per-band scale, plus its offset, are the physical ones;
@@ -293,6 +317,13 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             })?
         }
         None => vec![(1.0, 0.0); bands],
+    };
+    // Cells GDAL's internal mask marks empty are nodata too (read last: it is a later
+    // image of the file).
+    let mask = mask::read(&mut decoder, &image).map_err(problem)?;
+    let is_masked = |row: usize, col: usize| {
+        mask.as_ref()
+            .is_some_and(|m| !m[row * width as usize + col])
     };
     // Where sample `band` of the file's row `row`, column `col` lies in `values`.
     let sample = |band: usize, row: usize, col: usize| match planar {
@@ -319,7 +350,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                 for col in 0..width as usize {
                     let v = values[sample(band, source_row, col)];
                     layer[row * width as usize + col] =
-                        if is_nodata(v) { f32::NAN } else { physical(v) };
+                        if is_nodata(v) || is_masked(source_row, col) {
+                            f32::NAN
+                        } else {
+                            physical(v)
+                        };
                 }
             }
             Layer {

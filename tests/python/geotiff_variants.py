@@ -4,8 +4,8 @@
     geotiff_variants.py SHARED_RASTER_DIR OUT_DIR
 
 For each source raster, every layout and compression GDAL users pick (strips, tiles,
-BigTIFF, COG, band interleave; none, LZW, Deflate with predictors, PackBits, ZSTD, LERC,
-JPEG for 8-bit imagery) as `<source>--<variant>.tif`, plus rasters that must be refused
+BigTIFF, COG, band interleave, big-endian; none, LZW, Deflate and LZMA with predictors,
+PackBits, ZSTD, LERC, JPEG for 8-bit imagery) as `<source>--<variant>.tif`, plus rasters that must be refused
 (`bad--*.tif`). Prints one JSON line per file: name, source, whether it is lossless.
 """
 
@@ -51,6 +51,14 @@ def variants(source, path, jpeg=False):
     write(base + "bigtiff-lzw", source, profile, data, compress="lzw", BIGTIFF="YES")
     write(base + "band-interleave", source, profile, data, compress="lzw",
           interleave="band")
+    # Edge tiles of tiled LZW, which the `tiff` crate's streaming LZW fails on.
+    write(base + "tiled-lzw-pred2", source, profile, data, compress="lzw", predictor=2,
+          tiled=True, blockxsize=128, blockysize=128)
+    write(base + "bigendian-lzw-pred2", source, profile, data, compress="lzw", predictor=2,
+          ENDIANNESS="BIG")
+    write(base + "lzma", source, profile, data, compress="lzma")
+    write(base + "tiled-lzma-pred2-band", source, profile, data, compress="lzma",
+          predictor=2, tiled=True, blockxsize=128, blockysize=128, interleave="band")
     write(base + "lerc", source, profile, data, compress="lerc", MAX_Z_ERROR=0)
     write(base + "lerc-zstd-band", source, profile, data, compress="lerc_zstd",
           MAX_Z_ERROR=0, interleave="band", tiled=True, blockxsize=128, blockysize=128)
@@ -73,6 +81,10 @@ def variants(source, path, jpeg=False):
     band[0, :3, :5] = np.nan
     write(base + "float-pred3", source, fp, band, compress="deflate", predictor=3)
     write(base + "float-lerc", source, fp, band, compress="lerc", MAX_Z_ERROR=0)
+    write(base + "float-tiled-lzw-pred3", source, fp, band, compress="lzw", predictor=3,
+          tiled=True, blockxsize=128, blockysize=128)
+    write(base + "float-lzma-pred3-bigendian", source, fp, band, compress="lzma",
+          predictor=3, ENDIANNESS="BIG")
     write(base + "float-lerc-deflate", source, fp, band, compress="lerc_deflate",
           MAX_Z_ERROR=0, tiled=True, blockxsize=256, blockysize=256)
 
@@ -142,8 +154,9 @@ write("bad--rotated", "bad", rotated, data)
 empty = dict(profile)
 empty.update(nodata=0)
 write("bad--all-nodata", "bad", empty, np.zeros_like(data))
-# LZMA: GDAL writes it, no decoder here reads it.
-write("bad--lzma", "bad", profile, data, compress="lzma")
+# Complex samples (SAR): no map layer until their magnitude is taken.
+complex_profile = dict(profile, dtype="complex64")
+write("bad--complex", "bad", complex_profile, data.astype("complex64"))
 
 # A DEM in UTM zone 10N (EPSG:32610) on its central meridian at 60° N, a plane rising
 # 0.2 m per metre north and 0.1 east (slope atan √0.05 = 12.6°), and GDAL's warp of it
@@ -190,3 +203,80 @@ us_foot = 1200.0 / 3937.0
 feet_heights = dict(utm, crs=CRS.from_string("EPSG:32610+6360"))
 write("units--utm-plane-feet-navd88", "units", feet_heights,
       (plane / us_foot).astype(np.float32)[None])
+
+# Rasters as data comes, each with GDAL's own reading of it beside it
+# (`expected--<name>.tif`: float32, NaN wherever GDAL masks a cell): palette land-cover
+# classes, 1-bit masks, sparse files whose all-nodata tiles are left out, imagery with
+# an internal nodata mask, and float DEMs whose nodata is -FLT_MAX as GDAL writes it.
+def with_gdal_reading(name, profile, data, lossless=True, mask=None, colormap=None,
+                      env=None, **extra):
+    p = dict(profile, driver="GTiff", count=data.shape[0], dtype=data.dtype.name)
+    p.update(extra)
+    path = os.path.join(out, name + ".tif")
+    with rasterio.Env(**(env or {})):
+        with rasterio.open(path, "w", **p) as dst:
+            dst.write(data)
+            if colormap is not None:
+                dst.write_colormap(1, colormap)
+            if mask is not None:
+                dst.write_mask(mask)
+    with rasterio.open(path) as src:
+        read = src.read(masked=True).astype("float32").filled(np.nan)
+        # A file with an internal mask reads it per band; nodata likewise.
+    expected = dict(profile, driver="GTiff", count=data.shape[0], dtype="float32",
+                    nodata=float("nan"))
+    for key in ("compress", "predictor", "tiled", "blockxsize", "blockysize",
+                "photometric", "nbits", "interleave"):
+        expected.pop(key, None)
+    with rasterio.open(os.path.join(out, "expected--" + name + ".tif"), "w",
+                       **expected) as dst:
+        dst.write(read)
+    print(json.dumps({"name": name, "source": "kinds", "lossless": lossless}))
+
+
+kinds = dict(spot_profile)
+for key in ("compress", "predictor", "tiled", "blockxsize", "blockysize", "photometric",
+            "nodata", "interleave"):
+    kinds.pop(key, None)
+classes = (grey // 43).astype("uint8")[None]
+palette = {i: (40 * i % 256, 255 - 40 * i % 256, 90, 255) for i in range(256)}
+with_gdal_reading("kinds--palette", kinds, classes, photometric="palette",
+                  colormap=palette)
+with_gdal_reading("kinds--palette-tiled-lzw", kinds, classes, photometric="palette",
+                  colormap=palette, compress="lzw", tiled=True, blockxsize=128,
+                  blockysize=128)
+bright = (grey > 100).astype("uint8")[None]
+with_gdal_reading("kinds--bits1", kinds, bright, nbits=1)
+with_gdal_reading("kinds--bits1-tiled-deflate", kinds, bright, nbits=1, compress="deflate",
+                  tiled=True, blockxsize=128, blockysize=128)
+with_gdal_reading("kinds--bits4", kinds, classes, nbits=4, compress="packbits")
+voids = grey[None].astype("float32")
+voids[0, : voids.shape[1] // 2, : voids.shape[2] // 2] = -9999.0
+for compress in ("none", "deflate"):
+    with_gdal_reading(f"kinds--sparse-{compress}", kinds, voids, nodata=-9999.0,
+                      compress=compress, tiled=True, blockxsize=128, blockysize=128,
+                      SPARSE_OK=True)
+flt_max = voids.copy()
+flt_max[flt_max == -9999.0] = np.finfo(np.float32).min
+with_gdal_reading("kinds--nodata-flt-max", kinds, flt_max,
+                  nodata=float(np.finfo(np.float32).min), compress="lzw")
+coverage = np.full(grey.shape, 255, dtype="uint8")
+coverage[:, : grey.shape[1] // 3] = 0
+coverage[200:260, 300:420] = 0
+internal = {"GDAL_TIFF_INTERNAL_MASK": True}
+with_gdal_reading("kinds--masked-deflate", kinds, rgb, mask=coverage, env=internal,
+                  compress="deflate", tiled=True, blockxsize=256, blockysize=256)
+# JPEG imagery as GDAL writes it, YCbCr with chroma subsampled, on colours that follow
+# the brightness as a photograph's do (the SPOT band and its 5-cell mean), with the
+# uncompressed colours beside it to measure both decoders against.
+box = np.ones(5) / 5
+smooth = np.apply_along_axis(np.convolve, 1, grey.astype(float), box, "same")
+smooth = np.apply_along_axis(np.convolve, 0, smooth, box, "same")
+photo = np.stack([grey, 0.7 * grey + 0.27 * smooth + 10, 0.5 * smooth + 60])
+photo = photo.clip(0, 255).astype("uint8")
+with rasterio.open(os.path.join(out, "source--kinds--masked-jpeg.tif"), "w",
+                   **dict(kinds, driver="GTiff", count=3, dtype="uint8")) as dst:
+    dst.write(photo)
+with_gdal_reading("kinds--masked-jpeg", kinds, photo, lossless=False, mask=coverage,
+                  env=internal, compress="jpeg", photometric="ycbcr", tiled=True,
+                  blockxsize=256, blockysize=256)

@@ -1,11 +1,23 @@
-//! The strips or tiles of a TIFF image, read raw for the compressions the `tiff` crate
-//! cannot decode (LERC, WebP): where each lies in the file and in the image, and where
-//! its decoded pixels land among the image's samples.
+//! The strips or tiles of a TIFF image: where each lies in the file and in the image,
+//! and where its decoded pixels land among the image's samples. Read raw for the
+//! compressions the `tiff` crate cannot decode (LERC, WebP), and one by one where GDAL
+//! left some out (sparse files).
 
 use std::io::{Read, Seek};
 
 use tiff::decoder::Decoder;
 use tiff::tags::{PlanarConfiguration, Tag};
+
+/// The image a reader decodes: the file's bytes, its size, how its bands are
+/// interleaved, and what the strips or tiles a sparse file leaves out hold.
+#[derive(Clone, Copy)]
+pub(super) struct Image<'f> {
+    pub file: &'f [u8],
+    pub width: u32,
+    pub height: u32,
+    pub planar: PlanarConfiguration,
+    pub fill: f32,
+}
 
 /// How the image is cut into strips or tiles, and how its samples are laid out.
 pub(super) struct Layout {
@@ -15,6 +27,8 @@ pub(super) struct Layout {
     samples: usize,
     /// 1 for pixel-interleaved images, `samples` for band-interleaved ones.
     planes: usize,
+    /// Tiles (stored whole, padding included), not strips.
+    tiled: bool,
     chunk_width: usize,
     chunk_height: usize,
     offsets: Vec<u64>,
@@ -23,6 +37,8 @@ pub(super) struct Layout {
 
 /// One strip or tile: its raw bytes and where it lies in the image.
 pub(super) struct Chunk<'f> {
+    /// Its index among the image's strips or tiles (the `tiff` crate's chunk index).
+    pub index: usize,
     pub bytes: &'f [u8],
     plane: usize,
     row0: usize,
@@ -30,14 +46,9 @@ pub(super) struct Chunk<'f> {
 }
 
 impl Layout {
-    pub fn of<R: Read + Seek>(
-        decoder: &mut Decoder<R>,
-        width: u32,
-        height: u32,
-        planar: PlanarConfiguration,
-    ) -> Result<Layout, String> {
+    pub fn of<R: Read + Seek>(decoder: &mut Decoder<R>, image: &Image) -> Result<Layout, String> {
         let e = |e: tiff::TiffError| e.to_string();
-        let (w, h) = (width as usize, height as usize);
+        let (w, h) = (image.width as usize, image.height as usize);
         let samples = decoder
             .find_tag_unsigned::<u16>(Tag::SamplesPerPixel)
             .map_err(e)?
@@ -45,7 +56,7 @@ impl Layout {
         if samples == 0 {
             return Err("tag SamplesPerPixel is 0".into());
         }
-        let planes = if planar == PlanarConfiguration::Planar {
+        let planes = if image.planar == PlanarConfiguration::Planar {
             samples
         } else {
             1
@@ -93,6 +104,7 @@ impl Layout {
             height: h,
             samples,
             planes,
+            tiled: tile_width.is_some(),
             chunk_width,
             chunk_height,
             offsets,
@@ -117,36 +129,75 @@ impl Layout {
         self.height.div_ceil(self.chunk_height)
     }
 
+    /// 1 for pixel-interleaved images, the number of bands for band-interleaved ones.
+    pub fn planes(&self) -> usize {
+        self.planes
+    }
+
     /// Samples of one pixel within one strip or tile (all of them, or one band's).
     pub fn depth(&self) -> usize {
         self.samples / self.planes
     }
 
-    /// The image's samples, zero until chunks are placed: pixel-interleaved, or band
+    /// The image's samples, `fill` until chunks are placed: pixel-interleaved, or band
     /// after band when band-interleaved (as the `tiff` crate lays them out).
-    pub fn buffer(&self) -> Vec<f32> {
-        vec![0f32; self.width * self.height * self.samples]
+    pub fn buffer(&self, fill: f32) -> Vec<f32> {
+        vec![fill; self.width * self.height * self.samples]
     }
 
-    /// Every strip or tile in file order, or why one lies beyond the end of `file`.
-    pub fn chunks<'f>(
+    /// Whether some strips or tiles are left out (byte count 0): GDAL's sparse files
+    /// (`SPARSE_OK`) skip blocks that hold only nodata, which read as the nodata value
+    /// (0 where there is none).
+    pub fn is_sparse(&self) -> bool {
+        self.lengths.contains(&0)
+    }
+
+    /// Every strip or tile the file holds (not those left out: see `is_sparse`), in
+    /// file order, or why one lies beyond the end of `file`.
+    pub fn stored_chunks<'f>(
+        &self,
+        file: &'f [u8],
+    ) -> impl Iterator<Item = Result<Chunk<'f>, String>> + use<'_, 'f> {
+        self.chunks(file)
+            .filter(|chunk| chunk.as_ref().map_or(true, |c| !c.bytes.is_empty()))
+    }
+
+    /// Every strip or tile in file order, or why one lies beyond the end of `file`. A
+    /// strip or tile left out has no bytes.
+    fn chunks<'f>(
         &self,
         file: &'f [u8],
     ) -> impl Iterator<Item = Result<Chunk<'f>, String>> + use<'_, 'f> {
         let per_plane = self.across() * self.down();
         (0..self.offsets.len()).map(move |i| {
-            let bytes = usize::try_from(self.offsets[i])
-                .ok()
-                .zip(usize::try_from(self.lengths[i]).ok())
-                .and_then(|(start, len)| file.get(start..start.checked_add(len)?))
-                .ok_or_else(|| format!("strip or tile {i} lies beyond the end of the file"))?;
+            let bytes = if self.lengths[i] == 0 {
+                Some(&file[..0])
+            } else {
+                usize::try_from(self.offsets[i])
+                    .ok()
+                    .zip(usize::try_from(self.lengths[i]).ok())
+                    .and_then(|(start, len)| file.get(start..start.checked_add(len)?))
+            }
+            .ok_or_else(|| format!("strip or tile {i} lies beyond the end of the file"))?;
             Ok(Chunk {
+                index: i,
                 bytes,
                 plane: i / per_plane,
                 row0: (i % per_plane) / self.across() * self.chunk_height,
                 col0: i % self.across() * self.chunk_width,
             })
         })
+    }
+
+    /// Pixels per row and rows a strip or tile holds as stored: a tile its full size
+    /// (padding included), a strip the image's width and its rows (the last one may
+    /// hold fewer).
+    pub fn stored_size(&self, chunk: &Chunk) -> (usize, usize) {
+        if self.tiled {
+            (self.chunk_width, self.chunk_height)
+        } else {
+            (self.width, self.chunk_height.min(self.height - chunk.row0))
+        }
     }
 
     /// Checks that a decoded chunk of `width` × `height` pixels covers the image cells

@@ -6,9 +6,9 @@
 use std::io::{Read, Seek};
 
 use tiff::decoder::Decoder;
-use tiff::tags::{PlanarConfiguration, Tag};
+use tiff::tags::Tag;
 
-use super::chunks::Layout;
+use super::chunks::{Image, Layout};
 
 /// GDAL's LercParameters tag: [LERC version, additional compression (0 none, 1
 /// Deflate, 2 ZSTD)].
@@ -18,22 +18,19 @@ const LERC_PARAMETERS: u16 = 50674;
 /// interleaved, or band after band when `planar`).
 pub(super) fn read<R: Read + Seek>(
     decoder: &mut Decoder<R>,
-    file: &[u8],
-    width: u32,
-    height: u32,
-    planar: PlanarConfiguration,
+    image: &Image,
 ) -> Result<Vec<f32>, String> {
-    let layout = Layout::of(decoder, width, height, planar)?;
+    let layout = Layout::of(decoder, image)?;
     let extra = decoder
         .find_tag_unsigned_vec::<u32>(Tag::Unknown(LERC_PARAMETERS))
         .map_err(|e| e.to_string())?
         .and_then(|p| p.get(1).copied())
         .unwrap_or(0);
     let depth = layout.depth();
-    let mut values = layout.buffer();
-    for (index, chunk) in layout.chunks(file).enumerate() {
+    let mut values = layout.buffer(image.fill);
+    for chunk in layout.stored_chunks(image.file) {
         let chunk = chunk?;
-        let in_chunk = |m: String| format!("strip or tile {index}: {m}");
+        let in_chunk = |m: String| format!("strip or tile {}: {m}", chunk.index);
         let blob = unwrap(chunk.bytes, extra).map_err(in_chunk)?;
         let decoded =
             lerc_reader::decode_first_to_f64(&blob).map_err(|e| in_chunk(e.to_string()))?;

@@ -8,7 +8,7 @@ use std::io::{Cursor, Read, Seek};
 use tiff::decoder::Decoder;
 use tiff::tags::{PlanarConfiguration, Tag};
 
-use super::chunks::Layout;
+use super::chunks::{Image, Layout};
 
 /// TIFF compression code of WebP.
 pub(super) const WEBP: u16 = 50001;
@@ -16,10 +16,7 @@ pub(super) const WEBP: u16 = 50001;
 /// The image's samples as `f32`, pixel-interleaved (as the `tiff` crate lays them out).
 pub(super) fn read<R: Read + Seek>(
     decoder: &mut Decoder<R>,
-    file: &[u8],
-    width: u32,
-    height: u32,
-    planar: PlanarConfiguration,
+    image: &Image,
 ) -> Result<Vec<f32>, String> {
     let bits = decoder
         .find_tag_unsigned_vec::<u16>(Tag::BitsPerSample)
@@ -30,17 +27,17 @@ pub(super) fn read<R: Read + Seek>(
             "WebP holds 8-bit samples, but tag BitsPerSample is {bits:?}"
         ));
     }
-    let layout = Layout::of(decoder, width, height, planar)?;
+    let layout = Layout::of(decoder, image)?;
     let depth = layout.depth();
-    if planar == PlanarConfiguration::Planar || !(3..=4).contains(&depth) {
+    if image.planar == PlanarConfiguration::Planar || !(3..=4).contains(&depth) {
         return Err(format!(
             "WebP holds 3 or 4 pixel-interleaved bands, not {depth} per strip or tile"
         ));
     }
-    let mut values = layout.buffer();
-    for (index, chunk) in layout.chunks(file).enumerate() {
+    let mut values = layout.buffer(image.fill);
+    for chunk in layout.stored_chunks(image.file) {
         let chunk = chunk?;
-        let in_chunk = |m: String| format!("strip or tile {index}: {m}");
+        let in_chunk = |m: String| format!("strip or tile {}: {m}", chunk.index);
         let mut image = image_webp::WebPDecoder::new(Cursor::new(chunk.bytes))
             .map_err(|e| in_chunk(e.to_string()))?;
         let (bw, bh) = image.dimensions();

@@ -1,0 +1,494 @@
+//! LZW and LZMA strips and tiles, decompressed here, their predictor undone and their
+//! samples read in the file's byte order. LZMA because the `tiff` crate has no LZMA;
+//! LZW because its streaming LZW reader fails on edge tiles of some tiled files GDAL
+//! writes ("no lzw end code found", image-rs/image-tiff#395), where a whole-chunk
+//! decode of the same bytes is exact.
+
+use std::io::{Read, Seek, Write};
+
+use tiff::decoder::Decoder;
+use tiff::tags::{ByteOrder, Tag};
+
+use super::chunks::{Image, Layout};
+
+/// TIFF compression codes decompressed here.
+pub(super) const LZW: u16 = 5;
+pub(super) const LZMA: u16 = 34925;
+
+/// How the samples are stored: their type and width, samples per pixel in a strip or
+/// tile, the predictor and byte order.
+#[derive(Clone, Copy, Debug)]
+struct Encoding {
+    format: Format,
+    bits: usize,
+    depth: usize,
+    predictor: u16,
+    big_endian: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Format {
+    Unsigned,
+    Signed,
+    Float,
+}
+
+/// The image's samples as `f32`, pixel-interleaved, or band after band when
+/// band-interleaved; strips or tiles the file leaves out hold the image's `fill`.
+pub(super) fn read<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    image: &Image,
+    compression: u16,
+) -> Result<Vec<f32>, String> {
+    let layout = Layout::of(decoder, image)?;
+    let depth = layout.depth();
+    let encoding = Encoding::of(decoder, depth)?;
+    let mut values = layout.buffer(image.fill);
+    for chunk in layout.stored_chunks(image.file) {
+        let chunk = chunk?;
+        let in_chunk = |m: String| format!("strip or tile {}: {m}", chunk.index);
+        let (chunk_width, rows) = layout.stored_size(&chunk);
+        let row_bytes = (chunk_width * depth * encoding.bits).div_ceil(8);
+        let mut bytes = match compression {
+            LZW => lzw(chunk.bytes, row_bytes * rows),
+            _ => lzma(chunk.bytes, row_bytes * rows),
+        }
+        .map_err(in_chunk)?;
+        let samples: Vec<f32> = bytes
+            .chunks_exact_mut(row_bytes)
+            .map(|row| encoding.row_values(row, chunk_width * depth))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(in_chunk)?
+            .concat();
+        layout.place(&mut values, &chunk, chunk_width, rows, |pixel, d| {
+            samples[pixel * depth + d]
+        });
+    }
+    Ok(values)
+}
+
+/// `expected` bytes of a TIFF LZW stream (most significant bits first, code widths
+/// switching one code early). Like libtiff, stops once it has them.
+fn lzw(stream: &[u8], expected: usize) -> Result<Vec<u8>, String> {
+    let mut decoder = weezl::decode::Decoder::with_tiff_size_switch(weezl::BitOrder::Msb, 8);
+    let mut out = vec![0u8; expected];
+    let (mut read, mut written) = (0, 0);
+    // weezl may return without progress while it settles its state; a few such calls
+    // in a row mean the stream is spent.
+    let mut idle = 0;
+    while written < expected && idle < 4 {
+        let result = decoder.decode_bytes(&stream[read..], &mut out[written..]);
+        read += result.consumed_in;
+        written += result.consumed_out;
+        idle = if result.consumed_in + result.consumed_out == 0 {
+            idle + 1
+        } else {
+            0
+        };
+        match result.status {
+            Ok(weezl::LzwStatus::Ok) => {}
+            Ok(_) => break,
+            Err(e) => return Err(format!("the LZW stream: {e}")),
+        }
+    }
+    if written < expected {
+        return Err(format!(
+            "the LZW stream holds {written} bytes, not the {expected} of its pixels"
+        ));
+    }
+    Ok(out)
+}
+
+/// `expected` bytes of an xz stream: libtiff's LZMA codec writes xz with a filter
+/// chain of delta (a sample's width apart) then LZMA2. `lzma-rs` decodes LZMA2 but not
+/// the delta filter, so the container is read here: each block's header names its
+/// filters, LZMA2 runs to the block's end marker, and the delta is added back.
+fn lzma(stream: &[u8], expected: usize) -> Result<Vec<u8>, String> {
+    const MAGIC: &[u8] = b"\xFD7zXZ\0";
+    let truncated = || "the LZMA stream (xz) is cut short".to_string();
+    if stream.get(..6) != Some(MAGIC) {
+        return Err("the LZMA stream is not xz (no xz magic)".into());
+    }
+    let check_type = *stream.get(7).ok_or_else(truncated)? & 0x0F;
+    let check_size = match check_type {
+        0 => 0,
+        t => 4 << ((t - 1) / 3),
+    };
+    let mut at = 12;
+    let mut out = Bounded {
+        bytes: Vec::with_capacity(expected),
+        limit: expected,
+    };
+    loop {
+        let size_byte = *stream.get(at).ok_or_else(truncated)?;
+        if size_byte == 0 {
+            break; // the index: no more blocks
+        }
+        let header = stream
+            .get(at..at + (usize::from(size_byte) + 1) * 4)
+            .ok_or_else(truncated)?;
+        let delta = block_delta(header)?;
+        let start = out.bytes.len();
+        let mut data = &stream[at + header.len()..];
+        let before = data.len();
+        lzma_rs::lzma2_decompress(&mut data, &mut out)
+            .map_err(|e| format!("the LZMA stream: {e}"))?;
+        if let Some(distance) = delta {
+            let block = &mut out.bytes[start..];
+            for i in distance..block.len() {
+                block[i] = block[i].wrapping_add(block[i - distance]);
+            }
+        }
+        // The block's data is padded to four bytes, then its check.
+        let block_len = header.len() + (before - data.len());
+        at += block_len.next_multiple_of(4) + check_size;
+    }
+    if out.bytes.len() < expected {
+        return Err(format!(
+            "the LZMA stream holds {} bytes, not the {expected} of its pixels",
+            out.bytes.len()
+        ));
+    }
+    Ok(out.bytes)
+}
+
+/// The delta distance a block header's filter chain starts with (`None` where it is
+/// LZMA2 alone); an error for any other filter.
+fn block_delta(header: &[u8]) -> Result<Option<usize>, String> {
+    const DELTA: u64 = 0x03;
+    const LZMA2: u64 = 0x21;
+    let flags = header[1];
+    let mut at = 2;
+    let vli = |at: &mut usize| -> Result<u64, String> {
+        let mut value = 0u64;
+        for shift in (0..63).step_by(7) {
+            let byte = *header.get(*at).ok_or("an xz block header is cut short")?;
+            *at += 1;
+            value |= u64::from(byte & 0x7F) << shift;
+            if byte & 0x80 == 0 {
+                return Ok(value);
+            }
+        }
+        Err("an xz block header holds an overlong number".into())
+    };
+    for present in [0x40, 0x80] {
+        if flags & present != 0 {
+            vli(&mut at)?; // compressed or uncompressed size
+        }
+    }
+    let mut delta = None;
+    let filters = usize::from(flags & 0x03) + 1;
+    for index in 0..filters {
+        let id = vli(&mut at)?;
+        let size = usize::try_from(vli(&mut at)?).map_err(|e| e.to_string())?;
+        let properties = header
+            .get(at..at + size)
+            .ok_or("an xz block header is cut short")?;
+        at += size;
+        match (id, index + 1 == filters) {
+            (LZMA2, true) => {}
+            (DELTA, false) if size == 1 => delta = Some(usize::from(properties[0]) + 1),
+            _ => {
+                return Err(format!(
+                    "xz filter {id:#x} is not read (libtiff writes delta, then LZMA2)"
+                ));
+            }
+        }
+    }
+    Ok(delta)
+}
+
+/// A buffer that refuses bytes past its limit, so that a corrupt stream cannot
+/// decompress without end.
+struct Bounded {
+    bytes: Vec<u8>,
+    limit: usize,
+}
+
+impl Write for Bounded {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        if self.bytes.len() + buf.len() > self.limit {
+            return Err(std::io::Error::other(format!(
+                "it decompresses to more than the {} bytes of its pixels",
+                self.limit
+            )));
+        }
+        self.bytes.extend_from_slice(buf);
+        Ok(buf.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Encoding {
+    fn of<R: Read + Seek>(decoder: &mut Decoder<R>, depth: usize) -> Result<Encoding, String> {
+        let e = |e: tiff::TiffError| e.to_string();
+        let first = |v: Option<Vec<u16>>, default: u16| {
+            v.and_then(|v| v.first().copied()).unwrap_or(default)
+        };
+        let bits = first(
+            decoder
+                .find_tag_unsigned_vec(Tag::BitsPerSample)
+                .map_err(e)?,
+            1,
+        );
+        let format = match first(
+            decoder
+                .find_tag_unsigned_vec(Tag::SampleFormat)
+                .map_err(e)?,
+            1,
+        ) {
+            1 => Format::Unsigned,
+            2 => Format::Signed,
+            3 => Format::Float,
+            other => return Err(format!("tag SampleFormat {other} is not read")),
+        };
+        let predictor = decoder
+            .find_tag_unsigned::<u16>(Tag::Predictor)
+            .map_err(e)?
+            .unwrap_or(1);
+        let encoding = Encoding {
+            format,
+            bits: usize::from(bits),
+            depth,
+            predictor,
+            big_endian: decoder.byte_order() == ByteOrder::BigEndian,
+        };
+        let supported = match (format, bits) {
+            (Format::Unsigned, 1 | 2 | 4) => predictor == 1,
+            (Format::Unsigned | Format::Signed, 8 | 16 | 32 | 64) => predictor <= 2,
+            (Format::Float, 32 | 64) => predictor == 1 || predictor == 3,
+            _ => false,
+        };
+        if !supported {
+            return Err(format!(
+                "samples of {bits} bits, SampleFormat {format:?}, Predictor {predictor} \
+                 are not read"
+            ));
+        }
+        Ok(encoding)
+    }
+
+    /// The `count` samples of one stored row, the predictor undone in place.
+    fn row_values(&self, row: &mut [u8], count: usize) -> Result<Vec<f32>, String> {
+        let size = self.bits / 8;
+        if self.bits < 8 {
+            return super::samples::unpack(row, self.bits as u16, count, 1);
+        }
+        let samples = &mut row[..count * size];
+        match self.predictor {
+            3 => {
+                undo_floating_point_predictor(samples, size, self.depth);
+                // The predictor leaves the bytes of each sample most significant first.
+                return Ok(self.values(samples, true));
+            }
+            2 => self.undo_horizontal_predictor(samples, count),
+            _ => {}
+        }
+        Ok(self.values(samples, self.big_endian))
+    }
+
+    /// Adds each sample to the one a pixel before it (`samples_per_pixel` back),
+    /// wrapping, in the sample's own width and byte order.
+    fn undo_horizontal_predictor(&self, samples: &mut [u8], count: usize) {
+        let (size, depth) = (self.bits / 8, self.depth);
+        let read = |b: &[u8]| -> u64 {
+            let mut v = 0u64;
+            for i in 0..size {
+                let byte = if self.big_endian {
+                    b[i]
+                } else {
+                    b[size - 1 - i]
+                };
+                v = (v << 8) | u64::from(byte);
+            }
+            v
+        };
+        let write = |b: &mut [u8], v: u64| {
+            for i in 0..size {
+                let byte = (v >> (8 * i)) as u8;
+                if self.big_endian {
+                    b[size - 1 - i] = byte;
+                } else {
+                    b[i] = byte;
+                }
+            }
+        };
+        for i in depth..count {
+            let previous = read(&samples[(i - depth) * size..][..size]);
+            let current = read(&samples[i * size..][..size]);
+            write(
+                &mut samples[i * size..][..size],
+                current.wrapping_add(previous),
+            );
+        }
+    }
+
+    fn values(&self, samples: &[u8], big_endian: bool) -> Vec<f32> {
+        let size = self.bits / 8;
+        samples
+            .chunks_exact(size)
+            .map(|b| {
+                let mut raw = [0u8; 8];
+                raw[..size].copy_from_slice(b);
+                if big_endian {
+                    raw[..size].reverse();
+                }
+                // `raw` now holds the sample least significant byte first.
+                let unsigned = u64::from_le_bytes(raw);
+                match (self.format, size) {
+                    (Format::Float, 4) => f32::from_bits(unsigned as u32),
+                    (Format::Float, _) => f64::from_bits(unsigned) as f32,
+                    (Format::Signed, _) => {
+                        let shift = 64 - 8 * size as u32;
+                        (((unsigned << shift) as i64) >> shift) as f32
+                    }
+                    (Format::Unsigned, _) => unsigned as f32,
+                }
+            })
+            .collect()
+    }
+}
+
+/// Undoes the floating-point predictor (TIFF Technical Note 3, libtiff's `fpAcc`) on
+/// one row: its bytes were differenced `depth` apart, after each sample's bytes were
+/// spread into planes, most significant byte first. Leaves each sample's bytes most
+/// significant first.
+fn undo_floating_point_predictor(row: &mut [u8], size: usize, depth: usize) {
+    for i in depth..row.len() {
+        row[i] = row[i].wrapping_add(row[i - depth]);
+    }
+    let planes = row.to_vec();
+    let count = row.len() / size;
+    for sample in 0..count {
+        for byte in 0..size {
+            row[sample * size + byte] = planes[byte * count + sample];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn encoding(
+        format: Format,
+        bits: usize,
+        depth: usize,
+        predictor: u16,
+        big_endian: bool,
+    ) -> Encoding {
+        Encoding {
+            format,
+            bits,
+            depth,
+            predictor,
+            big_endian,
+        }
+    }
+
+    #[test]
+    fn horizontal_differences_add_back_per_band_with_wrapping() {
+        // Two pixels of two little-endian u16 bands: (1000, 7), then differences
+        // (+5, -8 as 65528): the second pixel is (1005, 65535).
+        let mut row: Vec<u8> = [1000u16, 7, 5, 65528]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let e = encoding(Format::Unsigned, 16, 2, 2, false);
+        assert_eq!(
+            e.row_values(&mut row, 4).unwrap(),
+            [1000.0, 7.0, 1005.0, 65535.0]
+        );
+        // Big-endian signed: -3, then +5 → 2.
+        let mut row: Vec<u8> = [-3i32, 5].iter().flat_map(|v| v.to_be_bytes()).collect();
+        let e = encoding(Format::Signed, 32, 1, 2, true);
+        assert_eq!(e.row_values(&mut row, 2).unwrap(), [-3.0, 2.0]);
+    }
+
+    #[test]
+    fn the_floating_point_predictor_is_undone() {
+        // Encode three f32 as libtiff does: bytes most significant first, spread into
+        // planes, then differenced a sample apart.
+        let floats = [1.5f32, -2.25, 1e-3];
+        let count = floats.len();
+        let big: Vec<[u8; 4]> = floats.iter().map(|f| f.to_be_bytes()).collect();
+        let mut row: Vec<u8> = (0..4)
+            .flat_map(|byte| big.iter().map(move |b| b[byte]))
+            .collect();
+        for i in (1..row.len()).rev() {
+            row[i] = row[i].wrapping_sub(row[i - 1]);
+        }
+        for big_endian in [false, true] {
+            let e = encoding(Format::Float, 32, 1, 3, big_endian);
+            assert_eq!(e.row_values(&mut row.clone(), count).unwrap(), floats);
+        }
+    }
+
+    #[test]
+    fn samples_read_in_either_byte_order_and_width() {
+        let e = encoding(Format::Signed, 16, 1, 1, true);
+        assert_eq!(
+            e.row_values(&mut [0xFF, 0xFE, 0x00, 0x02], 2).unwrap(),
+            [-2.0, 2.0]
+        );
+        let e = encoding(Format::Float, 64, 1, 1, false);
+        assert_eq!(
+            e.row_values(&mut (-0.5f64).to_le_bytes().to_vec(), 1)
+                .unwrap(),
+            [-0.5]
+        );
+        let e = encoding(Format::Unsigned, 4, 1, 1, false);
+        assert_eq!(
+            e.row_values(&mut [0xA3, 0x70], 3).unwrap(),
+            [10.0, 3.0, 7.0]
+        );
+    }
+
+    #[test]
+    fn lzw_streams_decode_to_their_pixels_and_no_further() {
+        let pixels: Vec<u8> = (0..3000u32).map(|i| (i % 7 * 30) as u8).collect();
+        let mut encoder = weezl::encode::Encoder::with_tiff_size_switch(weezl::BitOrder::Msb, 8);
+        let stream = encoder.encode(&pixels).unwrap();
+        assert_eq!(lzw(&stream, pixels.len()).unwrap(), pixels);
+        // Bytes after the pixels are not read (libtiff stops there too).
+        let mut padded = stream.clone();
+        padded.extend([0xAB; 16]);
+        assert_eq!(lzw(&padded, pixels.len()).unwrap(), pixels);
+        // Too short a stream, or garbage: an error, not a panic.
+        assert!(lzw(&stream[..stream.len() / 2], pixels.len()).is_err());
+        assert!(lzw(&[0xFF; 64], pixels.len()).is_err());
+    }
+
+    #[test]
+    fn lzma_streams_decode_and_stop_at_the_pixels() {
+        // An xz stream of LZMA2 alone (lzma-rs's writer; libtiff's adds a delta
+        // filter, which tests/geotiff_variants.rs reads from rasterio's files).
+        let pixels: Vec<u8> = (0..5000u32).map(|i| (i * 7 % 251) as u8).collect();
+        let mut stream = Vec::new();
+        lzma_rs::xz_compress(&mut &pixels[..], &mut stream).unwrap();
+        assert_eq!(lzma(&stream, pixels.len()).unwrap(), pixels);
+        assert!(lzma(&stream, pixels.len() - 1).is_err());
+        assert!(lzma(&stream, pixels.len() + 1).is_err());
+        for cut in [3, 12, 14, stream.len() / 2] {
+            assert!(lzma(&stream[..cut], pixels.len()).is_err(), "{cut}");
+        }
+    }
+
+    #[test]
+    fn xz_block_headers_name_delta_then_lzma2() {
+        // Size byte, flags (two filters), delta (id 3, one property: distance 2),
+        // LZMA2 (id 0x21, one property), padding, CRC32.
+        let header = [
+            3, 0x01, 0x03, 0x01, 0x01, 0x21, 0x01, 0x16, 0, 0, 0, 0, 0, 0, 0, 0,
+        ];
+        assert_eq!(block_delta(&header).unwrap(), Some(2));
+        let lzma2_alone = [2, 0x00, 0x21, 0x01, 0x16, 0, 0, 0, 0, 0, 0, 0];
+        assert_eq!(block_delta(&lzma2_alone).unwrap(), None);
+        let bcj_x86 = [2, 0x01, 0x04, 0x00, 0x21, 0x01, 0x16, 0, 0, 0, 0, 0];
+        assert!(block_delta(&bcj_x86).unwrap_err().contains("0x4"));
+        assert!(block_delta(&[0, 0x01, 0x03]).is_err());
+    }
+}
