@@ -148,7 +148,7 @@ fn rotation_terms_of_float_noise_are_not_a_rotation() {
 }
 
 /// The median slope (degrees) over the cells of `map` at least `margin` cells inside its
-/// edges (GDAL's warp leaves a resampled border).
+/// edges and from its nodata (GDAL's warp leaves a resampled border).
 fn median_slope(map: &Map, margin: usize) -> f64 {
     let spec = FeatureSpec {
         layers: Some(Vec::new()),
@@ -161,9 +161,15 @@ fn median_slope(map: &Map, margin: usize) -> f64 {
     };
     let stack = imitate::features::compute(map, &spec).unwrap();
     let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    let values = &map.layers[0].values;
+    let clear = |r: usize, c: usize| {
+        (r - margin..=r + margin)
+            .all(|rr| (c - margin..=c + margin).all(|cc| !values[rr * w + cc].is_nan()))
+    };
     let mut inner: Vec<f64> = (margin..h - margin)
-        .flat_map(|r| (margin..w - margin).map(move |c| r * w + c))
-        .map(|i| f64::from(stack.plane(0)[i]))
+        .flat_map(|r| (margin..w - margin).map(move |c| (r, c)))
+        .filter(|&(r, c)| clear(r, c))
+        .map(|(r, c)| f64::from(stack.plane(0)[r * w + c]))
         .collect();
     inner.sort_by(f64::total_cmp);
     inner[inner.len() / 2]
@@ -194,6 +200,26 @@ fn web_mercator_cells_are_measured_on_the_ground() {
         (warped - truth).abs() < 0.2,
         "Web Mercator: {warped} against {truth}"
     );
+}
+
+#[test]
+fn polar_stereographic_cells_are_measured_on_the_ground() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    // The same plane warped into NSIDC's Arctic grid (EPSG:3413): read in its nominal
+    // metres it would slope atan(tan 12.6° / 1.04) = 12.1°.
+    let polar = read_geotiff(
+        &dir.path().join("units--polar-stereographic-plane.tif"),
+        "m",
+    )
+    .unwrap();
+    let scale = polar.geo.ground_scale.unwrap();
+    assert!((scale - 0.962).abs() < 0.002, "{scale}");
+    let truth = 0.05f64.sqrt().atan().to_degrees();
+    let slope = median_slope(&polar, 4);
+    assert!((slope - truth).abs() < 0.1, "{slope} against {truth}");
 }
 
 /// Reads the UTM plane in metres and `name`, the same plane stored another way, and

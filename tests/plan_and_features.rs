@@ -18,6 +18,7 @@ fn walled(dir: &std::path::Path) -> std::path::PathBuf {
         frame: "map".into(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     };
     let mut costs = Grid::filled(geo, 1.0f32);
     for row in 0..3 {
@@ -169,6 +170,7 @@ fn unreachable_goals_fail_with_exit_code_1() {
         frame: "map".into(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     };
     let costs = Grid::from_vec(geo, vec![1.0, f32::INFINITY, 1.0]);
     write_costmap(&dir.path().join("walled.parquet"), "cut", &costs).unwrap();

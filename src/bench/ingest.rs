@@ -48,6 +48,7 @@ fn generate(path: &Path, megabytes: u64) -> Result<()> {
         frame: "map".into(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     };
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     // zstd takes about 17 % off random occupancies: write enough grids for the size.

@@ -152,6 +152,7 @@ fn geo(width: u32, height: u32) -> GeoRef {
         frame: "bench".into(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     }
 }
 

@@ -641,6 +641,7 @@ mod tests {
                 frame: "map".into(),
                 degrees: false,
                 web_mercator: false,
+                ground_scale: None,
             },
             layers: vec![
                 Layer {

@@ -1,6 +1,8 @@
 //! Lengths of a degree on the WGS 84 ellipsoid, so that rasters in geographic
-//! coordinates (EPSG:4326 and its kin) are measured in metres, and of a Web Mercator
-//! metre (EPSG:3857), which is a ground metre only on the equator.
+//! coordinates (EPSG:4326 and its kin) are measured in metres, of a Web Mercator
+//! metre (EPSG:3857), which is a ground metre only on the equator, and of a metre of
+//! the conformal projections whose scale is far from 1 where rasters lie (polar
+//! stereographic, World Mercator).
 
 /// WGS 84 semi-major axis (m) and first eccentricity squared.
 const A: f64 = 6_378_137.0;
@@ -35,6 +37,109 @@ pub fn web_mercator_latitude(y: f64) -> f64 {
     (y / A).sinh().atan().to_degrees()
 }
 
+/// WGS 84's first eccentricity.
+fn eccentricity() -> f64 {
+    E2.sqrt()
+}
+
+/// A conformal projection on WGS 84 whose point scale the reader corrects for.
+enum Conformal {
+    /// Mercator on the ellipsoid (EPSG:3395).
+    WorldMercator,
+    /// Polar stereographic about either pole (its scale depends only on the distance
+    /// from it), true to scale on a latitude (variant B, NSIDC's and the Antarctic
+    /// grids) or scaled by k0 at the pole (variant A, UPS), from a false origin.
+    PolarStereographic {
+        scale: PolarScale,
+        false_origin: [f64; 2],
+    },
+}
+
+enum PolarScale {
+    TrueLatitude(f64),
+    AtPole(f64),
+}
+
+impl Conformal {
+    /// The projections known by their EPSG code.
+    fn of(code: u16) -> Option<Conformal> {
+        use PolarScale::*;
+        let polar = |scale, false_origin| Conformal::PolarStereographic {
+            scale,
+            false_origin,
+        };
+        Some(match code {
+            3395 => Conformal::WorldMercator,
+            3413 => polar(TrueLatitude(70.0), [0.0; 2]), // NSIDC Sea Ice Polar Stereographic North
+            3995 => polar(TrueLatitude(71.0), [0.0; 2]), // Arctic Polar Stereographic
+            3031 => polar(TrueLatitude(71.0), [0.0; 2]), // Antarctic Polar Stereographic
+            3976 => polar(TrueLatitude(70.0), [0.0; 2]), // NSIDC Sea Ice Polar Stereographic South
+            32661 | 5041 => polar(AtPole(0.994), [2.0e6; 2]), // UPS North
+            32761 | 5042 => polar(AtPole(0.994), [2.0e6; 2]), // UPS South
+            _ => return None,
+        })
+    }
+
+    /// Ground metres per projected metre at (x, y): 1 / the point scale factor.
+    fn ground_per_unit(&self, x: f64, y: f64) -> f64 {
+        let e = eccentricity();
+        // m = cos φ / √(1 − e² sin² φ): the parallel's radius over A.
+        let m = |phi: f64| phi.cos() / (1.0 - E2 * phi.sin().powi(2)).sqrt();
+        // t(φ) = tan(π/4 − φ/2) / ((1 − e sin φ) / (1 + e sin φ))^(e/2), and its
+        // inverse by fixed-point iteration (converges to 1e-15 in a few steps).
+        let t = |phi: f64| {
+            let s = e * phi.sin();
+            (std::f64::consts::FRAC_PI_4 - phi / 2.0).tan() / ((1.0 - s) / (1.0 + s)).powf(e / 2.0)
+        };
+        let latitude_of = |t: f64| {
+            let mut phi = std::f64::consts::FRAC_PI_2 - 2.0 * t.atan();
+            for _ in 0..20 {
+                let s = e * phi.sin();
+                phi = std::f64::consts::FRAC_PI_2
+                    - 2.0 * (t * ((1.0 - s) / (1.0 + s)).powf(e / 2.0)).atan();
+            }
+            phi
+        };
+        match self {
+            Conformal::WorldMercator => m(latitude_of((-y.abs() / A).exp())),
+            Conformal::PolarStereographic {
+                scale,
+                false_origin,
+                ..
+            } => {
+                let rho = (x - false_origin[0]).hypot(y - false_origin[1]);
+                // ρ = A·c·t(φ): c from the scale's definition.
+                let c = match *scale {
+                    PolarScale::TrueLatitude(lat) => {
+                        let phi = lat.abs().to_radians();
+                        m(phi) / t(phi)
+                    }
+                    PolarScale::AtPole(k0) => {
+                        2.0 * k0 / ((1.0 + e).powf(1.0 + e) * (1.0 - e).powf(1.0 - e)).sqrt()
+                    }
+                };
+                // k = ρ / (A·m(φ)) = c·t(φ)/m(φ); at the pole t/m tends to
+                // √((1+e)^(1+e)(1−e)^(1−e)) / 2.
+                let k = if rho < 1e-6 {
+                    c * ((1.0 + e).powf(1.0 + e) * (1.0 - e).powf(1.0 - e)).sqrt() / 2.0
+                } else {
+                    let phi = latitude_of(rho / (A * c));
+                    c * t(phi) / m(phi)
+                };
+                1.0 / k
+            }
+        }
+    }
+}
+
+/// Ground metres per projected metre at (x, y) in the projected CRS `EPSG:<code>`,
+/// for the conformal projections whose scale is far from 1 where rasters lie: polar
+/// stereographic (NSIDC's 3413 and 3976, 3995, 3031, UPS) and World Mercator (3395).
+/// `None` for other codes (UTM and the like, within 0.1 % of 1).
+pub fn point_scale(code: u16, x: f64, y: f64) -> Option<f64> {
+    Conformal::of(code).map(|p| p.ground_per_unit(x, y))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -57,6 +162,39 @@ mod tests {
         assert!((n - 0.5004).abs() < 1e-4, "{n}");
         // Symmetric about the equator.
         assert_eq!(metres_per_web_mercator_unit(-sixty), [e, n]);
+    }
+
+    #[test]
+    fn polar_stereographic_and_world_mercator_scales() {
+        // NSIDC North (3413) is true to scale at 70° N: a point there lies
+        // ρ = A·m(70°) from the pole, where a projected metre is a ground metre.
+        let e = eccentricity();
+        let m = |lat: f64| {
+            let phi = f64::to_radians(lat);
+            phi.cos() / (1.0 - E2 * phi.sin().powi(2)).sqrt()
+        };
+        let at_70 = A * m(70.0);
+        let scale = |code, x, y| point_scale(code, x, y).unwrap();
+        assert!((scale(3413, at_70, 0.0) - 1.0).abs() < 1e-9);
+        assert!((scale(3031, 0.0, -A * m(71.0)) - 1.0).abs() < 1e-9);
+        // At the pole the scale is m_c / (2 t_c)·√((1+e)^(1+e)(1−e)^(1−e)) ≈ 0.9700
+        // for 70° (the sphere's (1 + sin 70°)/2 = 0.9698): a metre spans 1.031 m.
+        let pole = scale(3413, 0.0, 0.0);
+        assert!((1.0 / pole - 0.9700).abs() < 5e-4, "{pole}");
+        assert_eq!(scale(3413, 1e-9, 0.0), pole);
+        // UPS is scaled 0.994 at the pole, from a false origin of 2 000 km.
+        assert!((scale(32661, 2.0e6, 2.0e6) - 1.0 / 0.994).abs() < 1e-12);
+        // Away from the pole both grow: at 60° N the sphere's k = (1 + sin 70°) /
+        // (1 + sin 60°) = 1.0395, so a projected metre spans 0.962 ground metres.
+        let sixty = scale(3995, 0.0, 3.0e6);
+        assert!(sixty < 1.0 && sixty > 0.95, "{sixty}");
+        // World Mercator: y of 60° N is A·ln(tan 75°·((1 − e sin 60°)/(1 + e sin
+        // 60°))^(e/2)), where a metre spans m(60°) ground metres (about 0.5).
+        let s60 = e * 60f64.to_radians().sin();
+        let y60 = A * (75f64.to_radians().tan() * ((1.0 - s60) / (1.0 + s60)).powf(e / 2.0)).ln();
+        assert!((scale(3395, 0.0, y60) - m(60.0)).abs() < 1e-12);
+        assert!((scale(3395, 0.0, -y60) - m(60.0)).abs() < 1e-12);
+        assert!(point_scale(32610, 500_000.0, 0.0).is_none());
     }
 
     #[test]

@@ -14,7 +14,7 @@ mod path;
 mod points;
 
 pub use demo::{Demonstration, Pose};
-pub use geodesy::metres_per_degree;
+pub use geodesy::{metres_per_degree, point_scale};
 
 pub use map::{Layer, Map, check_map_name};
 pub use path::{CellPath, PathError, is_connected8, rasterize};
@@ -47,6 +47,13 @@ pub struct GeoRef {
     /// Lengths on the ground then come from the northing (`cell_metres`).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub web_mercator: bool,
+    /// Ground metres per frame unit where a projected CRS's scale is far from 1 and
+    /// the reader measured it at the raster's centre (polar stereographic, World
+    /// Mercator): 1.04 for a cell at 60° N in NSIDC's Arctic grid (EPSG:3413). Taken
+    /// for the whole raster, as tiles of these grids are small beside their scale's
+    /// variation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ground_scale: Option<f64>,
 }
 
 impl GeoRef {
@@ -61,6 +68,7 @@ impl GeoRef {
             frame: "map".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         }
     }
 
@@ -118,7 +126,7 @@ impl GeoRef {
         } else if self.web_mercator {
             geodesy::metres_per_web_mercator_unit(y)
         } else {
-            [1.0, 1.0]
+            [self.ground_scale.unwrap_or(1.0); 2]
         };
         [sx * east, sy * north]
     }
@@ -214,6 +222,18 @@ impl GeoRef {
         }
         if self.degrees && self.web_mercator {
             return Err("a frame cannot be both in degrees and Web Mercator".into());
+        }
+        if let Some(scale) = self.ground_scale {
+            if !(scale.is_finite() && scale > 0.0) {
+                return Err(format!("ground_scale must be > 0, got {scale}"));
+            }
+            if self.varies_by_row() {
+                return Err(
+                    "a ground scale is for projected frames, not degrees or Web \
+                            Mercator"
+                        .into(),
+                );
+            }
         }
         if !self.origin.iter().all(|v| v.is_finite()) {
             return Err(format!("origin must be finite, got {:?}", self.origin));

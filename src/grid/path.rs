@@ -88,6 +88,7 @@ mod tests {
             frame: "map".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         }
     }
 

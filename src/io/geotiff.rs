@@ -20,7 +20,7 @@ use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
 use crate::error::{Error, Result, read_input};
-use crate::grid::{GeoRef, Layer, Map};
+use crate::grid::{GeoRef, Layer, Map, point_scale};
 
 mod chunks;
 mod grey;
@@ -252,7 +252,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     };
     let north_up = e < 0.0;
     let (x_size, y_size) = (a * units.scale, e.abs() * units.scale);
-    let geo = GeoRef {
+    let mut geo = GeoRef {
         width,
         height,
         resolution: x_size,
@@ -270,7 +270,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         degrees: units.degrees,
         web_mercator: !units.degrees
             && key(PROJECTED_CRS).is_some_and(|code| WEB_MERCATOR.contains(&code)),
+        ground_scale: None,
     };
+    if let Some(code) = key(PROJECTED_CRS).filter(|_| !geo.varies_by_row()) {
+        ground_scale(&mut geo, code, path);
+    }
     geo.validate().map_err(problem)?;
     if let Some([south, north]) = geo.latitudes() {
         if south < -90.0 - 1e-6 || north > 90.0 + 1e-6 {
@@ -374,6 +378,30 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         geo,
         layers,
     })
+}
+
+/// Sets the ground metres per projected metre at the raster's centre where the CRS is a
+/// polar stereographic or World Mercator one (`grid::point_scale`), and warns where it
+/// varies by more than 5 % across the raster.
+fn ground_scale(geo: &mut GeoRef, code: u16, path: &Path) {
+    let [x0, y0, x1, y1] = geo.bounds();
+    let Some(centre) = point_scale(code, (x0 + x1) / 2.0, (y0 + y1) / 2.0) else {
+        return;
+    };
+    geo.ground_scale = Some(centre);
+    let variation = [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
+        .into_iter()
+        .filter_map(|(x, y)| point_scale(code, x, y))
+        .map(|corner| (corner / centre - 1.0).abs())
+        .fold(0.0, f64::max);
+    if variation > 0.05 {
+        tracing::warn!(
+            "{}: EPSG:{code}'s scale varies by up to {:.0} % across the raster; lengths \
+             are measured at its centre: reproject it (gdalwarp) for exact ones",
+            path.display(),
+            100.0 * variation
+        );
+    }
 }
 
 /// What the CRS's units are: a factor to metres for projected units, or degrees.
@@ -654,6 +682,7 @@ mod tests {
             frame: "EPSG:32633".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         };
         let values = [1.0, 2.0, f32::NAN, 4.0, 5.0, 6.5];
         let path = dir.path().join("c.tif");
@@ -679,6 +708,7 @@ mod tests {
         assert_eq!(read_geotiff(&path, "g").unwrap().geo, geo);
         let mercator = GeoRef {
             web_mercator: true,
+            ground_scale: None,
             ..GeoRef::square(3, 2, 30.0, [-11_858_134.8, 4_803_914.4], "EPSG:3857")
         };
         write_geotiff(&path, &mercator, &[1.0; 6]).unwrap();

@@ -768,6 +768,7 @@ mod tests {
             frame: "odom".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         }
     }
 

@@ -129,6 +129,7 @@ mod tests {
             frame: "m".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         };
         let costs = Grid::filled(geo, 1.0f32);
         let demo: Vec<Cell> = (0..8).map(|i| Cell::new(i, i)).collect();

@@ -425,6 +425,7 @@ mod tests {
             frame: "m".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         };
         Grid::from_vec(geo, values)
     }

@@ -107,6 +107,7 @@ mod tests {
             frame: "m".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         };
         // Cost grows to the north.
         let costs = Grid::from_vec(

@@ -123,6 +123,7 @@ fn terrain(name: &str, config: &WorldConfig, rng: &mut ChaCha8Rng) -> Map {
         frame: "map".into(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     };
     let height_field = fractal_noise(w, h, rng);
     let mut vegetation = fractal_noise(w, h, rng);

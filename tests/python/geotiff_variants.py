@@ -175,14 +175,24 @@ utm = dict(driver="GTiff", width=cells, height=cells, count=1, dtype="float32",
            transform=Affine(size, 0.0, west, 0.0, -size, south + cells * size))
 write("units--utm-plane", "units", utm, plane[None])
 bounds = (west, south, west + cells * size, south + cells * size)
-transform, width, height = calculate_default_transform(
-    "EPSG:32610", "EPSG:3857", cells, cells, *bounds)
-warped = np.full((height, width), -9999.0, dtype=np.float32)
-reproject(plane, warped, src_transform=utm["transform"], src_crs="EPSG:32610",
-          src_nodata=-9999.0, dst_transform=transform, dst_crs="EPSG:3857",
-          dst_nodata=-9999.0, resampling=Resampling.bilinear)
-mercator = dict(utm, crs="EPSG:3857", transform=transform, width=width, height=height)
-write("units--web-mercator-plane", "units", mercator, warped[None])
+
+
+def warped_plane(name, crs):
+    """GDAL's bilinear warp of the UTM plane into `crs`."""
+    transform, width, height = calculate_default_transform(
+        "EPSG:32610", crs, cells, cells, *bounds)
+    warped = np.full((height, width), -9999.0, dtype=np.float32)
+    reproject(plane, warped, src_transform=utm["transform"], src_crs="EPSG:32610",
+              src_nodata=-9999.0, dst_transform=transform, dst_crs=crs,
+              dst_nodata=-9999.0, resampling=Resampling.bilinear)
+    profile = dict(utm, crs=crs, transform=transform, width=width, height=height)
+    write(name, "units", profile, warped[None])
+
+
+warped_plane("units--web-mercator-plane", "EPSG:3857")
+# NSIDC's Arctic grid (EPSG:3413, as ArcticDEM comes), true to scale at 70° N: at 60° N
+# a projected metre spans 0.962 ground metres.
+warped_plane("units--polar-stereographic-plane", "EPSG:3413")
 
 # The same plane stored as int16 decimetres above 100 m, with GDAL's scale 0.1 and
 # offset 100 in its metadata: read as metres once scaled.

@@ -580,6 +580,7 @@ fn occupancy_map(message: &Value, name: &str) -> Result<Map, String> {
         frame: text(message, "header.frame_id")?.to_string(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     })?;
     let data = field(message, "data")?;
     let values: Vec<f32> = match data {
@@ -644,6 +645,7 @@ fn grid_map_map(message: &Value, name: &str) -> Result<Map, String> {
         frame: text(message, "header.frame_id")?.to_string(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     })?;
     let names = field(message, "layers")?
         .as_list()
@@ -740,6 +742,7 @@ fn foxglove_grid_map(message: &Value, name: &str) -> Result<Map, String> {
         frame: text(message, "frame_id")?.to_string(),
         degrees: false,
         web_mercator: false,
+        ground_scale: None,
     })?;
     if (width as usize) * cell_stride > row_stride {
         return Err(format!(
@@ -856,6 +859,7 @@ mod tests {
             frame: "map".into(),
             degrees: false,
             web_mercator: false,
+            ground_scale: None,
         };
         let layer = |k: f32| Layer {
             name: format!("l{k}"),
