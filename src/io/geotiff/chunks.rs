@@ -214,6 +214,31 @@ impl Layout {
         Ok(())
     }
 
+    /// Copies a decoded chunk's `samples` (`width` pixels per row, `depth` samples
+    /// each, rows one after another) into `values`, row by row; what lies past the
+    /// image's right or bottom edge is left out.
+    pub fn place_rows(
+        &self,
+        values: &mut [f32],
+        chunk: &Chunk,
+        width: usize,
+        height: usize,
+        samples: &[f32],
+    ) {
+        let depth = self.depth();
+        let used = width.min(self.width - chunk.col0) * depth;
+        let plane = if self.planes > 1 {
+            chunk.plane * self.width * self.height
+        } else {
+            0
+        };
+        for r in 0..height.min(self.height.saturating_sub(chunk.row0)) {
+            let at = plane + ((chunk.row0 + r) * self.width + chunk.col0) * depth;
+            let from = r * width * depth;
+            values[at..at + used].copy_from_slice(&samples[from..from + used]);
+        }
+    }
+
     /// Writes a decoded chunk of `width` pixels per row into `values`: `sample(pixel, d)`
     /// is the d-th sample (of `depth`) of the chunk's pixel `pixel` (row-major). Pixels
     /// past the image's right or bottom edge are left out.

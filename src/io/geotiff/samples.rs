@@ -84,9 +84,13 @@ fn decode<R: Read + Seek>(
         layout
             .check_decoded(&chunk, w, h)
             .map_err(|e| format!("strip or tile {index}: {e}"))?;
-        layout.place(&mut values, &chunk, w, h, |pixel, d| {
-            samples[pixel * layout.depth() + d]
-        });
+        if samples.len() < w * h * depth {
+            return Err(format!(
+                "strip or tile {index}: {} samples for {w}×{h} pixels",
+                samples.len()
+            ));
+        }
+        layout.place_rows(&mut values, &chunk, w, h, &samples);
     }
     Ok(values)
 }

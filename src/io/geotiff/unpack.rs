@@ -54,15 +54,13 @@ pub(super) fn read<R: Read + Seek>(
             _ => lzma(chunk.bytes, row_bytes * rows),
         }
         .map_err(in_chunk)?;
-        let samples: Vec<f32> = bytes
-            .chunks_exact_mut(row_bytes)
-            .map(|row| encoding.row_values(row, chunk_width * depth))
-            .collect::<Result<Vec<_>, _>>()
-            .map_err(in_chunk)?
-            .concat();
-        layout.place(&mut values, &chunk, chunk_width, rows, |pixel, d| {
-            samples[pixel * depth + d]
-        });
+        let mut samples = Vec::with_capacity(chunk_width * depth * rows);
+        for row in bytes.chunks_exact_mut(row_bytes) {
+            encoding
+                .row_values(row, chunk_width * depth, &mut samples)
+                .map_err(in_chunk)?;
+        }
+        layout.place_rows(&mut values, &chunk, chunk_width, rows, &samples);
     }
     Ok(values)
 }
@@ -271,86 +269,106 @@ impl Encoding {
         Ok(encoding)
     }
 
-    /// The `count` samples of one stored row, the predictor undone in place.
-    fn row_values(&self, row: &mut [u8], count: usize) -> Result<Vec<f32>, String> {
-        let size = self.bits / 8;
+    /// Appends the `count` samples of one stored row to `out`, the predictor undone
+    /// (in place, for the floating-point one).
+    fn row_values(&self, row: &mut [u8], count: usize, out: &mut Vec<f32>) -> Result<(), String> {
         if self.bits < 8 {
-            return super::samples::unpack(row, self.bits as u16, count, 1);
+            out.extend(super::samples::unpack(row, self.bits as u16, count, 1)?);
+            return Ok(());
         }
-        let samples = &mut row[..count * size];
-        match self.predictor {
+        let samples = &mut row[..count * self.bits / 8];
+        let (horizontal, big_endian) = match self.predictor {
             3 => {
-                undo_floating_point_predictor(samples, size, self.depth);
+                undo_floating_point_predictor(samples, self.bits / 8, self.depth);
                 // The predictor leaves the bytes of each sample most significant first.
-                return Ok(self.values(samples, true));
+                (false, true)
             }
-            2 => self.undo_horizontal_predictor(samples, count),
-            _ => {}
-        }
-        Ok(self.values(samples, self.big_endian))
-    }
-
-    /// Adds each sample to the one a pixel before it (`samples_per_pixel` back),
-    /// wrapping, in the sample's own width and byte order.
-    fn undo_horizontal_predictor(&self, samples: &mut [u8], count: usize) {
-        let (size, depth) = (self.bits / 8, self.depth);
-        let read = |b: &[u8]| -> u64 {
-            let mut v = 0u64;
-            for i in 0..size {
-                let byte = if self.big_endian {
-                    b[i]
-                } else {
-                    b[size - 1 - i]
-                };
-                v = (v << 8) | u64::from(byte);
-            }
-            v
+            2 => (true, self.big_endian),
+            _ => (false, self.big_endian),
         };
-        let write = |b: &mut [u8], v: u64| {
-            for i in 0..size {
-                let byte = (v >> (8 * i)) as u8;
-                if self.big_endian {
-                    b[size - 1 - i] = byte;
-                } else {
-                    b[i] = byte;
-                }
-            }
+        let read = RowReading {
+            big_endian,
+            horizontal,
+            depth: self.depth,
         };
-        for i in depth..count {
-            let previous = read(&samples[(i - depth) * size..][..size]);
-            let current = read(&samples[i * size..][..size]);
-            write(
-                &mut samples[i * size..][..size],
-                current.wrapping_add(previous),
-            );
+        match (self.format, self.bits) {
+            (Format::Unsigned, 8) => read.append::<u8>(samples, out),
+            (Format::Unsigned, 16) => read.append::<u16>(samples, out),
+            (Format::Unsigned, 32) => read.append::<u32>(samples, out),
+            (Format::Unsigned, _) => read.append::<u64>(samples, out),
+            (Format::Signed, 8) => read.append::<i8>(samples, out),
+            (Format::Signed, 16) => read.append::<i16>(samples, out),
+            (Format::Signed, 32) => read.append::<i32>(samples, out),
+            (Format::Signed, _) => read.append::<i64>(samples, out),
+            (Format::Float, 32) => read.append::<f32>(samples, out),
+            (Format::Float, _) => read.append::<f64>(samples, out),
         }
-    }
-
-    fn values(&self, samples: &[u8], big_endian: bool) -> Vec<f32> {
-        let size = self.bits / 8;
-        samples
-            .chunks_exact(size)
-            .map(|b| {
-                let mut raw = [0u8; 8];
-                raw[..size].copy_from_slice(b);
-                if big_endian {
-                    raw[..size].reverse();
-                }
-                // `raw` now holds the sample least significant byte first.
-                let unsigned = u64::from_le_bytes(raw);
-                match (self.format, size) {
-                    (Format::Float, 4) => f32::from_bits(unsigned as u32),
-                    (Format::Float, _) => f64::from_bits(unsigned) as f32,
-                    (Format::Signed, _) => {
-                        let shift = 64 - 8 * size as u32;
-                        (((unsigned << shift) as i64) >> shift) as f32
-                    }
-                    (Format::Unsigned, _) => unsigned as f32,
-                }
-            })
-            .collect()
+        Ok(())
     }
 }
+
+/// How one row's samples are read: their byte order, and whether each is a difference
+/// from the sample a pixel (`depth` samples) before it.
+struct RowReading {
+    big_endian: bool,
+    horizontal: bool,
+    depth: usize,
+}
+
+impl RowReading {
+    fn append<T: Sample>(&self, bytes: &[u8], out: &mut Vec<f32>) {
+        let samples = bytes
+            .chunks_exact(T::SIZE)
+            .map(|b| T::from_bytes(b, self.big_endian));
+        if !self.horizontal {
+            out.extend(samples.map(T::to_f32));
+            return;
+        }
+        let mut values: Vec<T> = samples.collect();
+        for i in self.depth..values.len() {
+            values[i] = values[i].wrapping_add(values[i - self.depth]);
+        }
+        out.extend(values.into_iter().map(T::to_f32));
+    }
+}
+
+/// A stored sample type.
+trait Sample: Copy {
+    const SIZE: usize;
+    fn from_bytes(bytes: &[u8], big_endian: bool) -> Self;
+    /// The horizontal predictor's sum (integers only; never called on floats).
+    fn wrapping_add(self, other: Self) -> Self;
+    fn to_f32(self) -> f32;
+}
+
+macro_rules! sample {
+    ($($t:ty => $add:expr),* $(,)?) => {$(
+        impl Sample for $t {
+            const SIZE: usize = std::mem::size_of::<$t>();
+            fn from_bytes(bytes: &[u8], big_endian: bool) -> Self {
+                let array = bytes.try_into().expect("chunks of SIZE bytes");
+                if big_endian {
+                    <$t>::from_be_bytes(array)
+                } else {
+                    <$t>::from_le_bytes(array)
+                }
+            }
+            fn wrapping_add(self, other: Self) -> Self {
+                $add(self, other)
+            }
+            fn to_f32(self) -> f32 {
+                self as f32
+            }
+        }
+    )*};
+}
+
+sample!(
+    u8 => u8::wrapping_add, u16 => u16::wrapping_add, u32 => u32::wrapping_add,
+    u64 => u64::wrapping_add, i8 => i8::wrapping_add, i16 => i16::wrapping_add,
+    i32 => i32::wrapping_add, i64 => i64::wrapping_add,
+    f32 => |a: f32, b: f32| a + b, f64 => |a: f64, b: f64| a + b,
+);
 
 /// Undoes the floating-point predictor (TIFF Technical Note 3, libtiff's `fpAcc`) on
 /// one row: its bytes were differenced `depth` apart, after each sample's bytes were
@@ -372,6 +390,13 @@ fn undo_floating_point_predictor(row: &mut [u8], size: usize, depth: usize) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The samples `e.row_values` appends for a row of `count`.
+    fn read_row(e: &Encoding, bytes: &mut [u8], count: usize) -> Vec<f32> {
+        let mut out = Vec::new();
+        e.row_values(bytes, count, &mut out).unwrap();
+        out
+    }
 
     fn encoding(
         format: Format,
@@ -398,14 +423,11 @@ mod tests {
             .flat_map(|v| v.to_le_bytes())
             .collect();
         let e = encoding(Format::Unsigned, 16, 2, 2, false);
-        assert_eq!(
-            e.row_values(&mut row, 4).unwrap(),
-            [1000.0, 7.0, 1005.0, 65535.0]
-        );
+        assert_eq!(read_row(&e, &mut row, 4), [1000.0, 7.0, 1005.0, 65535.0]);
         // Big-endian signed: -3, then +5 → 2.
         let mut row: Vec<u8> = [-3i32, 5].iter().flat_map(|v| v.to_be_bytes()).collect();
         let e = encoding(Format::Signed, 32, 1, 2, true);
-        assert_eq!(e.row_values(&mut row, 2).unwrap(), [-3.0, 2.0]);
+        assert_eq!(read_row(&e, &mut row, 2), [-3.0, 2.0]);
     }
 
     #[test]
@@ -423,28 +445,21 @@ mod tests {
         }
         for big_endian in [false, true] {
             let e = encoding(Format::Float, 32, 1, 3, big_endian);
-            assert_eq!(e.row_values(&mut row.clone(), count).unwrap(), floats);
+            assert_eq!(read_row(&e, &mut row.clone(), count), floats);
         }
     }
 
     #[test]
     fn samples_read_in_either_byte_order_and_width() {
         let e = encoding(Format::Signed, 16, 1, 1, true);
-        assert_eq!(
-            e.row_values(&mut [0xFF, 0xFE, 0x00, 0x02], 2).unwrap(),
-            [-2.0, 2.0]
-        );
+        assert_eq!(read_row(&e, &mut [0xFF, 0xFE, 0x00, 0x02], 2), [-2.0, 2.0]);
         let e = encoding(Format::Float, 64, 1, 1, false);
         assert_eq!(
-            e.row_values(&mut (-0.5f64).to_le_bytes().to_vec(), 1)
-                .unwrap(),
+            read_row(&e, &mut (-0.5f64).to_le_bytes().to_vec(), 1),
             [-0.5]
         );
         let e = encoding(Format::Unsigned, 4, 1, 1, false);
-        assert_eq!(
-            e.row_values(&mut [0xA3, 0x70], 3).unwrap(),
-            [10.0, 3.0, 7.0]
-        );
+        assert_eq!(read_row(&e, &mut [0xA3, 0x70], 3), [10.0, 3.0, 7.0]);
     }
 
     #[test]
