@@ -266,10 +266,12 @@ for compress in ("none", "deflate"):
     with_gdal_reading(f"kinds--sparse-{compress}", kinds, voids, nodata=-9999.0,
                       compress=compress, tiled=True, blockxsize=128, blockysize=128,
                       SPARSE_OK=True)
+# -FLT_MAX voids under the nodata value ArcGIS writes (and GDAL reads as -FLT_MAX):
+# 12 digits, not f32::MIN as a double.
 flt_max = voids.copy()
 flt_max[flt_max == -9999.0] = np.finfo(np.float32).min
-with_gdal_reading("kinds--nodata-flt-max", kinds, flt_max,
-                  nodata=float(np.finfo(np.float32).min), compress="lzw")
+with_gdal_reading("kinds--nodata-flt-max", kinds, flt_max, nodata=-3.40282346639e+38,
+                  compress="lzw")
 coverage = np.full(grey.shape, 255, dtype="uint8")
 coverage[:, : grey.shape[1] // 3] = 0
 coverage[200:260, 300:420] = 0
