@@ -345,7 +345,7 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         }
         checked.push(name.to_string());
     }
-    assert_eq!(checked.len(), 10, "{checked:?}");
+    assert_eq!(checked.len(), 11, "{checked:?}");
     // The land-cover palette reads as its class codes, the 1-bit mask as 0 and 1, and
     // the internal mask takes a third of the image and a block away.
     let codes = read("kinds--palette").unwrap();
@@ -365,4 +365,19 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         .count();
     let (w, h) = (masked.geo.width as usize, masked.geo.height as usize);
     assert_eq!(empty, h * (w / 3) + 60 * 120);
+    // Transparent cells of an RGBA orthomosaic (alpha 0) are nodata in the colour
+    // bands; the alpha band keeps its zeros, as in GDAL.
+    let rgba = read("kinds--rgba-alpha").unwrap();
+    let nodata = |band: usize| {
+        rgba.layers[band]
+            .values
+            .iter()
+            .filter(|v| v.is_nan())
+            .count()
+    };
+    let transparent = h * (w / 4) + 50 * (w - w / 4);
+    assert_eq!(
+        [nodata(0), nodata(1), nodata(2), nodata(3)],
+        [transparent, transparent, transparent, 0]
+    );
 }

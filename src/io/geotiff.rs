@@ -4,14 +4,15 @@
 //! predictor), PackBits, ZSTD or JPEG (`samples`, YCbCr converted to RGB), LZW and LZMA
 //! (`unpack`), LERC (`lerc`) or WebP (`webp`). Every band becomes a layer (`band1`,
 //! ...); cells GDAL reads as nodata become NaN (our nodata mask): equal to the GDAL
-//! nodata value in the band's type, empty in GDAL's internal mask (`mask`), or in a
-//! tile a sparse file leaves out. The others are scaled and offset as GDAL's metadata
-//! says (`metadata`); palette images read as their class codes (`grey`). The
-//! georeference comes from the pixel-scale + tiepoint tags or the transformation matrix.
-//! Cells may be rectangles; a geographic CRS keeps its degrees as frame units and is
-//! measured in metres from the latitude, Web Mercator from the northing
-//! (`GeoRef::cell_metres`); projected units and heights in feet become metres. Rasters
-//! stored north-up (row 0 at the top) are flipped to our south-first rows.
+//! nodata value in the band's type, empty in GDAL's internal mask (`mask`),
+//! transparent in an alpha band, or in a tile a sparse file leaves out. The others are
+//! scaled and offset as GDAL's metadata says (`metadata`); palette images read as their
+//! class codes (`grey`). The georeference comes from the pixel-scale + tiepoint tags or
+//! the transformation matrix. Cells may be rectangles; a geographic CRS keeps its
+//! degrees as frame units and is measured in metres from the latitude, Web Mercator
+//! from the northing (`GeoRef::cell_metres`); projected units and heights in feet
+//! become metres. Rasters stored north-up (row 0 at the top) are flipped to our
+//! south-first rows.
 
 use std::io::Cursor;
 use std::path::Path;
@@ -48,6 +49,9 @@ const ANGULAR_RADIAN: u16 = 9101;
 /// Web Mercator's EPSG codes that fit a GeoKey: 3857 and its deprecated 3785.
 const WEB_MERCATOR: [u16; 2] = [3857, 3785];
 const VERTICAL_CRS: u16 = 4096;
+/// TIFF ExtraSamples values of an alpha band.
+const ASSOCIATED_ALPHA: u16 = 1;
+const UNASSOCIATED_ALPHA: u16 = 2;
 const VERTICAL_UNITS: u16 = 4099;
 
 /// Metres per unit of height, for the vertical CRSs (EPSG) that US elevation data
@@ -322,17 +326,30 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         }
         None => vec![(1.0, 0.0); bands],
     };
+    // GDAL masks the cells an alpha band marks transparent (ExtraSamples 1 or 2: RGBA
+    // imagery, orthomosaics): 0 there.
+    let extra = decoder
+        .find_tag_unsigned_vec::<u16>(Tag::ExtraSamples)
+        .map_err(tiff_error)?
+        .unwrap_or_default();
+    let alpha = extra
+        .iter()
+        .position(|&kind| kind == ASSOCIATED_ALPHA || kind == UNASSOCIATED_ALPHA)
+        .and_then(|i| (bands + i).checked_sub(extra.len()));
     // Cells GDAL's internal mask marks empty are nodata too (read last: it is a later
     // image of the file).
     let mask = mask::read(&mut decoder, &image).map_err(problem)?;
-    let is_masked = |row: usize, col: usize| {
-        mask.as_ref()
-            .is_some_and(|m| !m[row * width as usize + col])
-    };
     // Where sample `band` of the file's row `row`, column `col` lies in `values`.
     let sample = |band: usize, row: usize, col: usize| match planar {
         PlanarConfiguration::Planar => band * cells + row * width as usize + col,
         _ => (row * width as usize + col) * bands + band,
+    };
+    // As GDAL reads them: the internal mask covers every band, the alpha band every
+    // band but itself.
+    let is_masked = |band: usize, row: usize, col: usize| {
+        mask.as_ref()
+            .is_some_and(|m| !m[row * width as usize + col])
+            || alpha.is_some_and(|a| a != band && values[sample(a, row, col)] == 0.0)
     };
     let layers: Vec<Layer> = (0..bands)
         .map(|band| {
@@ -354,7 +371,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                 for col in 0..width as usize {
                     let v = values[sample(band, source_row, col)];
                     layer[row * width as usize + col] =
-                        if is_nodata(v) || is_masked(source_row, col) {
+                        if is_nodata(v) || is_masked(band, source_row, col) {
                             f32::NAN
                         } else {
                             physical(v)

@@ -292,3 +292,10 @@ with rasterio.open(os.path.join(out, "source--kinds--masked-jpeg.tif"), "w",
 with_gdal_reading("kinds--masked-jpeg", kinds, photo, lossless=False, mask=coverage,
                   env=internal, compress="jpeg", photometric="ycbcr", tiled=True,
                   blockxsize=256, blockysize=256)
+# An orthomosaic as OpenDroneMap writes one: RGBA, alpha 0 outside the survey.
+survey = np.full(grey.shape, 255, dtype="uint8")
+survey[:, : grey.shape[1] // 4] = 0
+survey[-50:, :] = 0
+with_gdal_reading("kinds--rgba-alpha", kinds, np.concatenate([photo, survey[None]]),
+                  photometric="rgb", ALPHA="YES", compress="deflate",
+                  tiled=True, blockxsize=256, blockysize=256)
