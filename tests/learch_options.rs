@@ -45,6 +45,17 @@ fn tree_learch_with_early_stopping_writes_what_it_kept() {
             .iter()
             .all(|l| l["kind"] == "tree" && l["tree"].is_object())
     );
+    // The kept learners take the contrast chosen on the training paths times the
+    // steps their rounds record.
+    let contrast = metrics["contrast"].as_f64().unwrap();
+    assert!([1.0, 1.25, 1.5, 2.0].contains(&contrast), "{contrast}");
+    for (learner, round) in learners.iter().zip(rounds) {
+        let (kept_step, round_step) = (
+            learner["step"].as_f64().unwrap(),
+            round["step"].as_f64().unwrap(),
+        );
+        assert!((kept_step - contrast * round_step).abs() < 1e-12);
+    }
 
     // Early stopping needs a validation split, and the other way round.
     let out = run(&[

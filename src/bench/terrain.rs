@@ -98,6 +98,10 @@ pub struct TerrainArgs {
     pub loss_kind: Option<crate::ioc::LossKind>,
     #[arg(long, value_enum)]
     pub schedule: Option<crate::ioc::StepSchedule>,
+    /// LEARCH keeps the contrast its rounds left (no choice of the cost's exponent on
+    /// the training paths).
+    #[arg(long)]
+    pub keep_contrast: bool,
     #[arg(long)]
     pub json: bool,
 }
@@ -364,6 +368,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         if let Some(v) = args.schedule {
             config.schedule = v;
         }
+        config.calibrate_contrast &= !args.keep_contrast;
     }
     for m in &args.methods {
         if !all_methods.iter().any(|(name, _)| name == m) {

@@ -126,6 +126,20 @@ impl LogCostModel {
         self.learners.push(learner);
     }
 
+    /// The model whose log-cost is `gamma` times this one's (the cost to the power
+    /// `gamma`): every learner's step times `gamma`.
+    pub fn with_contrast(&self, gamma: f64) -> Self {
+        let mut model =
+            LogCostModel::zero_with(self.feature_names.clone(), self.scale.clone(), self.link);
+        for learner in &self.learners {
+            model.push(WeakLearner {
+                step: learner.step * gamma,
+                ..learner.clone()
+            });
+        }
+        model
+    }
+
     /// The model of the first `rounds` learners (what early stopping keeps).
     pub fn truncated(&self, rounds: usize) -> Self {
         let mut model =

@@ -164,6 +164,12 @@ pub struct LearchParams {
     #[arg(long)]
     #[serde(default)]
     pub patience: Option<usize>,
+    /// LEARCH: keep the learned cost's contrast as the rounds left it, instead of
+    /// ending with the exponent on the cost (1, 1.25, 1.5 or 2) whose plans follow the
+    /// training paths best (`contrast` in metrics.json).
+    #[arg(long)]
+    #[serde(default)]
+    pub keep_contrast: bool,
     /// Fraction of demonstrations held out for validation.
     #[arg(long, default_value_t = defaults::holdout())]
     #[serde(default = "defaults::holdout")]
@@ -479,6 +485,7 @@ impl LearchParams {
                 ..TreeConfig::default()
             },
             patience: self.patience,
+            calibrate_contrast: !self.keep_contrast,
         }
     }
 
@@ -602,6 +609,7 @@ impl LearchParams {
             "schema": "imitate.learch-metrics/1",
             "rounds": trained.rounds,
             "kept_round": trained.kept_round,
+            "contrast": trained.contrast,
             "training": { "summary": training_summary, "examples": train_eval },
             "validation": { "summary": ioc::summarize(validation_eval), "examples": validation_eval },
             "holdout": { "summary": holdout_summary, "examples": holdout_eval },
