@@ -345,7 +345,7 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         }
         checked.push(name.to_string());
     }
-    assert_eq!(checked.len(), 11, "{checked:?}");
+    assert_eq!(checked.len(), 16, "{checked:?}");
     // The land-cover palette reads as its class codes, the 1-bit mask as 0 and 1, and
     // the internal mask takes a third of the image and a block away.
     let codes = read("kinds--palette").unwrap();
@@ -357,6 +357,12 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
     );
     let bits = read("kinds--bits1").unwrap();
     assert!(bits.layers[0].values.iter().all(|&v| v == 0.0 || v == 1.0));
+    // The 12-bit bands were written as v and 4095 − v (GDAL's reading would agree on
+    // a file read as zeros too).
+    let twelve = read("kinds--bits12-tiled-deflate").unwrap();
+    let (a, b) = (&twelve.layers[0].values, &twelve.layers[1].values);
+    assert!(a.iter().zip(b).all(|(x, y)| x + y == 4095.0));
+    assert!(a.iter().copied().fold(0.0, f32::max) > 3000.0);
     let masked = read("kinds--masked-deflate").unwrap();
     let empty = masked.layers[0]
         .values

@@ -2,7 +2,9 @@
 //! or tiles, BigTIFF, cloud-optimised files (the full-resolution first image), pixel- or
 //! band-interleaved, either byte order, uncompressed or Deflate (with either
 //! predictor), PackBits, ZSTD or JPEG (`samples`, YCbCr converted to RGB), LZW and LZMA
-//! (`unpack`), LERC (`lerc`) or WebP (`webp`). Every band becomes a layer (`band1`,
+//! (`unpack`, as are GDAL's `NBITS` widths of 9 to 31 bits and half floats under any
+//! lossless compression), LERC (`lerc`) or WebP (`webp`); samples of 1 to 32 bits.
+//! Every band becomes a layer (`band1`,
 //! ...); cells GDAL reads as nodata become NaN (our nodata mask): equal to the GDAL
 //! nodata value in the band's type, empty in GDAL's internal mask (`mask`),
 //! transparent in an alpha band, or in a tile a sparse file leaves out. The others are
@@ -178,7 +180,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     } else if compression == webp::WEBP {
         webp::read(&mut decoder, &image)
             .map_err(|e| problem(format!("WebP (tag Compression = {compression}): {e}")))?
-    } else if compression == unpack::LZW || compression == unpack::LZMA {
+    } else if unpack::reads(&mut decoder, compression)
+        .map_err(|e| problem(format!("not a readable TIFF: {e}")))?
+    {
         unpack::read(&mut decoder, &image, compression).map_err(|e| {
             problem(format!(
                 "{} (tag Compression = {compression}): {e}",

@@ -260,6 +260,21 @@ with_gdal_reading("kinds--bits1", kinds, bright, nbits=1)
 with_gdal_reading("kinds--bits1-tiled-deflate", kinds, bright, nbits=1, compress="deflate",
                   tiled=True, blockxsize=128, blockysize=128)
 with_gdal_reading("kinds--bits4", kinds, classes, nbits=4, compress="packbits")
+# GDAL's NBITS widths past a byte (12-bit imagery as satellite products pack it, 20-bit
+# counts, band-interleaved too), 3-bit classes, and Float32 stored as half floats
+# (NBITS=16) under the floating-point predictor.
+twelve = (grey.astype("uint16") * 16 + grey.astype("uint16") % 13)[None]
+with_gdal_reading("kinds--bits12-lzw", kinds, twelve, nbits=12, compress="lzw")
+with_gdal_reading("kinds--bits12-tiled-deflate", kinds,
+                  np.concatenate([twelve, 4095 - twelve]), nbits=12, compress="deflate",
+                  tiled=True, blockxsize=128, blockysize=128, interleave="band")
+with_gdal_reading("kinds--bits20-zstd", kinds, (grey.astype("uint32") * 4099)[None],
+                  nbits=20, compress="zstd")
+with_gdal_reading("kinds--bits3-packbits", kinds, (grey // 37).astype("uint8")[None],
+                  nbits=3, compress="packbits")
+with_gdal_reading("kinds--half-lzw-predictor3", kinds,
+                  ((grey.astype("float32") - 128.0) / 7.0)[None], nbits=16,
+                  compress="lzw", predictor=3)
 voids = grey[None].astype("float32")
 voids[0, : voids.shape[1] // 2, : voids.shape[2] // 2] = -9999.0
 for compress in ("none", "deflate"):

@@ -1,7 +1,7 @@
 //! The strips or tiles of a TIFF image: where each lies in the file and in the image,
 //! and where its decoded pixels land among the image's samples. Read raw for the
-//! compressions the `tiff` crate cannot decode (LERC, WebP), and one by one where GDAL
-//! left some out (sparse files).
+//! compressions and sample widths the `tiff` crate cannot decode (LERC, WebP, LZMA,
+//! `NBITS`), and one by one where GDAL left some out (sparse files).
 
 use std::io::{Read, Seek};
 

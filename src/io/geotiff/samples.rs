@@ -1,6 +1,6 @@
 //! The image's samples through the `tiff` crate, for every compression it decodes: the
 //! whole image at once, or strip by strip where GDAL left some out (sparse files), with
-//! samples of fewer than 8 bits (1-bit masks, 2- and 4-bit classes) unpacked.
+//! samples of fewer than 8 bits (1-bit masks, 2- to 7-bit classes) unpacked.
 
 use std::io::{Read, Seek};
 
@@ -95,7 +95,7 @@ fn decode<R: Read + Seek>(
     Ok(values)
 }
 
-/// Decoded samples as `f32`. Samples of 1, 2 or 4 bits come packed, each row of
+/// Decoded samples as `f32`. Samples of fewer than 8 bits come packed, each row of
 /// `width` pixels of `depth` samples starting on a byte; they are unpacked (most
 /// significant bits first, TIFF's default FillOrder).
 fn to_f32(
@@ -121,14 +121,15 @@ fn to_f32(
     })
 }
 
-/// `rows` rows of `per_row` samples of `bits` bits each, every row starting on a byte.
+/// `rows` rows of `per_row` unsigned samples of `bits` bits each (1 to 32: GDAL's
+/// `NBITS`), packed most significant bits first, every row starting on a byte.
 pub(super) fn unpack(
     bytes: &[u8],
     bits: u16,
     per_row: usize,
     rows: usize,
 ) -> Result<Vec<f32>, String> {
-    if !matches!(bits, 1 | 2 | 4) {
+    if !(1..=32).contains(&bits) {
         return Err(format!("samples of {bits} bits (tag BitsPerSample)"));
     }
     let bits = usize::from(bits);
@@ -139,13 +140,18 @@ pub(super) fn unpack(
             bytes.len()
         ));
     }
-    let mask = (1u8 << bits) - 1;
+    let mask = (1u64 << bits) - 1;
     let mut out = Vec::with_capacity(per_row * rows);
     for row in bytes.chunks_exact(row_bytes).take(rows) {
         out.extend((0..per_row).map(|i| {
-            let bit = i * bits;
-            let shift = 8 - bits - bit % 8;
-            f32::from((row[bit / 8] >> shift) & mask)
+            // The (at most five) bytes holding bits [first, first + bits), big-endian.
+            let first = i * bits;
+            let last = (first + bits - 1) / 8;
+            let word = row[first / 8..=last]
+                .iter()
+                .fold(0u64, |w, &b| (w << 8) | u64::from(b));
+            let shift = 8 * (last + 1) - first - bits;
+            ((word >> shift) & mask) as f32
         }));
     }
     Ok(out)
@@ -168,7 +174,28 @@ mod tests {
             unpack(&[0b1110_0100], 2, 4, 1).unwrap(),
             [3.0, 2.0, 1.0, 0.0]
         );
+        // 3 bits: 101 011 1|10, the third sample across the byte boundary.
+        assert_eq!(
+            unpack(&[0b1010_1111, 0b0000_0000], 3, 3, 1).unwrap(),
+            [5.0, 3.0, 6.0]
+        );
+        // GDAL's NBITS=12: 0xABC, 0xDEF in three bytes, then a row padded to a byte.
+        assert_eq!(
+            unpack(&[0xAB, 0xCD, 0xEF, 0x12, 0x30], 12, 2, 1).unwrap(),
+            [2748.0, 3567.0]
+        );
+        assert_eq!(
+            unpack(&[0x12, 0x30, 0xFF, 0xF0], 12, 1, 2).unwrap(),
+            [291.0, 4095.0]
+        );
+        // 31 bits, starting mid-byte in the second sample.
+        let two = (((1u64 << 31) - 2) << 33) | (12_345u64 << 2);
+        assert_eq!(
+            unpack(&two.to_be_bytes(), 31, 2, 1).unwrap(),
+            [2_147_483_646.0, 12_345.0]
+        );
         assert!(unpack(&[0xFF], 1, 9, 1).is_err());
-        assert!(unpack(&[0xFF], 3, 2, 1).is_err());
+        assert!(unpack(&[0xFF; 8], 33, 1, 1).is_err());
+        assert!(unpack(&[0xFF; 8], 0, 1, 1).is_err());
     }
 }

@@ -1,8 +1,10 @@
-//! LZW and LZMA strips and tiles, decompressed here, their predictor undone and their
-//! samples read in the file's byte order. LZMA because the `tiff` crate has no LZMA;
-//! LZW because its streaming LZW reader fails on edge tiles of some tiled files GDAL
-//! writes ("no lzw end code found", image-rs/image-tiff#395), where a whole-chunk
-//! decode of the same bytes is exact.
+//! Strips and tiles decompressed here, their predictor undone and their samples read
+//! in the file's byte order: LZW and LZMA ones always, others where the `tiff` crate
+//! refuses their samples. LZMA because the crate has no LZMA; LZW because its
+//! streaming LZW reader fails on edge tiles of some tiled files GDAL writes ("no lzw
+//! end code found", image-rs/image-tiff#395), where a whole-chunk decode of the same
+//! bytes is exact; GDAL's `NBITS` widths (9 to 15, 17 to 31 bits) and half floats
+//! because the crate has no colour type for them.
 
 use std::io::{Read, Seek, Write};
 
@@ -12,8 +14,35 @@ use tiff::tags::{ByteOrder, Tag};
 use super::chunks::{Image, Layout};
 
 /// TIFF compression codes decompressed here.
-pub(super) const LZW: u16 = 5;
-pub(super) const LZMA: u16 = 34925;
+const NONE: u16 = 1;
+const LZW: u16 = 5;
+const DEFLATE: u16 = 8;
+const PACKBITS: u16 = 32773;
+const ADOBE_DEFLATE: u16 = 32946;
+const LZMA: u16 = 34925;
+const ZSTD: u16 = 50000;
+
+/// Whether this module reads the image rather than the `tiff` crate: LZW and LZMA
+/// always, and the lossless compressions where the crate has no colour type for the
+/// samples (more than 8 bits but not 16, 32 or 64: GDAL's `NBITS`).
+pub(super) fn reads<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    compression: u16,
+) -> Result<bool, String> {
+    if matches!(compression, LZW | LZMA) {
+        return Ok(true);
+    }
+    let bits = decoder
+        .find_tag_unsigned_vec::<u16>(Tag::BitsPerSample)
+        .map_err(|e| e.to_string())?
+        .and_then(|b| b.first().copied())
+        .unwrap_or(1);
+    Ok(matches!(
+        compression,
+        NONE | DEFLATE | ADOBE_DEFLATE | PACKBITS | ZSTD
+    ) && bits > 8
+        && !matches!(bits, 16 | 32 | 64))
+}
 
 /// How the samples are stored: their type and width, samples per pixel in a strip or
 /// tile, the predictor and byte order.
@@ -49,11 +78,7 @@ pub(super) fn read<R: Read + Seek>(
         let in_chunk = |m: String| format!("strip or tile {}: {m}", chunk.index);
         let (chunk_width, rows) = layout.stored_size(&chunk);
         let row_bytes = (chunk_width * depth * encoding.bits).div_ceil(8);
-        let mut bytes = match compression {
-            LZW => lzw(chunk.bytes, row_bytes * rows),
-            _ => lzma(chunk.bytes, row_bytes * rows),
-        }
-        .map_err(in_chunk)?;
+        let mut bytes = decompress(compression, chunk.bytes, row_bytes * rows).map_err(in_chunk)?;
         let mut samples = Vec::with_capacity(chunk_width * depth * rows);
         for row in bytes.chunks_exact_mut(row_bytes) {
             encoding
@@ -63,6 +88,74 @@ pub(super) fn read<R: Read + Seek>(
         layout.place_rows(&mut values, &chunk, chunk_width, rows, &samples);
     }
     Ok(values)
+}
+
+/// The first `expected` bytes a strip or tile decompresses to (libtiff reads no
+/// further either); an error where it holds fewer.
+fn decompress(compression: u16, stream: &[u8], expected: usize) -> Result<Vec<u8>, String> {
+    let bounded = |reader: &mut dyn Read, name: &str| -> Result<Vec<u8>, String> {
+        let mut out = Vec::with_capacity(expected);
+        reader
+            .take(expected as u64)
+            .read_to_end(&mut out)
+            .map_err(|e| format!("the {name} stream: {e}"))?;
+        short(out, expected, name)
+    };
+    match compression {
+        LZW => lzw(stream, expected),
+        LZMA => lzma(stream, expected),
+        NONE => short(
+            stream[..stream.len().min(expected)].to_vec(),
+            expected,
+            "stored",
+        ),
+        DEFLATE | ADOBE_DEFLATE => bounded(&mut flate2::read::ZlibDecoder::new(stream), "Deflate"),
+        ZSTD => bounded(
+            &mut zstd::stream::read::Decoder::with_buffer(stream)
+                .map_err(|e| format!("the ZSTD stream: {e}"))?,
+            "ZSTD",
+        ),
+        PACKBITS => short(packbits(stream, expected), expected, "PackBits"),
+        other => Err(format!("compression {other} is not decompressed here")),
+    }
+}
+
+/// `bytes` if they are the `expected` bytes of the chunk's pixels.
+fn short(bytes: Vec<u8>, expected: usize, name: &str) -> Result<Vec<u8>, String> {
+    if bytes.len() < expected {
+        return Err(format!(
+            "the {name} stream holds {} bytes, not the {expected} of its pixels",
+            bytes.len()
+        ));
+    }
+    Ok(bytes)
+}
+
+/// At most `expected` bytes of a PackBits stream (TIFF 6.0, section 9): a header byte
+/// n then n + 1 literal bytes (n ≥ 0) or one byte repeated 1 − n times (n < 0; −128
+/// is no operation). A stream cut short yields what it holds.
+fn packbits(stream: &[u8], expected: usize) -> Vec<u8> {
+    let mut out = Vec::with_capacity(expected);
+    let mut at = 0;
+    while out.len() < expected && at < stream.len() {
+        let n = stream[at] as i8;
+        at += 1;
+        match n {
+            0.. => {
+                let literal = &stream[at..stream.len().min(at + n as usize + 1)];
+                out.extend_from_slice(literal);
+                at += literal.len();
+            }
+            -128 => {}
+            _ => {
+                let Some(&byte) = stream.get(at) else { break };
+                at += 1;
+                out.extend(std::iter::repeat_n(byte, (1 - i32::from(n)) as usize));
+            }
+        }
+    }
+    out.truncate(expected);
+    out
 }
 
 /// `expected` bytes of a TIFF LZW stream (most significant bits first, code widths
@@ -254,13 +347,7 @@ impl Encoding {
             predictor,
             big_endian: decoder.byte_order() == ByteOrder::BigEndian,
         };
-        let supported = match (format, bits) {
-            (Format::Unsigned, 1 | 2 | 4) => predictor == 1,
-            (Format::Unsigned | Format::Signed, 8 | 16 | 32 | 64) => predictor <= 2,
-            (Format::Float, 32 | 64) => predictor == 1 || predictor == 3,
-            _ => false,
-        };
-        if !supported {
+        if !supported(format, bits, predictor) {
             return Err(format!(
                 "samples of {bits} bits, SampleFormat {format:?}, Predictor {predictor} \
                  are not read"
@@ -272,7 +359,7 @@ impl Encoding {
     /// Appends the `count` samples of one stored row to `out`, the predictor undone
     /// (in place, for the floating-point one).
     fn row_values(&self, row: &mut [u8], count: usize, out: &mut Vec<f32>) -> Result<(), String> {
-        if self.bits < 8 {
+        if self.format == Format::Unsigned && !matches!(self.bits, 8 | 16 | 32 | 64) {
             out.extend(super::samples::unpack(row, self.bits as u16, count, 1)?);
             return Ok(());
         }
@@ -300,10 +387,22 @@ impl Encoding {
             (Format::Signed, 16) => read.append::<i16>(samples, out),
             (Format::Signed, 32) => read.append::<i32>(samples, out),
             (Format::Signed, _) => read.append::<i64>(samples, out),
+            (Format::Float, 16) => read.append::<half::f16>(samples, out),
             (Format::Float, 32) => read.append::<f32>(samples, out),
             (Format::Float, _) => read.append::<f64>(samples, out),
         }
         Ok(())
+    }
+}
+
+/// Whether samples of this format and width are read under this predictor.
+fn supported(format: Format, bits: u16, predictor: u16) -> bool {
+    match (format, bits) {
+        (Format::Unsigned | Format::Signed, 8 | 16 | 32 | 64) => predictor <= 2,
+        // Packed widths: libtiff's horizontal predictor is for whole bytes only.
+        (Format::Unsigned, 1..=32) => predictor == 1,
+        (Format::Float, 16 | 32 | 64) => predictor == 1 || predictor == 3,
+        _ => false,
     }
 }
 
@@ -369,6 +468,25 @@ sample!(
     i32 => i32::wrapping_add, i64 => i64::wrapping_add,
     f32 => |a: f32, b: f32| a + b, f64 => |a: f64, b: f64| a + b,
 );
+
+/// Half floats (GDAL's Float32 with `NBITS=16`).
+impl Sample for half::f16 {
+    const SIZE: usize = 2;
+    fn from_bytes(bytes: &[u8], big_endian: bool) -> Self {
+        let array = bytes.try_into().expect("chunks of SIZE bytes");
+        if big_endian {
+            half::f16::from_be_bytes(array)
+        } else {
+            half::f16::from_le_bytes(array)
+        }
+    }
+    fn wrapping_add(self, other: Self) -> Self {
+        self + other
+    }
+    fn to_f32(self) -> f32 {
+        f32::from(self)
+    }
+}
 
 /// Undoes the floating-point predictor (TIFF Technical Note 3, libtiff's `fpAcc`) on
 /// one row: its bytes were differenced `depth` apart, after each sample's bytes were
@@ -475,6 +593,59 @@ mod tests {
         // Too short a stream, or garbage: an error, not a panic.
         assert!(lzw(&stream[..stream.len() / 2], pixels.len()).is_err());
         assert!(lzw(&[0xFF; 64], pixels.len()).is_err());
+    }
+
+    #[test]
+    fn packbits_runs_and_literals_decode_to_their_pixels() {
+        // Three literals, a run of four 0xAA, a no-op, a run of two 0x01.
+        let stream = [2, 7, 8, 9, 0xFD, 0xAA, 0x80, 0xFF, 0x01];
+        let pixels = [7, 8, 9, 0xAA, 0xAA, 0xAA, 0xAA, 1, 1];
+        assert_eq!(packbits(&stream, 9), pixels);
+        assert_eq!(packbits(&stream, 5), pixels[..5]);
+        // Cut short (a literal past the end, a run without its byte): what it holds.
+        assert_eq!(packbits(&[5, 1, 2], 6), [1, 2]);
+        assert_eq!(packbits(&[0xFE], 3), Vec::<u8>::new());
+        assert!(decompress(PACKBITS, &[5, 1, 2], 6).is_err());
+    }
+
+    #[test]
+    fn every_lossless_compression_decompresses_to_the_chunks_bytes() {
+        use std::io::Write;
+        let pixels: Vec<u8> = (0..4000u32).map(|i| (i * 13 % 97) as u8).collect();
+        let mut zlib = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::default());
+        zlib.write_all(&pixels).unwrap();
+        let zlib = zlib.finish().unwrap();
+        let zstd = zstd::encode_all(&pixels[..], 3).unwrap();
+        for (code, stream) in [
+            (NONE, &pixels),
+            (DEFLATE, &zlib),
+            (ADOBE_DEFLATE, &zlib),
+            (ZSTD, &zstd),
+        ] {
+            assert_eq!(decompress(code, stream, pixels.len()).unwrap(), pixels);
+            // Fewer bytes asked: the first ones; more: an error naming the shortfall.
+            assert_eq!(decompress(code, stream, 10).unwrap(), pixels[..10]);
+            let err = decompress(code, stream, pixels.len() + 1).unwrap_err();
+            assert!(err.contains("4000 bytes"), "{code}: {err}");
+        }
+        assert!(decompress(DEFLATE, &zlib[..zlib.len() / 2], pixels.len()).is_err());
+        assert!(decompress(ZSTD, &[0xFF; 16], pixels.len()).is_err());
+    }
+
+    #[test]
+    fn half_floats_and_packed_widths_read_from_rows() {
+        let halves: Vec<u8> = [1.5f32, -0.25]
+            .iter()
+            .flat_map(|&f| half::f16::from_f32(f).to_le_bytes())
+            .collect();
+        let e = encoding(Format::Float, 16, 1, 1, false);
+        assert_eq!(read_row(&e, &mut halves.clone(), 2), [1.5, -0.25]);
+        let e = encoding(Format::Unsigned, 12, 1, 1, false);
+        assert_eq!(read_row(&e, &mut [0xAB, 0xCD, 0xEF], 2), [2748.0, 3567.0]);
+        // Packed widths with the horizontal predictor are refused, not misread.
+        assert!(!supported(Format::Unsigned, 12, 2));
+        assert!(!supported(Format::Signed, 12, 1));
+        assert!(supported(Format::Float, 16, 3));
     }
 
     #[test]
