@@ -272,6 +272,13 @@ with_gdal_reading("kinds--bits20-zstd", kinds, (grey.astype("uint32") * 4099)[No
                   nbits=20, compress="zstd")
 with_gdal_reading("kinds--bits3-packbits", kinds, (grey // 37).astype("uint8")[None],
                   nbits=3, compress="packbits")
+# Floats under the horizontal predictor (GDAL differences their bit patterns as
+# integers when asked for PREDICTOR=2), through our LZW reader and the crate's Deflate.
+for compress in ("lzw", "deflate"):
+    with_gdal_reading(f"kinds--float-{compress}-predictor2", kinds,
+                      np.stack([grey.astype("float32") / 3.0 - 40.0,
+                                np.sqrt(grey.astype("float32"))]),
+                      compress=compress, predictor=2)
 with_gdal_reading("kinds--half-lzw-predictor3", kinds,
                   ((grey.astype("float32") - 128.0) / 7.0)[None], nbits=16,
                   compress="lzw", predictor=3)

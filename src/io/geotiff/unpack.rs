@@ -365,6 +365,10 @@ impl Encoding {
         }
         let samples = &mut row[..count * self.bits / 8];
         let (horizontal, big_endian) = match self.predictor {
+            2 if self.format == Format::Float => {
+                undo_horizontal_on_words(samples, self.bits / 8, self.depth, self.big_endian);
+                (false, self.big_endian)
+            }
             3 => {
                 undo_floating_point_predictor(samples, self.bits / 8, self.depth);
                 // The predictor leaves the bytes of each sample most significant first.
@@ -401,7 +405,7 @@ fn supported(format: Format, bits: u16, predictor: u16) -> bool {
         (Format::Unsigned | Format::Signed, 8 | 16 | 32 | 64) => predictor <= 2,
         // Packed widths: libtiff's horizontal predictor is for whole bytes only.
         (Format::Unsigned, 1..=32) => predictor == 1,
-        (Format::Float, 16 | 32 | 64) => predictor == 1 || predictor == 3,
+        (Format::Float, 16 | 32 | 64) => (1..=3).contains(&predictor),
         _ => false,
     }
 }
@@ -488,6 +492,34 @@ impl Sample for half::f16 {
     }
 }
 
+/// Undoes the horizontal predictor on float samples, in place: libtiff differences
+/// their bit patterns as unsigned words `depth` samples apart, whatever they hold (GDAL
+/// writes it for floats asked for `PREDICTOR=2`).
+fn undo_horizontal_on_words(row: &mut [u8], size: usize, depth: usize, big_endian: bool) {
+    let mask = u64::MAX >> (64 - 8 * size);
+    let word = |bytes: &[u8]| -> u64 {
+        let fold = |w: u64, &b: &u8| (w << 8) | u64::from(b);
+        if big_endian {
+            bytes.iter().fold(0, fold)
+        } else {
+            bytes.iter().rev().fold(0, fold)
+        }
+    };
+    for i in depth..row.len() / size {
+        let sum = word(&row[i * size..][..size])
+            .wrapping_add(word(&row[(i - depth) * size..][..size]))
+            & mask;
+        for (k, byte) in row[i * size..][..size].iter_mut().enumerate() {
+            let shift = if big_endian {
+                8 * (size - 1 - k)
+            } else {
+                8 * k
+            };
+            *byte = (sum >> shift) as u8;
+        }
+    }
+}
+
 /// Undoes the floating-point predictor (TIFF Technical Note 3, libtiff's `fpAcc`) on
 /// one row: its bytes were differenced `depth` apart, after each sample's bytes were
 /// spread into planes, most significant byte first. Leaves each sample's bytes most
@@ -546,6 +578,43 @@ mod tests {
         let mut row: Vec<u8> = [-3i32, 5].iter().flat_map(|v| v.to_be_bytes()).collect();
         let e = encoding(Format::Signed, 32, 1, 2, true);
         assert_eq!(read_row(&e, &mut row, 2), [-3.0, 2.0]);
+    }
+
+    #[test]
+    fn the_horizontal_predictor_on_floats_adds_bit_patterns() {
+        // libtiff's horDiff32 on two pixels of two f32 bands: the second pixel's words
+        // minus the first's, wrapping.
+        let pixels = [1.5f32, -2.0, 1e-3, 3.25e7];
+        let words: Vec<u32> = pixels.iter().map(|f| f.to_bits()).collect();
+        let differenced = [
+            words[0],
+            words[1],
+            words[2].wrapping_sub(words[0]),
+            words[3].wrapping_sub(words[1]),
+        ];
+        for big_endian in [false, true] {
+            let mut row: Vec<u8> = differenced
+                .iter()
+                .flat_map(|w| {
+                    if big_endian {
+                        w.to_be_bytes()
+                    } else {
+                        w.to_le_bytes()
+                    }
+                })
+                .collect();
+            let e = encoding(Format::Float, 32, 2, 2, big_endian);
+            assert_eq!(read_row(&e, &mut row, 4), pixels);
+        }
+        // Half floats, one band.
+        let halves = [half::f16::from_f32(0.5), half::f16::from_f32(-7.0)];
+        let diff = halves[1].to_bits().wrapping_sub(halves[0].to_bits());
+        let mut row: Vec<u8> = [halves[0].to_bits(), diff]
+            .iter()
+            .flat_map(|w| w.to_le_bytes())
+            .collect();
+        let e = encoding(Format::Float, 16, 1, 2, false);
+        assert_eq!(read_row(&e, &mut row, 2), [0.5, -7.0]);
     }
 
     #[test]
