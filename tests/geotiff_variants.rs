@@ -387,3 +387,61 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         [transparent, transparent, transparent, 0]
     );
 }
+
+/// Seeded damage to every variant GDAL wrote (bytes overwritten in the header and
+/// directories or anywhere, fields set to 0 or all ones, the file cut short): each
+/// read is a map or an error naming the file, never a panic.
+#[test]
+fn damaged_variants_are_errors_not_panics() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(files) = write_variants(dir.path()) else {
+        return;
+    };
+    let mut state = 0x9E37_79B9_7F4A_7C15u64;
+    let mut next = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        state
+    };
+    let damaged = dir.path().join("damaged.tif");
+    let mut reads = 0;
+    for file in &files {
+        let name = file["name"].as_str().unwrap();
+        let original = std::fs::read(dir.path().join(format!("{name}.tif"))).unwrap();
+        if original.len() > 400_000 {
+            continue;
+        }
+        let n = original.len() as u64;
+        for kind in 0..12 {
+            let mut bytes = original.clone();
+            match kind % 4 {
+                0 => {
+                    for _ in 0..1 + next() % 4 {
+                        bytes[(next() % n.min(1024)) as usize] = next() as u8;
+                    }
+                }
+                1 => {
+                    for _ in 0..1 + next() % 8 {
+                        bytes[(next() % n) as usize] = next() as u8;
+                    }
+                }
+                2 => bytes.truncate((next() % n) as usize),
+                _ => {
+                    let at = (next() % n.min(2048).saturating_sub(4)) as usize;
+                    let field = [[0xFF; 4], [0; 4]][(next() % 2) as usize];
+                    bytes[at..at + 4].copy_from_slice(&field);
+                }
+            }
+            std::fs::write(&damaged, &bytes).unwrap();
+            let read = std::panic::catch_unwind(|| read_geotiff(&damaged, "m"));
+            match read {
+                Ok(Ok(_)) => {}
+                Ok(Err(e)) => assert!(e.to_string().contains("damaged.tif"), "{name}: {e}"),
+                Err(_) => panic!("{name}, damage {kind}: the reader panicked"),
+            }
+            reads += 1;
+        }
+    }
+    assert!(reads > 300, "{reads}");
+}
