@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """GeoTIFF reading against GDAL: an 8000² uint16 DEM-like raster written by rasterio
-three ways (tiled LZW with the horizontal predictor, LZW strips, tiled Deflate with the
-predictor), then, in the same run, the best of three wall times of
+four ways (tiled LZW with the horizontal predictor, LZW strips, tiled Deflate with the
+predictor, tiled Deflate of 12-bit packed samples), then, in the same run, the best of three wall times of
 
   - `imitate plan RASTER --cells --start 4000,4000 --goal 4000,4001` for each binary
     given (the read, the costmap it makes of the band, a one-step plan, process start),
@@ -36,6 +36,9 @@ layouts = {
     "lzw-strips": dict(compress="lzw"),
     "deflate-tiled-pred2": dict(compress="deflate", predictor=2, tiled=True,
                                 blockxsize=512, blockysize=512),
+    # 12-bit samples packed (GDAL's NBITS=12): our own chunk reader and bit unpacker.
+    "deflate-tiled-nbits12": dict(compress="deflate", nbits=12, tiled=True,
+                                  blockxsize=512, blockysize=512),
 }
 
 
