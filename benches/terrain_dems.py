@@ -14,27 +14,21 @@ them with rasterio (GDAL) as north-up GeoTIFFs in EPSG:4326, ZSTD-compressed:
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
 
-import glob
 import io
 import os
-import subprocess
 import sys
 import tempfile
 import zipfile
 
 import numpy as np
 import rasterio
+import wheels
 from rasterio.transform import from_origin
 
 out = sys.argv[1]
 os.makedirs(out, exist_ok=True)
 with tempfile.TemporaryDirectory() as tmp:
-    subprocess.run(
-        [sys.executable, "-m", "pip", "download", "--quiet", "--no-deps",
-         "--only-binary=:all:", "--dest", tmp, "matplotlib==3.11.2"],
-        check=True,
-    )
-    wheel = glob.glob(os.path.join(tmp, "matplotlib-*.whl"))[0]
+    wheel = wheels.download("matplotlib==3.11.2", tmp)
     with zipfile.ZipFile(wheel) as z:
         def sample(name):
             return np.load(io.BytesIO(z.read(f"matplotlib/mpl-data/sample_data/{name}")))

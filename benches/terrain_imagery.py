@@ -1,0 +1,70 @@
+#!/usr/bin/env python3
+"""Real imagery from a package registry, as GeoTIFFs for `imitate bench terrain`.
+
+Rasters no part of the tool was tuned on: cartopy's wheel ships two real images with
+their georeferencing, which this script downloads with pip (no install), decodes with
+GDAL (rasterio) and writes as north-up GeoTIFFs in EPSG:4326:
+
+- `modis_miriam.tif`: NASA LANCE MODIS true colour of Hurricane Miriam off Baja
+  California (2012-09-26, 2 km; JPEG with a world file in its README: cells of
+  0.01914° × 0.01799°, not square in degrees), Deflate with the horizontal predictor;
+- `natural_earth_relief.tif`: Natural Earth's shaded relief of the whole world
+  (PlateCarree PNG, RGB, −180…180 × −90…90: rows reach the poles), LZW.
+
+    python3 benches/terrain_imagery.py OUT_DIR
+    target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
+
+Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
+"""
+
+import os
+import sys
+import tempfile
+import warnings
+import zipfile
+
+import rasterio
+import rasterio.errors
+import wheels
+from rasterio.transform import Affine, from_bounds
+
+out = sys.argv[1]
+os.makedirs(out, exist_ok=True)
+
+
+# The images come without georeferencing (it is in the README or known); GDAL says so.
+warnings.filterwarnings("ignore", category=rasterio.errors.NotGeoreferencedWarning)
+
+
+def write(name, image, transform, **creation):
+    with rasterio.open(image) as src:
+        values = src.read()
+    path = os.path.join(out, name + ".tif")
+    profile = dict(driver="GTiff", width=values.shape[2], height=values.shape[1],
+                   count=values.shape[0], dtype=values.dtype, crs="EPSG:4326",
+                   transform=transform, **creation)
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(values)
+    print(path)
+
+
+with tempfile.TemporaryDirectory() as tmp:
+    wheel = wheels.download("cartopy==0.26.0", tmp)
+    data = "cartopy/data/raster/"
+    with zipfile.ZipFile(wheel) as z:
+        miriam = z.extract(data + "sample/Miriam.A2012270.2050.2km.jpg", tmp)
+        readme = z.read(data + "sample/Miriam.A2012270.2050.2km.README.txt").decode()
+        relief = z.extract(data + "natural_earth/50-natural-earth-1-downsampled.png", tmp)
+
+    # The README's world file: x size, two rotation terms, y size, then the centre of
+    # the top-left cell.
+    lines = readme.split("World file contents:")[1].split()
+    a, d, b, e, c, f = (float(v) for v in lines[:6])
+    assert b == 0 and d == 0, "the world file has a rotation"
+    write("modis_miriam", miriam, Affine(a, 0, c - a / 2, 0, e, f - e / 2),
+          compress="deflate", predictor=2)
+
+    with rasterio.open(relief) as src:
+        width, height = src.width, src.height
+    write("natural_earth_relief", relief, from_bounds(-180, -90, 180, 90, width, height),
+          compress="lzw")
