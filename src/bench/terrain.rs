@@ -102,6 +102,9 @@ pub struct TerrainArgs {
     /// the training paths).
     #[arg(long)]
     pub keep_contrast: bool,
+    /// LEARCH's trees split on features of every scale from the first round.
+    #[arg(long)]
+    pub all_scales_at_once: bool,
     #[arg(long)]
     pub json: bool,
 }
@@ -369,6 +372,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             config.schedule = v;
         }
         config.calibrate_contrast &= !args.keep_contrast;
+        config.widen_in_stages &= !args.all_scales_at_once;
     }
     for m in &args.methods {
         if !all_methods.iter().any(|(name, _)| name == m) {

@@ -4,8 +4,10 @@
 
 mod bank;
 mod kernels;
+mod scale;
 
 pub use bank::Bank;
+pub use scale::scale_in_cells;
 
 pub use kernels::{
     aspect, distance_transform, gaussian_blur, gradient, laplacian, local_std, robust_normalize,

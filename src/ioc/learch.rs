@@ -37,7 +37,7 @@ use super::metrics::{Agreement, evaluate_example, summarize};
 use super::model::{CostLink, LogCostModel, WeakLearner};
 use super::soft_paths::{SoftGoal, Window, path_incidence};
 use crate::error::first_error_in_order;
-use crate::features::distance_transform;
+use crate::features::{distance_transform, scale_in_cells};
 use crate::grid::{Cell, CellPath, FeatureStack, Grid};
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
 use crate::plan::{Moves, StepLengths, dijkstra, loss_augmented, path_cost, shortest_path};
@@ -95,6 +95,16 @@ pub const MMP_COST_MARGIN: f64 = 0.05;
 /// the mean held-out cost ratio from 1.0226 to 1.0199 and the pairs ≤ 1.03 from 53 to
 /// 57 of 72; γ stays 1 on most pairs, and larger ones were chosen where they helped.
 pub const CONTRASTS: [f64; 4] = [1.0, 1.25, 1.5, 2.0];
+
+/// LEARCH's trees widen the features they may split on in stages: from round
+/// `share × rounds` on, those of scale up to `cells` ([`scale_in_cells`]). A stray
+/// plan is a corridor of cells that the per-cell targets all blame, and a regional
+/// feature (a wide blur, a distance) separates a whole corridor in one split; given
+/// every scale from the start, the trees fit the training paths' strays with regional
+/// summaries that do not carry to other paths. Fitting the cells' own values first
+/// and regional ones last took the held-out cost ratio on eight real rasters from
+/// 1.0248 to 1.0220 over five seeds (BENCHMARKS.md, "Features widened in stages").
+pub const SCALE_STAGES: [(f64, f64); 3] = [(0.0, 1.0), (0.25, 4.0), (0.5, f64::INFINITY)];
 
 /// A demonstration on one of the maps.
 #[derive(Debug, Clone)]
@@ -207,6 +217,9 @@ pub struct LearchConfig {
     /// LEARCH: end by choosing the exponent on the learned cost that plans the
     /// training paths best (`CONTRASTS`).
     pub calibrate_contrast: bool,
+    /// LEARCH with trees: split on the cells' own values first and on wider
+    /// neighbourhoods in later rounds (`SCALE_STAGES`).
+    pub widen_in_stages: bool,
 }
 
 impl Default for LearchConfig {
@@ -233,6 +246,7 @@ impl Default for LearchConfig {
             horizon_factor: 1.25,
             window_margin: 6,
             calibrate_contrast: true,
+            widen_in_stages: true,
         }
     }
 }
@@ -723,7 +737,9 @@ pub fn fit_round(
                 y.push(*target);
                 w.push(*weight);
             }
-            WeakLearner::tree(step, RegressionTree::fit(&x, dims, &y, &w, &config.tree))
+            let usable = usable_features(&model.feature_names, stacks, config, t);
+            let tree = RegressionTree::fit_on(&x, dims, &y, &w, &config.tree, &usable);
+            WeakLearner::tree(step, tree)
         }
     };
     Ok(FittedRound {
@@ -734,6 +750,36 @@ pub fn fit_round(
             / statistics.len().max(1) as f64,
         disagreeing_cells: statistics.iter().map(|g| g.disagreeing_cells).sum(),
     })
+}
+
+/// The features round `t`'s tree may split on: all, or those of the scales
+/// `SCALE_STAGES` allows by then (and at least the finest there is).
+fn usable_features(
+    names: &[String],
+    stacks: &[FeatureStack],
+    config: &LearchConfig,
+    t: usize,
+) -> Vec<bool> {
+    if !(config.widen_in_stages && config.method == GridMethod::Learch) {
+        return vec![true; names.len()];
+    }
+    let cell_metres = stacks
+        .iter()
+        .flat_map(|s| s.geo.cell_metres())
+        .fold(f64::INFINITY, f64::min);
+    let scales: Vec<f64> = names
+        .iter()
+        .map(|n| scale_in_cells(n, cell_metres))
+        .collect();
+    let allowed = SCALE_STAGES
+        .iter()
+        .filter(|(share, _)| t as f64 >= share * config.rounds as f64)
+        .map(|&(_, cells)| cells)
+        .fold(
+            scales.iter().copied().fold(f64::INFINITY, f64::min),
+            f64::max,
+        );
+    scales.iter().map(|&s| s <= allowed).collect()
 }
 
 /// The largest |Δs| over every cell of every map of the linear step `step · direction`
@@ -1638,5 +1684,41 @@ mod tests {
         )
         .unwrap_err();
         assert!(err.contains("no path"), "{err}");
+    }
+
+    #[test]
+    fn trees_widen_the_features_they_split_on_in_stages() {
+        let stacks = [FeatureStack {
+            geo: crate::grid::GeoRef::square(4, 4, 10.0, [0.0, 0.0], "map"),
+            names: Vec::new(),
+            data: Vec::new(),
+        }];
+        let names: Vec<String> = [
+            "band/robust",
+            "band/blur_3c",
+            "band/blur_80m",
+            "band/distance_to_above_q90_m",
+            "bias",
+        ]
+        .map(String::from)
+        .to_vec();
+        let config = LearchConfig {
+            weak_learner: WeakLearnerKind::Tree,
+            rounds: 80,
+            ..LearchConfig::default()
+        };
+        let usable = |config: &LearchConfig, t| usable_features(&names, &stacks, config, t);
+        assert_eq!(usable(&config, 0), [true, false, false, false, true]);
+        assert_eq!(usable(&config, 19), [true, false, false, false, true]);
+        assert_eq!(usable(&config, 20), [true, true, false, false, true]);
+        assert_eq!(usable(&config, 40), [true; 5]);
+        let at_once = LearchConfig {
+            widen_in_stages: false,
+            ..config.clone()
+        };
+        assert_eq!(usable(&at_once, 0), [true; 5]);
+        // With only regional features the first rounds still get the finest.
+        let wide = ["band/blur_8c".to_string(), "band/blur_16c".to_string()];
+        assert_eq!(usable_features(&wide, &stacks, &config, 0), [true, false]);
     }
 }

@@ -89,17 +89,37 @@ impl RegressionTree {
         weights: &[f64],
         config: &TreeConfig,
     ) -> RegressionTree {
+        Self::fit_on(features, dims, targets, weights, config, &vec![true; dims])
+    }
+
+    /// [`RegressionTree::fit`] splitting only on the features `usable` marks.
+    pub fn fit_on(
+        features: &[f64],
+        dims: usize,
+        targets: &[f64],
+        weights: &[f64],
+        config: &TreeConfig,
+        usable: &[bool],
+    ) -> RegressionTree {
         let rows = targets.len();
         debug_assert_eq!(features.len(), rows * dims);
+        debug_assert_eq!(usable.len(), dims);
+        // A feature with no split candidates is never split on.
         let edges: Vec<Vec<f64>> = (0..dims)
-            .map(|j| bin_edges((0..rows).map(|i| features[i * dims + j]), config.bins))
+            .map(|j| match usable[j] {
+                true => bin_edges((0..rows).map(|i| features[i * dims + j]), config.bins),
+                false => Vec::new(),
+            })
             .collect();
-        // Bin index of every value, column by column.
-        let binned: Vec<Vec<u16>> = (0..dims)
-            .map(|j| {
-                (0..rows)
-                    .map(|i| edges[j].partition_point(|&e| e < features[i * dims + j]) as u16)
-                    .collect()
+        // Bin index of every value, column by column (none for a feature never split on).
+        let binned: Vec<Vec<u16>> = edges
+            .iter()
+            .enumerate()
+            .map(|(j, edges)| match edges.is_empty() {
+                true => Vec::new(),
+                false => (0..rows)
+                    .map(|i| edges.partition_point(|&e| e < features[i * dims + j]) as u16)
+                    .collect(),
             })
             .collect();
         let all: Vec<usize> = (0..rows).filter(|&i| weights[i] > 0.0).collect();
@@ -251,18 +271,38 @@ mod tests {
             assert!((tree.predict(row) - target).abs() < 1e-12, "{row:?}");
         }
         // The noise feature is never used.
-        fn uses(node: &Node, feature: usize) -> bool {
-            match node {
-                Node::Leaf { .. } => false,
-                Node::Split {
-                    feature: f,
-                    left,
-                    right,
-                    ..
-                } => *f == feature || uses(left, feature) || uses(right, feature),
-            }
-        }
         assert!(!uses(&tree.root, 2));
+    }
+
+    fn uses(node: &Node, feature: usize) -> bool {
+        match node {
+            Node::Leaf { .. } => false,
+            Node::Split {
+                feature: f,
+                left,
+                right,
+                ..
+            } => *f == feature || uses(left, feature) || uses(right, feature),
+        }
+    }
+
+    #[test]
+    fn features_not_usable_are_never_split_on() {
+        // y follows feature 0 exactly and feature 1 roughly; without feature 0 the
+        // tree falls back on feature 1.
+        let x: Vec<f64> = (0..40)
+            .flat_map(|i| [f64::from(i), f64::from(i / 4)])
+            .collect();
+        let y: Vec<f64> = (0..40).map(|i| if i < 18 { 0.0 } else { 1.0 }).collect();
+        let w = vec![1.0; y.len()];
+        let config = TreeConfig {
+            max_depth: 1,
+            ..TreeConfig::default()
+        };
+        let free = RegressionTree::fit(&x, 2, &y, &w, &config);
+        assert!(uses(&free.root, 0));
+        let held = RegressionTree::fit_on(&x, 2, &y, &w, &config, &[false, true]);
+        assert!(!uses(&held.root, 0) && uses(&held.root, 1));
     }
 
     #[test]

@@ -170,6 +170,12 @@ pub struct LearchParams {
     #[arg(long)]
     #[serde(default)]
     pub keep_contrast: bool,
+    /// LEARCH with trees: split on features of every scale from the first round,
+    /// instead of on the cells' own values first and on wider neighbourhoods from a
+    /// quarter and half of the rounds on.
+    #[arg(long)]
+    #[serde(default)]
+    pub all_scales_at_once: bool,
     /// Fraction of demonstrations held out for validation.
     #[arg(long, default_value_t = defaults::holdout())]
     #[serde(default = "defaults::holdout")]
@@ -486,6 +492,7 @@ impl LearchParams {
             },
             patience: self.patience,
             calibrate_contrast: !self.keep_contrast,
+            widen_in_stages: !self.all_scales_at_once,
         }
     }
 
