@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data};
 use imitate::features::{FeatureSpec, Op};
-use imitate::grid::Map;
+use imitate::grid::{GroundScale, Map};
 use imitate::io::geotiff::read_geotiff;
 
 /// Writes the variants into `out` with rasterio (see [`python_script`]).
@@ -150,6 +150,13 @@ fn rotation_terms_of_float_noise_are_not_a_rotation() {
 /// The median slope (degrees) over the cells of `map` at least `margin` cells inside its
 /// edges and from its nodata (GDAL's warp leaves a resampled border).
 fn median_slope(map: &Map, margin: usize) -> f64 {
+    let inner = inner_slopes(map, margin);
+    inner[inner.len() / 2]
+}
+
+/// The slopes (degrees, sorted) of the cells of `map` at least `margin` cells inside its
+/// edges and from its nodata.
+fn inner_slopes(map: &Map, margin: usize) -> Vec<f64> {
     let spec = FeatureSpec {
         layers: Some(Vec::new()),
         ops: vec![Op::Slope {
@@ -172,7 +179,7 @@ fn median_slope(map: &Map, margin: usize) -> f64 {
         .map(|(r, c)| f64::from(stack.plane(0)[r * w + c]))
         .collect();
     inner.sort_by(f64::total_cmp);
-    inner[inner.len() / 2]
+    inner
 }
 
 #[test]
@@ -216,10 +223,46 @@ fn polar_stereographic_cells_are_measured_on_the_ground() {
     )
     .unwrap();
     let scale = polar.geo.ground_scale.unwrap();
-    assert!((scale - 0.962).abs() < 0.002, "{scale}");
+    assert_eq!(scale, GroundScale::Uniform(scale.per_axis()[0]));
+    assert!((scale.per_axis()[0] - 0.962).abs() < 0.002, "{scale:?}");
     let truth = 0.05f64.sqrt().atan().to_degrees();
     let slope = median_slope(&polar, 4);
     assert!((slope - truth).abs() < 0.1, "{slope} against {truth}");
+}
+
+#[test]
+fn equal_area_cells_are_measured_on_the_ground_per_axis() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    let truth = 0.05f64.sqrt().atan().to_degrees();
+    // The plane warped into an Albers cone and a polar LAEA on its meridian (GeoKeys
+    // with the projections' parameters), and into Conus Albers (EPSG:5070, by code).
+    for (name, expected, on_meridian) in [
+        ("units--albers-plane", [0.902, 1.108], true),
+        ("units--laea-plane", [0.966, 1.035], true),
+        ("units--conus-albers-plane", [0.920, 1.093], false),
+    ] {
+        let map = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+        let [sx, sy] = map.geo.ground_scale.unwrap().per_axis();
+        assert!(
+            (sx - expected[0]).abs() < 0.003 && (sy - expected[1]).abs() < 0.003,
+            "{name}: {sx} × {sy}"
+        );
+        if on_meridian {
+            // Read in nominal metres the Albers plane would slope 13.5° (its gradient
+            // is mostly north, where a metre spans 1.108 ground metres). GDAL's warp
+            // leaves a ripple in the north gradient of its rows (0.217 and 0.23 per
+            // metre about 0.2215): the mean over the cells, not the median.
+            let slopes = inner_slopes(&map, 4);
+            let slope = slopes.iter().sum::<f64>() / slopes.len() as f64;
+            assert!(
+                (slope - truth).abs() < 0.05,
+                "{name}: {slope} against {truth}"
+            );
+        }
+    }
 }
 
 /// Reads the UTM plane in metres and `name`, the same plane stored another way, and

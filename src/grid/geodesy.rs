@@ -2,11 +2,13 @@
 //! coordinates (EPSG:4326 and its kin) are measured in metres, of a Web Mercator
 //! metre (EPSG:3857), which is a ground metre only on the equator, and of a metre of
 //! the conformal projections whose scale is far from 1 where rasters lie (polar
-//! stereographic, World Mercator).
+//! stereographic, World Mercator) and of the equal-area ones (`equal_area`).
+
+use super::equal_area::{Ellipsoid, EqualArea};
 
 /// WGS 84 semi-major axis (m) and first eccentricity squared.
-const A: f64 = 6_378_137.0;
-const E2: f64 = 6.694_379_990_141_3e-3;
+const A: f64 = Ellipsoid::WGS84.a;
+const E2: f64 = Ellipsoid::WGS84.e2;
 
 /// Metres per degree of longitude (east) and of latitude (north) at `latitude` degrees:
 /// the parallel's radius N·cos φ and the meridian's radius of curvature M, times π/180.
@@ -132,12 +134,40 @@ impl Conformal {
     }
 }
 
-/// Ground metres per projected metre at (x, y) in the projected CRS `EPSG:<code>`,
-/// for the conformal projections whose scale is far from 1 where rasters lie: polar
-/// stereographic (NSIDC's 3413 and 3976, 3995, 3031, UPS) and World Mercator (3395).
-/// `None` for other codes (UTM and the like, within 0.1 % of 1).
-pub fn point_scale(code: u16, x: f64, y: f64) -> Option<f64> {
-    Conformal::of(code).map(|p| p.ground_per_unit(x, y))
+/// A projected CRS whose metre is not a ground metre where rasters lie, which the
+/// reader measures: the conformal projections far from true scale (polar
+/// stereographic: NSIDC's 3413 and 3976, 3995, 3031, UPS; World Mercator, 3395), whose
+/// scale is one number at a point, and the equal-area ones (Albers, LAEA), whose
+/// scale differs along x and y. UTM and the like, within 0.1 % of 1, are not here.
+pub struct Projection(Kind);
+
+enum Kind {
+    Conformal(Conformal),
+    EqualArea(EqualArea),
+}
+
+impl Projection {
+    /// The projection of `EPSG:<code>`, where it is one of these.
+    pub fn of_epsg(code: u16) -> Option<Projection> {
+        Conformal::of(code)
+            .map(Kind::Conformal)
+            .or_else(|| EqualArea::of_epsg(code).map(Kind::EqualArea))
+            .map(Projection)
+    }
+
+    /// A projection the GeoKeys define by its parameters.
+    pub fn equal_area(projection: EqualArea) -> Projection {
+        Projection(Kind::EqualArea(projection))
+    }
+
+    /// Ground metres per projected metre along x and along y at (x, y), and the
+    /// cosine of the angle between the two axes on the ground (0: square).
+    pub fn axis_scales(&self, x: f64, y: f64) -> ([f64; 2], f64) {
+        match &self.0 {
+            Kind::Conformal(p) => ([p.ground_per_unit(x, y); 2], 0.0),
+            Kind::EqualArea(p) => p.axis_scales(x, y),
+        }
+    }
 }
 
 #[cfg(test)]
@@ -174,7 +204,7 @@ mod tests {
             phi.cos() / (1.0 - E2 * phi.sin().powi(2)).sqrt()
         };
         let at_70 = A * m(70.0);
-        let scale = |code, x, y| point_scale(code, x, y).unwrap();
+        let scale = |code, x, y| Projection::of_epsg(code).unwrap().axis_scales(x, y).0[0];
         assert!((scale(3413, at_70, 0.0) - 1.0).abs() < 1e-9);
         assert!((scale(3031, 0.0, -A * m(71.0)) - 1.0).abs() < 1e-9);
         // At the pole the scale is m_c / (2 t_c)·√((1+e)^(1+e)(1−e)^(1−e)) ≈ 0.9700
@@ -194,7 +224,7 @@ mod tests {
         let y60 = A * (75f64.to_radians().tan() * ((1.0 - s60) / (1.0 + s60)).powf(e / 2.0)).ln();
         assert!((scale(3395, 0.0, y60) - m(60.0)).abs() < 1e-12);
         assert!((scale(3395, 0.0, -y60) - m(60.0)).abs() < 1e-12);
-        assert!(point_scale(32610, 500_000.0, 0.0).is_none());
+        assert!(Projection::of_epsg(32610).is_none());
     }
 
     #[test]

@@ -8,13 +8,15 @@
 //! ([`GeoRef::cell_metres`]), so cells need not be square.
 
 mod demo;
+mod equal_area;
 mod geodesy;
 mod map;
 mod path;
 mod points;
 
 pub use demo::{Demonstration, Pose};
-pub use geodesy::{metres_per_degree, point_scale};
+pub use equal_area::{Ellipsoid, EqualArea};
+pub use geodesy::{Projection, metres_per_degree};
 
 pub use map::{Layer, Map, check_map_name};
 pub use path::{CellPath, PathError, is_connected8, rasterize};
@@ -48,12 +50,32 @@ pub struct GeoRef {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub web_mercator: bool,
     /// Ground metres per frame unit where a projected CRS's scale is far from 1 and
-    /// the reader measured it at the raster's centre (polar stereographic, World
-    /// Mercator): 1.04 for a cell at 60° N in NSIDC's Arctic grid (EPSG:3413). Taken
-    /// for the whole raster, as tiles of these grids are small beside their scale's
-    /// variation.
+    /// the reader measured it at the raster's centre: 0.962 for a cell at 60° N in
+    /// NSIDC's Arctic grid (EPSG:3413), 1.010 along x and 0.990 along y in Conus Albers
+    /// (EPSG:5070) at 37.5° N. Taken for the whole raster, as rasters in these grids
+    /// are small beside their scale's variation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub ground_scale: Option<f64>,
+    pub ground_scale: Option<GroundScale>,
+}
+
+/// Ground metres per frame unit: one factor for both axes (conformal projections), or
+/// one per axis (equal-area ones stretch one axis by what they shrink the other).
+/// Stored as a number or as `[x, y]`.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum GroundScale {
+    Uniform(f64),
+    PerAxis([f64; 2]),
+}
+
+impl GroundScale {
+    /// Ground metres per frame unit along x and along y.
+    pub fn per_axis(self) -> [f64; 2] {
+        match self {
+            GroundScale::Uniform(s) => [s; 2],
+            GroundScale::PerAxis(scales) => scales,
+        }
+    }
 }
 
 impl GeoRef {
@@ -126,7 +148,7 @@ impl GeoRef {
         } else if self.web_mercator {
             geodesy::metres_per_web_mercator_unit(y)
         } else {
-            [self.ground_scale.unwrap_or(1.0); 2]
+            self.ground_scale.map_or([1.0; 2], GroundScale::per_axis)
         };
         [sx * east, sy * north]
     }
@@ -224,8 +246,8 @@ impl GeoRef {
             return Err("a frame cannot be both in degrees and Web Mercator".into());
         }
         if let Some(scale) = self.ground_scale {
-            if !(scale.is_finite() && scale > 0.0) {
-                return Err(format!("ground_scale must be > 0, got {scale}"));
+            if !scale.per_axis().iter().all(|s| s.is_finite() && *s > 0.0) {
+                return Err(format!("ground_scale must be > 0, got {scale:?}"));
             }
             if self.varies_by_row() {
                 return Err(

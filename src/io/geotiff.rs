@@ -12,8 +12,9 @@
 //! class codes (`grey`). The georeference comes from the pixel-scale + tiepoint tags or
 //! the transformation matrix. Cells may be rectangles; a geographic CRS keeps its
 //! degrees as frame units and is measured in metres from the latitude, Web Mercator
-//! from the northing (`GeoRef::cell_metres`); projected units and heights in feet
-//! become metres. Rasters stored north-up (row 0 at the top) are flipped to our
+//! from the northing (`GeoRef::cell_metres`), projections far from true scale (polar
+//! stereographic, equal-area) with their scale per axis at the raster's centre
+//! (`projection`); projected units and heights in feet become metres. Rasters stored north-up (row 0 at the top) are flipped to our
 //! south-first rows.
 
 use std::io::Cursor;
@@ -23,13 +24,14 @@ use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
 use crate::error::{Error, Result, read_input};
-use crate::grid::{GeoRef, Layer, Map, point_scale};
+use crate::grid::{GeoRef, Layer, Map};
 
 mod chunks;
 mod grey;
 mod lerc;
 mod mask;
 mod metadata;
+mod projection;
 mod samples;
 mod unpack;
 mod webp;
@@ -51,6 +53,8 @@ const ANGULAR_RADIAN: u16 = 9101;
 /// Web Mercator's EPSG codes that fit a GeoKey: 3857 and its deprecated 3785.
 const WEB_MERCATOR: [u16; 2] = [3857, 3785];
 const VERTICAL_CRS: u16 = 4096;
+/// The TIFF tag a GeoKey names as its value's location when the value is a double.
+const GEO_DOUBLE_PARAMS: u16 = 34736;
 /// TIFF ExtraSamples values of an alpha band.
 const ASSOCIATED_ALPHA: u16 = 1;
 const UNASSOCIATED_ALPHA: u16 = 2;
@@ -280,8 +284,26 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             && key(PROJECTED_CRS).is_some_and(|code| WEB_MERCATOR.contains(&code)),
         ground_scale: None,
     };
-    if let Some(code) = key(PROJECTED_CRS).filter(|_| !geo.varies_by_row()) {
-        ground_scale(&mut geo, code, path);
+    let doubles = decoder
+        .find_tag(Tag::GeoDoubleParamsTag)
+        .map_err(tiff_error)?
+        .and_then(|v| v.into_f64_vec().ok())
+        .unwrap_or_default();
+    let double = |id: u16| {
+        keys.get(4..)
+            .unwrap_or_default()
+            .chunks_exact(4)
+            .find(|k| k[0] == id && k[1] == GEO_DOUBLE_PARAMS && k[2] >= 1)
+            .and_then(|k| doubles.get(usize::from(k[3])).copied())
+    };
+    let geo_keys = projection::GeoKeys {
+        short: &key,
+        double: &double,
+    };
+    if let Some(projection) =
+        projection::of_keys(&geo_keys, units.scale).filter(|_| !geo.varies_by_row())
+    {
+        projection::set_ground_scale(&mut geo, &projection, path);
     }
     geo.validate().map_err(problem)?;
     if let Some([south, north]) = geo.latitudes() {
@@ -399,30 +421,6 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         geo,
         layers,
     })
-}
-
-/// Sets the ground metres per projected metre at the raster's centre where the CRS is a
-/// polar stereographic or World Mercator one (`grid::point_scale`), and warns where it
-/// varies by more than 5 % across the raster.
-fn ground_scale(geo: &mut GeoRef, code: u16, path: &Path) {
-    let [x0, y0, x1, y1] = geo.bounds();
-    let Some(centre) = point_scale(code, (x0 + x1) / 2.0, (y0 + y1) / 2.0) else {
-        return;
-    };
-    geo.ground_scale = Some(centre);
-    let variation = [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
-        .into_iter()
-        .filter_map(|(x, y)| point_scale(code, x, y))
-        .map(|corner| (corner / centre - 1.0).abs())
-        .fold(0.0, f64::max);
-    if variation > 0.05 {
-        tracing::warn!(
-            "{}: EPSG:{code}'s scale varies by up to {:.0} % across the raster; lengths \
-             are measured at its centre: reproject it (gdalwarp) for exact ones",
-            path.display(),
-            100.0 * variation
-        );
-    }
 }
 
 /// What the CRS's units are: a factor to metres for projected units, or degrees.

@@ -193,6 +193,15 @@ warped_plane("units--web-mercator-plane", "EPSG:3857")
 # NSIDC's Arctic grid (EPSG:3413, as ArcticDEM comes), true to scale at 70° N: at 60° N
 # a projected metre spans 0.962 ground metres.
 warped_plane("units--polar-stereographic-plane", "EPSG:3413")
+# Equal-area grids stretch one axis by what they shrink the other. On the plane's
+# meridian, far north of its standard parallels, an Albers cone's metre spans 0.902
+# ground metres east and 1.108 north; the north polar LAEA's 0.966 and 1.035. GDAL
+# writes both as user-defined projections with their parameters in the GeoKeys. Conus
+# Albers (EPSG:5070, by its code) lies 27° off its meridian there: 0.920 and 1.093.
+warped_plane("units--albers-plane",
+             "+proj=aea +lat_1=29.5 +lat_2=45.5 +lat_0=23 +lon_0=-123 +datum=WGS84 +units=m")
+warped_plane("units--laea-plane", "+proj=laea +lat_0=90 +lon_0=-123 +datum=WGS84 +units=m")
+warped_plane("units--conus-albers-plane", "EPSG:5070")
 
 # The same plane stored as int16 decimetres above 100 m, with GDAL's scale 0.1 and
 # offset 100 in its metadata: read as metres once scaled.

@@ -1,0 +1,167 @@
+//! The projection a GeoTIFF's GeoKeys name, where its metre is not a ground metre
+//! (`grid::Projection`): by EPSG code, or an Albers or LAEA projection the keys define
+//! by its parameters (GDAL writes those for ESRI's codes, such as 102003, and PROJ
+//! strings), and the ground metres per projected metre it has at the raster's centre.
+
+use std::path::Path;
+
+use crate::grid::{Ellipsoid, EqualArea, GeoRef, GroundScale, Projection};
+
+const PROJECTED_CRS: u16 = 3072;
+const GEOGRAPHIC_CRS: u16 = 2048;
+const GEOG_ANGULAR_UNITS: u16 = 2054;
+const SEMI_MAJOR_AXIS: u16 = 2057;
+const SEMI_MINOR_AXIS: u16 = 2058;
+const INVERSE_FLATTENING: u16 = 2059;
+const COORDINATE_TRANSFORMATION: u16 = 3075;
+const STANDARD_PARALLEL_1: u16 = 3078;
+const STANDARD_PARALLEL_2: u16 = 3079;
+const NATURAL_ORIGIN_LONGITUDE: u16 = 3080;
+const NATURAL_ORIGIN_LATITUDE: u16 = 3081;
+const FALSE_EASTING: u16 = 3082;
+const FALSE_NORTHING: u16 = 3083;
+const FALSE_ORIGIN_LONGITUDE: u16 = 3084;
+const FALSE_ORIGIN_LATITUDE: u16 = 3085;
+const FALSE_ORIGIN_EASTING: u16 = 3086;
+const FALSE_ORIGIN_NORTHING: u16 = 3087;
+const CENTER_LONGITUDE: u16 = 3088;
+const CENTER_LATITUDE: u16 = 3089;
+const CENTER_EASTING: u16 = 3090;
+const CENTER_NORTHING: u16 = 3091;
+/// GeoTIFF's codes for the two coordinate transformations (CT_LambertAzimEqualArea,
+/// CT_AlbersEqualArea).
+const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
+const ALBERS_EQUAL_AREA: u16 = 11;
+const ANGULAR_RADIAN: u16 = 9101;
+const NAD27: u16 = 4267;
+
+/// The GeoKeys a reader looks up: short values and double parameters.
+pub(super) struct GeoKeys<'a> {
+    pub short: &'a dyn Fn(u16) -> Option<u16>,
+    pub double: &'a dyn Fn(u16) -> Option<f64>,
+}
+
+/// The projection the keys name, where it is one whose scale the reader corrects;
+/// `metres_per_unit` converts false eastings and northings from the CRS's unit.
+pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection> {
+    if let Some(projection) = (keys.short)(PROJECTED_CRS).and_then(Projection::of_epsg) {
+        return Some(projection);
+    }
+    let double = keys.double;
+    let degrees = |id: u16| {
+        double(id).map(|v| {
+            if (keys.short)(GEOG_ANGULAR_UNITS) == Some(ANGULAR_RADIAN) {
+                v.to_degrees()
+            } else {
+                v
+            }
+        })
+    };
+    let metres = |id: u16| double(id).map(|v| v * metres_per_unit);
+    let either = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
+    let ellipsoid = ellipsoid_of(keys);
+    let projection = match (keys.short)(COORDINATE_TRANSFORMATION)? {
+        ALBERS_EQUAL_AREA => EqualArea::Albers {
+            ellipsoid,
+            standard_parallels: [
+                degrees(STANDARD_PARALLEL_1)?,
+                degrees(STANDARD_PARALLEL_2).or(degrees(STANDARD_PARALLEL_1))?,
+            ],
+            origin: [
+                either(
+                    degrees(NATURAL_ORIGIN_LATITUDE),
+                    degrees(FALSE_ORIGIN_LATITUDE),
+                ),
+                either(
+                    degrees(NATURAL_ORIGIN_LONGITUDE),
+                    degrees(FALSE_ORIGIN_LONGITUDE),
+                ),
+            ],
+            false_easting_northing: [
+                either(metres(FALSE_EASTING), metres(FALSE_ORIGIN_EASTING)),
+                either(metres(FALSE_NORTHING), metres(FALSE_ORIGIN_NORTHING)),
+            ],
+        },
+        LAMBERT_AZIMUTHAL_EQUAL_AREA => EqualArea::Azimuthal {
+            ellipsoid,
+            centre: [
+                either(degrees(CENTER_LATITUDE), degrees(NATURAL_ORIGIN_LATITUDE)),
+                either(degrees(CENTER_LONGITUDE), degrees(NATURAL_ORIGIN_LONGITUDE)),
+            ],
+            false_easting_northing: [
+                either(metres(FALSE_EASTING), metres(CENTER_EASTING)),
+                either(metres(FALSE_NORTHING), metres(CENTER_NORTHING)),
+            ],
+        },
+        _ => return None,
+    };
+    Some(Projection::equal_area(projection))
+}
+
+/// The ellipsoid the keys give (its axes, or NAD27's geographic CRS); WGS 84 otherwise
+/// (GRS 80, NAD83's and ETRS89's, is the same to our precision).
+fn ellipsoid_of(keys: &GeoKeys) -> Ellipsoid {
+    let Some(a) = (keys.double)(SEMI_MAJOR_AXIS).filter(|a| *a > 0.0) else {
+        return if (keys.short)(GEOGRAPHIC_CRS) == Some(NAD27) {
+            Ellipsoid::CLARKE_1866
+        } else {
+            Ellipsoid::WGS84
+        };
+    };
+    match (
+        (keys.double)(INVERSE_FLATTENING),
+        (keys.double)(SEMI_MINOR_AXIS),
+    ) {
+        (Some(inverse_flattening), _) => Ellipsoid::from_inverse_flattening(a, inverse_flattening),
+        (None, Some(b)) if b > 0.0 && b <= a => Ellipsoid {
+            a,
+            e2: 1.0 - (b / a).powi(2),
+        },
+        _ => Ellipsoid::sphere(a),
+    }
+}
+
+/// Sets `geo`'s ground metres per projected metre from `projection`'s scale at the
+/// raster's centre, and warns where it varies by more than 5 % across the raster or
+/// where the axes are more than 3° from square on the ground (diagonal steps are then
+/// measured that much off).
+pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: &Path) {
+    let [x0, y0, x1, y1] = geo.bounds();
+    let ([sx, sy], skew) = projection.axis_scales((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
+        // Outside the projection's domain: leave the frame's metres as they are.
+        return;
+    }
+    geo.ground_scale = Some(if (sx - sy).abs() <= 1e-12 * sx {
+        GroundScale::Uniform(sx)
+    } else {
+        GroundScale::PerAxis([sx, sy])
+    });
+    let variation = [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
+        .into_iter()
+        .map(|(x, y)| projection.axis_scales(x, y).0)
+        .map(|[cx, cy]| (cx / sx - 1.0).abs().max((cy / sy - 1.0).abs()))
+        .fold(
+            0.0,
+            |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
+        );
+    let code = geo.frame.clone();
+    if variation > 0.05 {
+        tracing::warn!(
+            "{}: the projection's ({code}) scale varies by up to {:.0} % across the \
+             raster; lengths are measured at its centre: reproject it (gdalwarp) for \
+             exact ones",
+            path.display(),
+            100.0 * variation
+        );
+    }
+    if skew.abs() > 3f64.to_radians().sin() {
+        tracing::warn!(
+            "{}: the projection's ({code}) grid axes are {:.1}° from square on the ground \
+             at the raster's centre; diagonal steps are measured as if square: reproject \
+             it (gdalwarp) for exact ones",
+            path.display(),
+            skew.asin().to_degrees().abs()
+        );
+    }
+}
