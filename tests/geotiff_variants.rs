@@ -231,7 +231,7 @@ fn polar_stereographic_cells_are_measured_on_the_ground() {
 }
 
 #[test]
-fn equal_area_cells_are_measured_on_the_ground_per_axis() {
+fn equal_area_and_conic_cells_are_measured_on_the_ground_per_axis() {
     let dir = tempfile::tempdir().unwrap();
     if write_variants(dir.path()).is_none() {
         return;
@@ -243,6 +243,8 @@ fn equal_area_cells_are_measured_on_the_ground_per_axis() {
         ("units--albers-plane", [0.902, 1.108], true),
         ("units--laea-plane", [0.966, 1.035], true),
         ("units--conus-albers-plane", [0.920, 1.093], false),
+        // And a Lambert conformal cone by its parameters: the same scale both ways.
+        ("units--lcc-plane", [0.936, 0.936], true),
     ] {
         let map = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
         let [sx, sy] = map.geo.ground_scale.unwrap().per_axis();

@@ -2,7 +2,8 @@
 //! coordinates (EPSG:4326 and its kin) are measured in metres, of a Web Mercator
 //! metre (EPSG:3857), which is a ground metre only on the equator, and of a metre of
 //! the conformal projections whose scale is far from 1 where rasters lie (polar
-//! stereographic, World Mercator) and of the equal-area ones (`equal_area`).
+//! stereographic, World Mercator, Lambert conformal conic) and of the equal-area ones
+//! (`equal_area`).
 
 use super::equal_area::{Ellipsoid, EqualArea};
 
@@ -44,6 +45,31 @@ fn eccentricity() -> f64 {
     E2.sqrt()
 }
 
+/// m(φ) = cos φ / √(1 − e² sin² φ): the parallel's radius over A.
+fn m(phi: f64) -> f64 {
+    phi.cos() / (1.0 - E2 * phi.sin().powi(2)).sqrt()
+}
+
+/// t(φ) = tan(π/4 − φ/2) / ((1 − e sin φ) / (1 + e sin φ))^(e/2) (Snyder's 15-9).
+fn t(phi: f64) -> f64 {
+    let e = eccentricity();
+    let s = e * phi.sin();
+    (std::f64::consts::FRAC_PI_4 - phi / 2.0).tan() / ((1.0 - s) / (1.0 + s)).powf(e / 2.0)
+}
+
+/// The latitude whose t is `t`, by fixed-point iteration (7-9; converges to 1e-15 in a
+/// few steps).
+fn latitude_of_t(t: f64) -> f64 {
+    let e = eccentricity();
+    let mut phi = std::f64::consts::FRAC_PI_2 - 2.0 * t.atan();
+    for _ in 0..20 {
+        let s = e * phi.sin();
+        phi =
+            std::f64::consts::FRAC_PI_2 - 2.0 * (t * ((1.0 - s) / (1.0 + s)).powf(e / 2.0)).atan();
+    }
+    phi
+}
+
 /// A conformal projection on WGS 84 whose point scale the reader corrects for.
 enum Conformal {
     /// Mercator on the ellipsoid (EPSG:3395).
@@ -53,6 +79,14 @@ enum Conformal {
     /// grids) or scaled by k0 at the pole (variant A, UPS), from a false origin.
     PolarStereographic {
         scale: PolarScale,
+        false_origin: [f64; 2],
+    },
+    /// Lambert conformal conic (Snyder §15): parallels lie at ρ = A·K·t(φ)ⁿ from the
+    /// cone's apex, which lies ρ0 north of the false origin.
+    LambertConic {
+        n: f64,
+        k: f64,
+        rho0: f64,
         false_origin: [f64; 2],
     },
 }
@@ -70,6 +104,7 @@ impl Conformal {
             scale,
             false_origin,
         };
+        let lambert = Conformal::lambert_conic;
         Some(match code {
             3395 => Conformal::WorldMercator,
             3413 => polar(TrueLatitude(70.0), [0.0; 2]), // NSIDC Sea Ice Polar Stereographic North
@@ -78,32 +113,46 @@ impl Conformal {
             3976 => polar(TrueLatitude(70.0), [0.0; 2]), // NSIDC Sea Ice Polar Stereographic South
             32661 | 5041 => polar(AtPole(0.994), [2.0e6; 2]), // UPS North
             32761 | 5042 => polar(AtPole(0.994), [2.0e6; 2]), // UPS South
+            2154 => lambert([49.0, 44.0], 1.0, 46.5, [700_000.0, 6_600_000.0]), // Lambert-93
+            3034 => lambert([35.0, 65.0], 1.0, 52.0, [4.0e6, 2.8e6]), // LCC Europe
+            3978 | 3979 => lambert([49.0, 77.0], 1.0, 49.0, [0.0; 2]), // Canada Atlas Lambert
+            3347 => lambert([49.0, 77.0], 1.0, 63.390_675, [6.2e6, 3.0e6]), // Statistics Canada
+            3112 => lambert([-18.0, -36.0], 1.0, 0.0, [0.0; 2]), // Geoscience Australia
             _ => return None,
         })
+    }
+
+    /// Lambert conformal conic true to scale on two standard parallels (degrees; give
+    /// the same one twice and its scale `k0` for the one-parallel variant), with the
+    /// false origin's latitude and its easting and northing.
+    fn lambert_conic(
+        parallels: [f64; 2],
+        k0: f64,
+        origin_latitude: f64,
+        false_origin: [f64; 2],
+    ) -> Conformal {
+        let [phi1, phi2] = parallels.map(f64::to_radians);
+        // One parallel: the limit of (15-8) is sin φ1.
+        let n = if (phi1 - phi2).abs() < 1e-12 {
+            phi1.sin()
+        } else {
+            (m(phi1).ln() - m(phi2).ln()) / (t(phi1).ln() - t(phi2).ln())
+        };
+        let k = k0 * m(phi1) / (n * t(phi1).powf(n));
+        let rho0 = A * k * t(origin_latitude.to_radians()).powf(n);
+        Conformal::LambertConic {
+            n,
+            k,
+            rho0,
+            false_origin,
+        }
     }
 
     /// Ground metres per projected metre at (x, y): 1 / the point scale factor.
     fn ground_per_unit(&self, x: f64, y: f64) -> f64 {
         let e = eccentricity();
-        // m = cos φ / √(1 − e² sin² φ): the parallel's radius over A.
-        let m = |phi: f64| phi.cos() / (1.0 - E2 * phi.sin().powi(2)).sqrt();
-        // t(φ) = tan(π/4 − φ/2) / ((1 − e sin φ) / (1 + e sin φ))^(e/2), and its
-        // inverse by fixed-point iteration (converges to 1e-15 in a few steps).
-        let t = |phi: f64| {
-            let s = e * phi.sin();
-            (std::f64::consts::FRAC_PI_4 - phi / 2.0).tan() / ((1.0 - s) / (1.0 + s)).powf(e / 2.0)
-        };
-        let latitude_of = |t: f64| {
-            let mut phi = std::f64::consts::FRAC_PI_2 - 2.0 * t.atan();
-            for _ in 0..20 {
-                let s = e * phi.sin();
-                phi = std::f64::consts::FRAC_PI_2
-                    - 2.0 * (t * ((1.0 - s) / (1.0 + s)).powf(e / 2.0)).atan();
-            }
-            phi
-        };
         match self {
-            Conformal::WorldMercator => m(latitude_of((-y.abs() / A).exp())),
+            Conformal::WorldMercator => m(latitude_of_t((-y.abs() / A).exp())),
             Conformal::PolarStereographic {
                 scale,
                 false_origin,
@@ -125,10 +174,22 @@ impl Conformal {
                 let k = if rho < 1e-6 {
                     c * ((1.0 + e).powf(1.0 + e) * (1.0 - e).powf(1.0 - e)).sqrt() / 2.0
                 } else {
-                    let phi = latitude_of(rho / (A * c));
+                    let phi = latitude_of_t(rho / (A * c));
                     c * t(phi) / m(phi)
                 };
                 1.0 / k
+            }
+            Conformal::LambertConic {
+                n,
+                k,
+                rho0,
+                false_origin,
+            } => {
+                // (15-10), (15-11): ρ takes the sign of n; then k = ρn / (A·m(φ)).
+                let (x, y) = (x - false_origin[0], y - false_origin[1]);
+                let rho = n.signum() * x.hypot(rho0 - y);
+                let phi = latitude_of_t((rho / (A * k)).powf(1.0 / n));
+                A * m(phi) / (rho * n)
             }
         }
     }
@@ -136,9 +197,11 @@ impl Conformal {
 
 /// A projected CRS whose metre is not a ground metre where rasters lie, which the
 /// reader measures: the conformal projections far from true scale (polar
-/// stereographic: NSIDC's 3413 and 3976, 3995, 3031, UPS; World Mercator, 3395), whose
-/// scale is one number at a point, and the equal-area ones (Albers, LAEA), whose
-/// scale differs along x and y. UTM and the like, within 0.1 % of 1, are not here.
+/// stereographic: NSIDC's 3413 and 3976, 3995, 3031, UPS; World Mercator, 3395;
+/// Lambert conformal conic: LCC Europe 3034, Canada's 3978 and 3347, Australia's
+/// 3112, Lambert-93), whose scale is one number at a point, and the equal-area ones
+/// (Albers, LAEA), whose scale differs along x and y. UTM and the like, within 0.1 %
+/// of 1, are not here.
 pub struct Projection(Kind);
 
 enum Kind {
@@ -155,9 +218,26 @@ impl Projection {
             .map(Projection)
     }
 
-    /// A projection the GeoKeys define by its parameters.
+    /// An equal-area projection the GeoKeys define by its parameters.
     pub fn equal_area(projection: EqualArea) -> Projection {
         Projection(Kind::EqualArea(projection))
+    }
+
+    /// A Lambert conformal conic projection the GeoKeys define by its parameters:
+    /// two standard parallels (degrees), or one given twice with its scale `k0`; the
+    /// false origin's latitude, easting and northing.
+    pub fn lambert_conformal(
+        parallels: [f64; 2],
+        k0: f64,
+        origin_latitude: f64,
+        false_origin: [f64; 2],
+    ) -> Projection {
+        Projection(Kind::Conformal(Conformal::lambert_conic(
+            parallels,
+            k0,
+            origin_latitude,
+            false_origin,
+        )))
     }
 
     /// Ground metres per projected metre along x and along y at (x, y), and the
@@ -225,6 +305,33 @@ mod tests {
         assert!((scale(3395, 0.0, y60) - m(60.0)).abs() < 1e-12);
         assert!((scale(3395, 0.0, -y60) - m(60.0)).abs() < 1e-12);
         assert!(Projection::of_epsg(32610).is_none());
+    }
+
+    #[test]
+    fn lambert_conformal_scales_agree_with_proj() {
+        // PROJ's inverses at x ± 10 m (rasterio.warp.transform), measured as chords on
+        // WGS 84: ground metres per projected metre.
+        let lambert_2sp = Projection::lambert_conformal([33.0, 45.0], 1.0, 39.0, [0.0; 2]);
+        let lambert_1sp = Projection::lambert_conformal([18.0; 2], 1.0, 18.0, [2.5e5, 1.5e5]);
+        let by_code = |code| Projection::of_epsg(code).unwrap();
+        for (projection, x, y, expected) in [
+            (by_code(2154), 7.0e5, 6.6e6, 1.000_949_815_39),
+            (by_code(2154), 1.0e6, 7.0e6, 0.999_038_078_33),
+            (by_code(3034), 4.0e6, 2.8e6, 1.035_387_849_74),
+            (by_code(3034), 3.0e6, 1.5e6, 1.015_929_927_50),
+            (by_code(3978), 1.5e6, 2.0e6, 1.031_463_845_94),
+            (by_code(3347), 6.2e6, 3.0e6, 1.031_393_530_18),
+            (by_code(3347), 7.0e6, 1.0e6, 0.981_062_837_32),
+            (lambert_2sp, 1.0e6, -5.0e5, 1.001_538_818_19),
+            (lambert_1sp, 3.0e5, 2.0e5, 0.999_969_159_40),
+        ] {
+            let ([sx, sy], skew) = projection.axis_scales(x, y);
+            assert!(
+                (sx - expected).abs() < 1e-8,
+                "({x}, {y}): {sx} against {expected}"
+            );
+            assert_eq!((sx, skew), (sy, 0.0));
+        }
     }
 
     #[test]

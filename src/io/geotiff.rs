@@ -13,9 +13,9 @@
 //! the transformation matrix. Cells may be rectangles; a geographic CRS keeps its
 //! degrees as frame units and is measured in metres from the latitude, Web Mercator
 //! from the northing (`GeoRef::cell_metres`), projections far from true scale (polar
-//! stereographic, equal-area) with their scale per axis at the raster's centre
-//! (`projection`); projected units and heights in feet become metres. Rasters stored north-up (row 0 at the top) are flipped to our
-//! south-first rows.
+//! stereographic, Lambert conformal, equal-area) with their scale per axis at the
+//! raster's centre (`projection`); projected units and heights in feet become metres.
+//! Rasters stored north-up (row 0 at the top) are flipped to our south-first rows.
 
 use std::io::Cursor;
 use std::path::Path;

@@ -202,6 +202,10 @@ warped_plane("units--albers-plane",
              "+proj=aea +lat_1=29.5 +lat_2=45.5 +lat_0=23 +lon_0=-123 +datum=WGS84 +units=m")
 warped_plane("units--laea-plane", "+proj=laea +lat_0=90 +lon_0=-123 +datum=WGS84 +units=m")
 warped_plane("units--conus-albers-plane", "EPSG:5070")
+# A Lambert conformal cone with its standard parallels at 35° and 45° N, by its
+# parameters: at 60° N its metre spans 0.936 ground metres both ways.
+warped_plane("units--lcc-plane",
+             "+proj=lcc +lat_1=35 +lat_2=45 +lat_0=40 +lon_0=-123 +datum=WGS84 +units=m")
 
 # The same plane stored as int16 decimetres above 100 m, with GDAL's scale 0.1 and
 # offset 100 in its metadata: read as metres once scaled.

@@ -1,7 +1,8 @@
 //! The projection a GeoTIFF's GeoKeys name, where its metre is not a ground metre
-//! (`grid::Projection`): by EPSG code, or an Albers or LAEA projection the keys define
-//! by its parameters (GDAL writes those for ESRI's codes, such as 102003, and PROJ
-//! strings), and the ground metres per projected metre it has at the raster's centre.
+//! (`grid::Projection`): by EPSG code, or a Lambert conformal conic, Albers or LAEA
+//! projection the keys define by its parameters (GDAL writes those for ESRI's codes,
+//! such as 102003 and 102004, and PROJ strings), and the ground metres per projected
+//! metre it has at the raster's centre.
 
 use std::path::Path;
 
@@ -28,8 +29,11 @@ const CENTER_LONGITUDE: u16 = 3088;
 const CENTER_LATITUDE: u16 = 3089;
 const CENTER_EASTING: u16 = 3090;
 const CENTER_NORTHING: u16 = 3091;
-/// GeoTIFF's codes for the two coordinate transformations (CT_LambertAzimEqualArea,
-/// CT_AlbersEqualArea).
+const SCALE_AT_NATURAL_ORIGIN: u16 = 3092;
+/// GeoTIFF's codes for the coordinate transformations (CT_LambertConfConic_2SP and
+/// _1SP, CT_LambertAzimEqualArea, CT_AlbersEqualArea).
+const LAMBERT_CONFORMAL_2SP: u16 = 8;
+const LAMBERT_CONFORMAL_1SP: u16 = 9;
 const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
 const ALBERS_EQUAL_AREA: u16 = 11;
 const ANGULAR_RADIAN: u16 = 9101;
@@ -60,7 +64,36 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
     let metres = |id: u16| double(id).map(|v| v * metres_per_unit);
     let either = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
     let ellipsoid = ellipsoid_of(keys);
-    let projection = match (keys.short)(COORDINATE_TRANSFORMATION)? {
+    let equal_area = match (keys.short)(COORDINATE_TRANSFORMATION)? {
+        LAMBERT_CONFORMAL_2SP => {
+            return Some(Projection::lambert_conformal(
+                [
+                    degrees(STANDARD_PARALLEL_1)?,
+                    degrees(STANDARD_PARALLEL_2).or(degrees(STANDARD_PARALLEL_1))?,
+                ],
+                1.0,
+                either(
+                    degrees(FALSE_ORIGIN_LATITUDE),
+                    degrees(NATURAL_ORIGIN_LATITUDE),
+                ),
+                [
+                    either(metres(FALSE_ORIGIN_EASTING), metres(FALSE_EASTING)),
+                    either(metres(FALSE_ORIGIN_NORTHING), metres(FALSE_NORTHING)),
+                ],
+            ));
+        }
+        LAMBERT_CONFORMAL_1SP => {
+            let latitude = degrees(NATURAL_ORIGIN_LATITUDE)?;
+            return Some(Projection::lambert_conformal(
+                [latitude; 2],
+                double(SCALE_AT_NATURAL_ORIGIN).unwrap_or(1.0),
+                latitude,
+                [
+                    metres(FALSE_EASTING).unwrap_or(0.0),
+                    metres(FALSE_NORTHING).unwrap_or(0.0),
+                ],
+            ));
+        }
         ALBERS_EQUAL_AREA => EqualArea::Albers {
             ellipsoid,
             standard_parallels: [
@@ -95,7 +128,7 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
         },
         _ => return None,
     };
-    Some(Projection::equal_area(projection))
+    Some(Projection::equal_area(equal_area))
 }
 
 /// The ellipsoid the keys give (its axes, or NAD27's geographic CRS); WGS 84 otherwise
