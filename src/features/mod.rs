@@ -874,5 +874,24 @@ mod tests {
                 "bias"
             ]
         );
+        // The brightness's indicators and distance are optional.
+        let yaml = "bias: false\nops:\n  - {op: brightness, layers: [a, b]}\n  - {op: brightness, layers: [a], quantiles: [0.9], distance_above: 0.9}\n";
+        let s: FeatureSpec = serde_saphyr::from_str(yaml).unwrap();
+        assert_eq!(
+            s.ops[0],
+            Op::Brightness {
+                layers: vec!["a".into(), "b".into()],
+                quantiles: Vec::new(),
+                distance_above: None,
+            }
+        );
+        assert_eq!(
+            s.ops[1],
+            Op::Brightness {
+                layers: vec!["a".into()],
+                quantiles: vec![0.9],
+                distance_above: Some(0.9),
+            }
+        );
     }
 }

@@ -198,3 +198,70 @@ pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: 
         );
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `of_keys` over these short keys and double parameters.
+    fn projection(short: &[(u16, u16)], doubles: &[(u16, f64)], metres: f64) -> Projection {
+        let short_key = |id: u16| short.iter().find(|k| k.0 == id).map(|k| k.1);
+        let double_key = |id: u16| doubles.iter().find(|k| k.0 == id).map(|k| k.1);
+        let keys = GeoKeys {
+            short: &short_key,
+            double: &double_key,
+        };
+        of_keys(&keys, metres).expect("a projection the reader measures")
+    }
+
+    #[test]
+    fn user_defined_projections_read_their_parameters_in_the_crs_units() {
+        // A one-parallel Lambert cone scaled 0.9996 at 18° N, false origin in US survey
+        // feet: at its false origin a projected metre spans 1 / 0.9996 ground metres.
+        let feet = 1200.0 / 3937.0;
+        let lcc = projection(
+            &[(PROJECTED_CRS, 32767), (COORDINATE_TRANSFORMATION, 9)],
+            &[
+                (NATURAL_ORIGIN_LATITUDE, 18.0),
+                (NATURAL_ORIGIN_LONGITUDE, -77.0),
+                (SCALE_AT_NATURAL_ORIGIN, 0.9996),
+                (FALSE_EASTING, 820_208.0),
+                (FALSE_NORTHING, 492_125.0),
+            ],
+            feet,
+        );
+        let ([sx, sy], _) = lcc.axis_scales(820_208.0 * feet, 492_125.0 * feet);
+        assert!((sx - 1.0 / 0.9996).abs() < 1e-9 && sx == sy, "{sx}");
+        // Angles in radians where the GeoKeys say so: Conus Albers's parameters give
+        // EPSG:5070's scales.
+        let albers = projection(
+            &[
+                (COORDINATE_TRANSFORMATION, 11),
+                (GEOG_ANGULAR_UNITS, ANGULAR_RADIAN),
+            ],
+            &[
+                (STANDARD_PARALLEL_1, 29.5f64.to_radians()),
+                (STANDARD_PARALLEL_2, 45.5f64.to_radians()),
+                (FALSE_ORIGIN_LATITUDE, 23f64.to_radians()),
+                (FALSE_ORIGIN_LONGITUDE, -96f64.to_radians()),
+            ],
+            1.0,
+        );
+        let conus = Projection::of_epsg(5070).unwrap();
+        let (ours, epsg) = (
+            albers.axis_scales(1.0e6, 1.5e6),
+            conus.axis_scales(1.0e6, 1.5e6),
+        );
+        assert!(
+            (ours.0[0] - epsg.0[0]).abs() < 1e-10 && (ours.0[1] - epsg.0[1]).abs() < 1e-10,
+            "{ours:?} against {epsg:?}"
+        );
+        // Transverse Mercator (CT 1) is not corrected: within 0.1 % of true scale.
+        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(1);
+        let keys = GeoKeys {
+            short: &short_key,
+            double: &|_| None,
+        };
+        assert!(of_keys(&keys, 1.0).is_none());
+    }
+}
