@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use common::{assert_input_error, imitate, python_script, shared_data};
 use imitate::features::{FeatureSpec, Op};
 use imitate::grid::{GroundScale, Map};
-use imitate::io::geotiff::read_geotiff;
+use imitate::io::geotiff::{read_geotiff, write_geotiff};
 
 /// Writes the variants into `out` with rasterio (see [`python_script`]).
 fn write_variants(out: &Path) -> Option<Vec<serde_json::Value>> {
@@ -132,6 +132,52 @@ fn projected_units_in_feet_become_metres() {
     let ([fx, fy], [sx, sy]) = (feet.geo.cell_metres(), spot.geo.cell_metres());
     assert!((fx - sx * foot).abs() < 1e-9 && (fy - sy * foot).abs() < 1e-9);
     assert!((feet.geo.origin[0] - spot.geo.origin[0] * foot).abs() < 1e-6);
+}
+
+#[test]
+fn rasters_written_back_keep_the_crs_they_were_read_with() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    // A CRS in US survey feet (read in metres), projections GDAL writes by their
+    // parameters (Albers, LAEA, LCC), an EPSG code, and degrees.
+    let names = [
+        "units--us-feet",
+        "units--albers-plane",
+        "units--laea-plane",
+        "units--lcc-plane",
+        "units--conus-albers-plane",
+        "spot--none",
+    ];
+    let mut pairs = Vec::new();
+    for name in names {
+        let source = dir.path().join(format!("{name}.tif"));
+        let map = read_geotiff(&source, "m").unwrap();
+        let written = dir.path().join(format!("{name}--written.tif"));
+        write_geotiff(&written, &map.geo, &map.layers[0].values).unwrap();
+        // And read back by us: the same grid.
+        assert_eq!(read_geotiff(&written, "m").unwrap().geo, map.geo, "{name}");
+        pairs.extend([source, written]);
+    }
+    let pairs: Vec<&Path> = pairs.iter().map(PathBuf::as_path).collect();
+    let Some(checked) = python_script("same_crs.py", &pairs) else {
+        return;
+    };
+    assert_eq!(checked.len(), names.len());
+    for pair in &checked {
+        assert_eq!(pair["same_crs"], true, "{pair}");
+        for (ours, theirs) in [("bounds", "written_bounds"), ("res", "written_res")] {
+            let (a, b) = (
+                pair[ours].as_array().unwrap(),
+                pair[theirs].as_array().unwrap(),
+            );
+            for (x, y) in a.iter().zip(b) {
+                let (x, y) = (x.as_f64().unwrap(), y.as_f64().unwrap());
+                assert!((x - y).abs() <= 1e-9 * x.abs().max(1.0), "{pair}");
+            }
+        }
+    }
 }
 
 #[test]

@@ -19,6 +19,7 @@ fn walled(dir: &std::path::Path) -> std::path::PathBuf {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     };
     let mut costs = Grid::filled(geo, 1.0f32);
     for row in 0..3 {
@@ -171,6 +172,7 @@ fn unreachable_goals_fail_with_exit_code_1() {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     };
     let costs = Grid::from_vec(geo, vec![1.0, f32::INFINITY, 1.0]);
     write_costmap(&dir.path().join("walled.parquet"), "cut", &costs).unwrap();

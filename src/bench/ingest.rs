@@ -49,6 +49,7 @@ fn generate(path: &Path, megabytes: u64) -> Result<()> {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     };
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     // zstd takes about 17 % off random occupancies: write enough grids for the size.

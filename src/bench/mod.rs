@@ -153,6 +153,7 @@ fn geo(width: u32, height: u32) -> GeoRef {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     }
 }
 

@@ -56,6 +56,31 @@ pub struct GeoRef {
     /// are small beside their scale's variation.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ground_scale: Option<GroundScale>,
+    /// The CRS as the GeoTIFF it was read from gave it, so that rasters written back
+    /// carry it (`io::geotiff::write_geotiff`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tiff_crs: Option<TiffCrs>,
+}
+
+/// A GeoTIFF's CRS: its GeoKeys (less the raster type and any vertical CRS) with their
+/// double and ASCII parameters, and the ground units (metres, or degrees in a
+/// geographic frame) per unit of its coordinates. Kept so that a costmap exported as
+/// a GeoTIFF carries the very CRS it was learned on, in that CRS's own units: whether an
+/// EPSG code names it or its parameters define it (ESRI's codes, PROJ strings), and
+/// whether its coordinates are feet or radians, which the reader turned into metres or
+/// degrees.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TiffCrs {
+    /// GeoKeyDirectory entries: key, location (0, or the tag holding the value), count,
+    /// value or offset.
+    pub keys: Vec<[u16; 4]>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub doubles: Vec<f64>,
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub ascii: String,
+    /// Frame units per unit of the CRS's coordinates (0.3048 for international feet).
+    pub frame_units_per_unit: f64,
 }
 
 /// Ground metres per frame unit: one factor for both axes (conformal projections), or
@@ -91,6 +116,7 @@ impl GeoRef {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         }
     }
 
@@ -255,6 +281,14 @@ impl GeoRef {
                             Mercator"
                         .into(),
                 );
+            }
+        }
+        if let Some(crs) = &self.tiff_crs {
+            let factor = crs.frame_units_per_unit;
+            if !(factor.is_finite() && factor > 0.0) {
+                return Err(format!(
+                    "tiff_crs.frame_units_per_unit must be > 0, got {factor}"
+                ));
             }
         }
         if !self.origin.iter().all(|v| v.is_finite()) {

@@ -89,6 +89,7 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         }
     }
 

@@ -24,7 +24,7 @@ use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
 use crate::error::{Error, Result, read_input};
-use crate::grid::{GeoRef, Layer, Map};
+use crate::grid::{GeoRef, Layer, Map, TiffCrs};
 
 mod chunks;
 mod grey;
@@ -283,6 +283,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         web_mercator: !units.degrees
             && key(PROJECTED_CRS).is_some_and(|code| WEB_MERCATOR.contains(&code)),
         ground_scale: None,
+        tiff_crs: None,
     };
     let doubles = decoder
         .find_tag(Tag::GeoDoubleParamsTag)
@@ -296,6 +297,12 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             .find(|k| k[0] == id && k[1] == GEO_DOUBLE_PARAMS && k[2] >= 1)
             .and_then(|k| doubles.get(usize::from(k[3])).copied())
     };
+    let ascii = decoder
+        .find_tag(Tag::GeoAsciiParamsTag)
+        .map_err(tiff_error)?
+        .and_then(|v| v.into_string().ok())
+        .unwrap_or_default();
+    geo.tiff_crs = tiff_crs(&keys, doubles.clone(), ascii, units.scale);
     let geo_keys = projection::GeoKeys {
         short: &key,
         double: &double,
@@ -513,8 +520,53 @@ fn geotransform<R: std::io::Read + std::io::Seek>(
     }
 }
 
+/// The GeoKeys of a frame named `EPSG:<code>` (none for other frames).
+fn epsg_keys(geo: &GeoRef) -> Vec<[u16; 4]> {
+    let epsg = geo
+        .frame
+        .strip_prefix("EPSG:")
+        .and_then(|code| code.parse::<u16>().ok());
+    let model = match (epsg, geo.degrees) {
+        (_, true) => MODEL_GEOGRAPHIC,
+        (Some(_), false) => MODEL_PROJECTED,
+        (None, false) => 0,
+    };
+    let mut keys = vec![[GT_MODEL_TYPE, 0, 1, model]];
+    if let Some(code) = epsg {
+        let crs = if geo.degrees {
+            GEOGRAPHIC_CRS
+        } else {
+            PROJECTED_CRS
+        };
+        keys.push([crs, 0, 1, code]);
+    }
+    keys
+}
+
+/// The CRS of a GeoTIFF's GeoKeys, kept to be written back: every key but the raster
+/// type (our origins are corners) and the vertical CRS (what is written back is not
+/// heights), with the parameters they point into; `None` without a CRS key.
+fn tiff_crs(keys: &[u16], doubles: Vec<f64>, ascii: String, per_unit: f64) -> Option<TiffCrs> {
+    let keys: Vec<[u16; 4]> = keys
+        .get(4..)
+        .unwrap_or_default()
+        .chunks_exact(4)
+        .map(|k| [k[0], k[1], k[2], k[3]])
+        .filter(|k| k[0] != GT_RASTER_TYPE && !(VERTICAL_CRS..=VERTICAL_UNITS).contains(&k[0]))
+        .collect();
+    keys.iter()
+        .any(|k| [GEOGRAPHIC_CRS, PROJECTED_CRS, GT_MODEL_TYPE].contains(&k[0]))
+        .then_some(TiffCrs {
+            keys,
+            doubles,
+            ascii,
+            frame_units_per_unit: per_unit,
+        })
+}
+
 /// Writes one float32 band as a north-up GeoTIFF: pixel scale and tiepoint tags, the
-/// EPSG code when the frame is `EPSG:<code>`, and NaN as the GDAL nodata value.
+/// CRS the raster was read with (its GeoKeys, in its own units) or else the EPSG code
+/// when the frame is `EPSG:<code>`, and NaN as the GDAL nodata value.
 pub fn write_geotiff(path: &Path, geo: &GeoRef, values: &[f32]) -> Result<()> {
     let (width, height) = (geo.width as usize, geo.height as usize);
     // Our row 0 is the south edge; GeoTIFF rows run from the north.
@@ -522,30 +574,27 @@ pub fn write_geotiff(path: &Path, geo: &GeoRef, values: &[f32]) -> Result<()> {
     for row in (0..height).rev() {
         north_up.extend_from_slice(&values[row * width..(row + 1) * width]);
     }
-    let [x_size, y_size] = geo.cell_size();
-    let top = geo.origin[1] + y_size * f64::from(geo.height);
-    let epsg = geo
-        .frame
-        .strip_prefix("EPSG:")
-        .and_then(|code| code.parse::<u16>().ok());
-    // GeoKeyDirectory: header (version 1.1.0, key count), then (id, location, count, value).
-    let mut keys: Vec<u16> = vec![1, 1, 0, 0];
-    let model = match (epsg, geo.degrees) {
-        (_, true) => MODEL_GEOGRAPHIC,
-        (Some(_), false) => MODEL_PROJECTED,
-        (None, false) => 0,
+    // The CRS the raster was read with, in its own units (feet, radians); else the
+    // frame's EPSG code.
+    let (per_unit, mut entries, doubles, ascii) = match &geo.tiff_crs {
+        Some(crs) => (
+            crs.frame_units_per_unit,
+            crs.keys.clone(),
+            &crs.doubles[..],
+            crs.ascii.as_str(),
+        ),
+        None => (1.0, epsg_keys(geo), &[][..], ""),
     };
-    keys.extend_from_slice(&[GT_MODEL_TYPE, 0, 1, model]);
-    keys.extend_from_slice(&[GT_RASTER_TYPE, 0, 1, 1]); // PixelIsArea
-    if let Some(code) = epsg {
-        let crs = if geo.degrees {
-            GEOGRAPHIC_CRS
-        } else {
-            PROJECTED_CRS
-        };
-        keys.extend_from_slice(&[crs, 0, 1, code]);
-    }
-    keys[3] = (keys.len() / 4 - 1) as u16;
+    // PixelIsArea: our origin is the corner of a cell.
+    entries.retain(|k| k[0] != GT_RASTER_TYPE);
+    entries.push([GT_RASTER_TYPE, 0, 1, 1]);
+    entries.sort_by_key(|k| k[0]);
+    // GeoKeyDirectory: header (version 1.1.0, key count), then (id, location, count, value).
+    let mut keys: Vec<u16> = vec![1, 1, 0, entries.len() as u16];
+    keys.extend(entries.iter().flatten());
+    let [x_size, y_size] = geo.cell_size().map(|s| s / per_unit);
+    let [west, south] = geo.origin.map(|v| v / per_unit);
+    let top = south + y_size * f64::from(geo.height);
     let failed = |e: tiff::TiffError| Error::Failed(format!("writing {}: {e}", path.display()));
     crate::io::fs::write_atomic_seekable(path, |out| {
         let mut encoder = tiff::encoder::TiffEncoder::new(out).map_err(failed)?;
@@ -555,13 +604,18 @@ pub fn write_geotiff(path: &Path, geo: &GeoRef, values: &[f32]) -> Result<()> {
         let tags = image.encoder();
         tags.write_tag(Tag::ModelPixelScaleTag, &[x_size, y_size, 0.0][..])
             .map_err(failed)?;
-        tags.write_tag(
-            Tag::ModelTiepointTag,
-            &[0.0, 0.0, 0.0, geo.origin[0], top, 0.0][..],
-        )
-        .map_err(failed)?;
+        tags.write_tag(Tag::ModelTiepointTag, &[0.0, 0.0, 0.0, west, top, 0.0][..])
+            .map_err(failed)?;
         tags.write_tag(Tag::GeoKeyDirectoryTag, &keys[..])
             .map_err(failed)?;
+        if !doubles.is_empty() {
+            tags.write_tag(Tag::GeoDoubleParamsTag, doubles)
+                .map_err(failed)?;
+        }
+        if !ascii.is_empty() {
+            tags.write_tag(Tag::GeoAsciiParamsTag, ascii)
+                .map_err(failed)?;
+        }
         tags.write_tag(Tag::GdalNodata, "nan").map_err(failed)?;
         image.write_data(&north_up).map_err(failed)
     })
@@ -689,6 +743,15 @@ mod tests {
         assert!(grads.contains("GeogAngularUnits"), "{grads}");
     }
 
+    /// The georeference of the GeoTIFF `write_geotiff` wrote at `path` from `geo`: its
+    /// CRS is the frame's EPSG code as GeoKeys, and the rest is `geo`'s.
+    fn written_georeference(path: &Path, geo: &GeoRef) -> GeoRef {
+        let mut back = read_geotiff(path, "g").unwrap().geo;
+        let crs = back.tiff_crs.take().unwrap();
+        assert_eq!(crs.keys, epsg_keys(geo));
+        back
+    }
+
     #[test]
     fn written_geotiffs_read_back_with_their_georeference() {
         let dir = tempfile::tempdir().unwrap();
@@ -702,12 +765,13 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         };
         let values = [1.0, 2.0, f32::NAN, 4.0, 5.0, 6.5];
         let path = dir.path().join("c.tif");
         write_geotiff(&path, &geo, &values).unwrap();
+        assert_eq!(written_georeference(&path, &geo), geo);
         let map = read_geotiff(&path, "c").unwrap();
-        assert_eq!(map.geo, geo);
         let back = &map.layers[0].values;
         assert_eq!(&back[..2], &values[..2]);
         assert!(back[2].is_nan());
@@ -724,14 +788,15 @@ mod tests {
         };
         let path = dir.path().join("g.tif");
         write_geotiff(&path, &geo, &[1.0; 6]).unwrap();
-        assert_eq!(read_geotiff(&path, "g").unwrap().geo, geo);
+        assert_eq!(written_georeference(&path, &geo), geo);
         let mercator = GeoRef {
             web_mercator: true,
             ground_scale: None,
+            tiff_crs: None,
             ..GeoRef::square(3, 2, 30.0, [-11_858_134.8, 4_803_914.4], "EPSG:3857")
         };
         write_geotiff(&path, &mercator, &[1.0; 6]).unwrap();
-        assert_eq!(read_geotiff(&path, "m").unwrap().geo, mercator);
+        assert_eq!(written_georeference(&path, &mercator), mercator);
     }
 
     #[test]

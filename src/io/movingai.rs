@@ -57,6 +57,7 @@ pub fn read_map(path: &Path) -> Result<Grid<f32>> {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     };
     let mut grid = Grid::filled(geo, f32::INFINITY);
     for (y, (n, line)) in rows.iter().enumerate() {

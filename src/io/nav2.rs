@@ -98,6 +98,7 @@ pub fn read_nav2_map(path: &Path, name: &str) -> Result<Map> {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     };
     geo.validate().map_err(|e| Error::input(path, e))?;
     let (free, occupied) = (yaml.free_thresh, yaml.occupied_thresh);

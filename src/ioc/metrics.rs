@@ -130,6 +130,7 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         };
         let costs = Grid::filled(geo, 1.0f32);
         let demo: Vec<Cell> = (0..8).map(|i| Cell::new(i, i)).collect();

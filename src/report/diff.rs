@@ -426,6 +426,7 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         };
         Grid::from_vec(geo, values)
     }

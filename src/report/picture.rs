@@ -138,6 +138,7 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         };
         Grid::from_vec(geo, values)
     }

@@ -108,6 +108,7 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         };
         // Cost grows to the north.
         let costs = Grid::from_vec(

@@ -124,6 +124,7 @@ fn terrain(name: &str, config: &WorldConfig, rng: &mut ChaCha8Rng) -> Map {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     };
     let height_field = fractal_noise(w, h, rng);
     let mut vegetation = fractal_noise(w, h, rng);

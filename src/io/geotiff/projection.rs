@@ -179,7 +179,13 @@ pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: 
             |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
         );
     let code = geo.frame.clone();
-    if variation > 0.05 {
+    if variation.is_infinite() {
+        tracing::warn!(
+            "{}: corners of the raster lie outside the projection's ({code}) domain; \
+             lengths are measured at its centre: reproject it (gdalwarp) for exact ones",
+            path.display()
+        );
+    } else if variation > 0.05 {
         tracing::warn!(
             "{}: the projection's ({code}) scale varies by up to {:.0} % across the \
              raster; lengths are measured at its centre: reproject it (gdalwarp) for \

@@ -581,6 +581,7 @@ fn occupancy_map(message: &Value, name: &str) -> Result<Map, String> {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     })?;
     let data = field(message, "data")?;
     let values: Vec<f32> = match data {
@@ -646,6 +647,7 @@ fn grid_map_map(message: &Value, name: &str) -> Result<Map, String> {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     })?;
     let names = field(message, "layers")?
         .as_list()
@@ -743,6 +745,7 @@ fn foxglove_grid_map(message: &Value, name: &str) -> Result<Map, String> {
         degrees: false,
         web_mercator: false,
         ground_scale: None,
+        tiff_crs: None,
     })?;
     if (width as usize) * cell_stride > row_stride {
         return Err(format!(
@@ -860,6 +863,7 @@ mod tests {
             degrees: false,
             web_mercator: false,
             ground_scale: None,
+            tiff_crs: None,
         };
         let layer = |k: f32| Layer {
             name: format!("l{k}"),
