@@ -2,8 +2,9 @@
 //! log-cost functions, with the planner in the loop.
 //!
 //! Each round t, for every example i: plan on the loss-augmented costmap
-//! exp(s_t(F_i)) − l_i, compare the planned visitation μ* with the demonstration's μ,
-//! and emit (f(s), sign(μ*−μ), |μ*−μ|) at the cells where they disagree. A weak learner
+//! exp(s_t(F_i)) − l_i, compare the planned visitation μ* with the demonstration's μ
+//! (the length of each path's steps through a cell, half a step to each end), and emit
+//! (f(s), sign(μ*−μ), |μ*−μ|) at the cells where they disagree. A weak learner
 //! h_t (ridge regression or a regression tree) fitted to all examples' points gives
 //! s_{t+1} = s_t + α_t h_t. With validation examples and a patience, training stops when
 //! their agreement has not improved for that many rounds and keeps the best round; the
@@ -38,7 +39,7 @@ use super::model::{CostLink, LogCostModel, WeakLearner};
 use super::soft_paths::{SoftGoal, Window, path_incidence};
 use crate::error::first_error_in_order;
 use crate::features::{distance_transform, scale_in_cells};
-use crate::grid::{Cell, CellPath, FeatureStack, Grid};
+use crate::grid::{Cell, CellPath, FeatureStack, GeoRef, Grid};
 use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
 use crate::plan::{Moves, StepLengths, dijkstra, loss_augmented, path_cost, shortest_path};
 
@@ -55,8 +56,8 @@ const MAXENT_TREE_MIN_WEIGHT: f64 = 1e-3;
 /// brings the split within half a percentile.
 pub const TREE_BINS: usize = 256;
 
-/// L2 penalty on the leaves of LEARCH's trees (`TreeConfig::leaf_l2`, in visited
-/// cells): a leaf backed by a handful of cells moves the cost a little, not by a full
+/// L2 penalty on the leaves of LEARCH's trees (`TreeConfig::leaf_l2`, in straight
+/// steps through the leaf's cells): a leaf backed by a handful of cells moves the cost a little, not by a full
 /// step. With the trees' shorter steps it took the mean held-out cost ratio of
 /// `bench terrain` over three seeds from 1.0175 to 1.0164 and the mean worst path
 /// from 1.074 to 1.072.
@@ -970,8 +971,8 @@ fn weighted_features(
 }
 
 /// LEARCH and MMP: plan on the loss-augmented costmap and compare with the
-/// demonstration, cell visits for LEARCH's weak learner, weighted feature counts for
-/// MMP's subgradient.
+/// demonstration: the steps' lengths through each cell for LEARCH's weak learner,
+/// feature counts weighted by them for MMP's subgradient.
 fn planned_gradient(
     model: &LogCostModel,
     stack: &FeatureStack,
@@ -1019,27 +1020,25 @@ fn planned_gradient(
     let mut raw = vec![0.0f32; stack.dim()];
     let mut x = vec![0.0; stack.dim()];
     let disagreeing_cells = visits.values().filter(|&&d| d != 0).count();
+    let lengths = StepLengths::of(geo);
     if config.method == GridMethod::Mmp {
-        // Φ(plan) − Φ(demo), each step's length split between its two cells.
-        let mut incidence: BTreeMap<usize, f64> = BTreeMap::new();
-        let lengths = StepLengths::of(geo);
-        for (path, sign) in [(&route.cells, 1.0), (&ex.path, -1.0)] {
-            for pair in path.windows(2) {
-                let half = 0.5 * lengths.between(pair[0], pair[1]);
-                for cell in pair {
-                    *incidence.entry(geo.index(*cell)).or_default() += sign * half;
-                }
-            }
-        }
+        // Φ(plan) − Φ(demo).
+        let incidence = length_difference(geo, &lengths, &route.cells, &ex.path, 1.0);
         direction = weighted_features(model, stack, incidence.into_iter());
     } else {
-        for (&i, &difference) in &visits {
-            if difference == 0 {
+        // A path's cost changes with a cell's log-cost by the cost times the length of
+        // the path's steps through the cell: the targets are the difference's sign, its
+        // size the weight (in straight steps, so that square cells weigh a visit as
+        // before; diagonals √2, and a geographic raster's narrow rows near the poles
+        // little).
+        let unit = straight_step(geo, &lengths);
+        for (i, difference) in length_difference(geo, &lengths, &route.cells, &ex.path, unit) {
+            if difference.abs() < SHARED_STEPS {
                 continue;
             }
             stack.cell_into(i, &mut raw);
             model.scaled(&raw, &mut x);
-            let (target, weight) = (difference.signum() as f64, difference.unsigned_abs() as f64);
+            let (target, weight) = (difference.signum(), difference.abs());
             match config.weak_learner {
                 WeakLearnerKind::Ridge => data.add(&x, target, weight),
                 WeakLearnerKind::Tree => points.push((x.clone(), target, weight)),
@@ -1058,6 +1057,42 @@ fn planned_gradient(
         loss: ((demo_cost - route.cost) / demo_cost.max(f64::MIN_POSITIVE)).max(0.0),
         disagreeing_cells,
     })
+}
+
+/// Per cell, the length of the plan's steps through it minus the demonstration's (each
+/// step's length split between its two cells), in units of `unit`.
+fn length_difference(
+    geo: &GeoRef,
+    lengths: &StepLengths,
+    plan: &[Cell],
+    demonstration: &[Cell],
+    unit: f64,
+) -> BTreeMap<usize, f64> {
+    let mut incidence: BTreeMap<usize, f64> = BTreeMap::new();
+    for (path, sign) in [(plan, 1.0), (demonstration, -1.0)] {
+        for pair in path.windows(2) {
+            let half = 0.5 * lengths.between(pair[0], pair[1]) / unit;
+            for cell in pair {
+                *incidence.entry(geo.index(*cell)).or_default() += sign * half;
+            }
+        }
+    }
+    incidence
+}
+
+/// Length differences below this (in straight steps) are the rounding of steps that
+/// plan and demonstration share.
+const SHARED_STEPS: f64 = 1e-9;
+
+/// The length of a straight step north from the middle row (east on a one-row grid):
+/// the unit of LEARCH's visitation weights.
+fn straight_step(geo: &GeoRef, lengths: &StepLengths) -> f64 {
+    let mid = geo.height / 2;
+    if mid == 0 {
+        lengths.between(Cell::new(0, 0), Cell::new(0, 1))
+    } else {
+        lengths.between(Cell::new(mid - 1, 0), Cell::new(mid, 0))
+    }
 }
 
 /// MaxEnt: per cell, expected minus demonstrated visits times the cost (the gradient
@@ -1568,6 +1603,52 @@ mod tests {
             assert!(compact.values.len() < dense.len());
             assert_eq!(compact.iter().collect::<Vec<_>>(), *dense);
         }
+    }
+
+    #[test]
+    fn plans_and_demonstrations_differ_by_the_lengths_of_their_steps() {
+        let geo = GeoRef::unit(4, 4);
+        let lengths = StepLengths::of(&geo);
+        let c = |row, col| Cell::new(row, col);
+        // A diagonal plan against a demonstration around the corner: the shared ends
+        // differ by half a diagonal less half a straight step, the corner by a whole
+        // straight step, the plan's middle cell by a whole diagonal.
+        let plan = [c(0, 0), c(1, 1), c(2, 2)];
+        let demonstration = [c(0, 0), c(0, 1), c(0, 2), c(1, 2), c(2, 2)];
+        let unit = straight_step(&geo, &lengths);
+        assert_eq!(unit, 1.0);
+        let difference = length_difference(&geo, &lengths, &plan, &demonstration, unit);
+        let half = 0.5 * std::f64::consts::SQRT_2 - 0.5;
+        for (cell, expected) in [
+            (c(0, 0), half),
+            (c(2, 2), half),
+            (c(1, 1), std::f64::consts::SQRT_2),
+            (c(0, 1), -1.0),
+            (c(0, 2), -1.0),
+            (c(1, 2), -1.0),
+        ] {
+            let got = difference[&geo.index(cell)];
+            assert!((got - expected).abs() < 1e-12, "{cell:?}: {got}");
+        }
+        // The same path taken by both cancels everywhere.
+        let same = length_difference(&geo, &lengths, &plan, &plan, unit);
+        assert!(same.values().all(|d| d.abs() < SHARED_STEPS));
+        // In degrees, a step east weighs the cosine of its row's latitude against a
+        // straight step north at the middle row (here at the equator), within the
+        // ellipsoid's 1–2 % between a degree east and a degree north.
+        let globe = GeoRef {
+            degrees: true,
+            ..GeoRef::square(4, 160, 1.0, [0.0, -80.0], "EPSG:4326")
+        };
+        let lengths = StepLengths::of(&globe);
+        let unit = straight_step(&globe, &lengths);
+        let east_at = |row| {
+            let path = [c(row, 0), c(row, 1)];
+            -length_difference(&globe, &lengths, &[], &path, unit)[&globe.index(c(row, 0))]
+        };
+        assert!((2.0 * east_at(80) - 1.0).abs() < 0.02, "{}", east_at(80));
+        let near_pole = 2.0 * east_at(0) / (79.5f64.to_radians().cos());
+        assert!((near_pole - 1.0).abs() < 0.02, "{near_pole}");
     }
 
     #[test]
