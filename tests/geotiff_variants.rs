@@ -291,6 +291,13 @@ fn equal_area_and_conic_cells_are_measured_on_the_ground_per_axis() {
         ("units--conus-albers-plane", [0.920, 1.093], false),
         // And a Lambert conformal cone by its parameters: the same scale both ways.
         ("units--lcc-plane", [0.936, 0.936], true),
+        // The world grids, 123° W of their meridian but for EASE-Grid 2.0, which is
+        // cylindrical (PROJ's inverses at the centre ± 10 m, as chords on WGS 84):
+        // axes sheared 62°, 50° and 32° apart, so no slope is checked on them.
+        ("units--modis-sinusoidal-plane", [1.0036, 2.1182], false),
+        ("units--ease2-plane", [0.5781, 1.7299], true),
+        ("units--mollweide-plane", [0.8602, 1.8113], false),
+        ("units--equal-earth-plane", [0.7721, 1.5191], false),
     ] {
         let map = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
         let [sx, sy] = map.geo.ground_scale.unwrap().per_axis();
@@ -436,7 +443,7 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         }
         checked.push(name.to_string());
     }
-    assert_eq!(checked.len(), 18, "{checked:?}");
+    assert_eq!(checked.len(), 19, "{checked:?}");
     // The land-cover palette reads as its class codes, the 1-bit mask as 0 and 1, and
     // the internal mask takes a third of the image and a block away.
     let codes = read("kinds--palette").unwrap();
@@ -462,6 +469,14 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         .count();
     let (w, h) = (masked.geo.width as usize, masked.geo.height as usize);
     assert_eq!(empty, h * (w / 3) + 60 * 120);
+    // The same mask on a float raster in LZW strips (1-bit, as GDAL writes masks).
+    let float_masked = read("kinds--masked-float-lzw").unwrap();
+    let masked_floats = float_masked.layers[0]
+        .values
+        .iter()
+        .filter(|v| v.is_nan())
+        .count();
+    assert_eq!(masked_floats, empty);
     // Transparent cells of an RGBA orthomosaic (alpha 0) are nodata in the colour
     // bands; the alpha band keeps its zeros, as in GDAL.
     let rgba = read("kinds--rgba-alpha").unwrap();

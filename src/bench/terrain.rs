@@ -130,7 +130,8 @@ fn pooled(map: Map, cells: u32) -> Map {
     if factor == 1 {
         return map;
     }
-    let (pw, ph) = (w / factor, h / factor);
+    // Whole blocks only, but at least one per axis (a raster one row high keeps it).
+    let (pw, ph) = ((w / factor).max(1), (h / factor).max(1));
     let layers = map
         .layers
         .iter()
@@ -139,8 +140,8 @@ fn pooled(map: Map, cells: u32) -> Map {
                 .map(|i| {
                     let (r, c) = (i / pw, i % pw);
                     let (mut sum, mut n) = (0.0f64, 0usize);
-                    for rr in r * factor..(r + 1) * factor {
-                        for cc in c * factor..(c + 1) * factor {
+                    for rr in r * factor..((r + 1) * factor).min(h) {
+                        for cc in c * factor..((c + 1) * factor).min(w) {
                             let v = layer.values[rr * w + cc];
                             if !v.is_nan() {
                                 sum += f64::from(v);
@@ -162,11 +163,13 @@ fn pooled(map: Map, cells: u32) -> Map {
         })
         .collect();
     let [sx, sy] = map.geo.cell_size();
+    // A block clipped by the raster's edge spans only the cells it holds.
+    let (fx, fy) = (factor.min(w) as f64, factor.min(h) as f64);
     let geo = GeoRef {
         width: pw as u32,
         height: ph as u32,
-        resolution: sx * factor as f64,
-        resolution_y: map.geo.resolution_y.map(|_| sy * factor as f64),
+        resolution: sx * fx,
+        resolution_y: (map.geo.resolution_y.is_some() || fx != fy).then_some(sy * fy),
         ..map.geo
     };
     Map {
@@ -438,4 +441,36 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         )
     });
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn strip(width: u32, height: u32) -> Map {
+        let geo = GeoRef::square(width, height, 30.0, [0.0, 0.0], "map");
+        Map {
+            name: "strip".into(),
+            layers: vec![Layer {
+                name: "band1".into(),
+                values: (0..geo.cell_count()).map(|i| i as f32).collect(),
+            }],
+            geo,
+        }
+    }
+
+    #[test]
+    fn pooling_keeps_a_raster_thinner_than_a_block() {
+        // One row of 500 cells, pooled by 4 to at most 160 a side: 125 cells, each the
+        // mean of its four, spanning one row's height (it panicked as zero rows).
+        let row = pooled(strip(500, 1), 160);
+        assert_eq!((row.geo.width, row.geo.height), (125, 1));
+        assert_eq!(row.geo.cell_size(), [120.0, 30.0]);
+        assert_eq!(row.layers[0].values[0], 1.5);
+        assert_eq!(row.layers[0].values[124], 497.5);
+        // Whole blocks otherwise, as before: 330 × 170 by 3, the last 2 rows left out.
+        let block = pooled(strip(330, 170), 160);
+        assert_eq!((block.geo.width, block.geo.height), (110, 56));
+        assert_eq!(block.geo.cell_size(), [90.0, 90.0]);
+    }
 }

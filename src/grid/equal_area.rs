@@ -1,10 +1,13 @@
-//! The equal-area projections continental rasters come in: Albers conic (the USGS's
-//! CONUS grid, EPSG:5070, as NLCD and 3DEP products come; Australia's 3577) and Lambert
-//! azimuthal (LAEA Europe, EPSG:3035, as EU-DEM and CORINE come; the polar EASE grids).
-//! Away from their standard lines they stretch one axis by what they shrink the other,
-//! 1–2 % across a continent, so a projected metre is not a ground metre on either axis.
-//! Snyder's ellipsoidal inverses (Map Projections: A Working Manual, 1987, §14 and §24)
-//! take a projected point back to latitude and longitude, where the ground is measured.
+//! The equal-area projections continental and global rasters come in: Albers conic (the
+//! USGS's CONUS grid, EPSG:5070, as NLCD and 3DEP products come; Australia's 3577),
+//! Lambert azimuthal (LAEA Europe, EPSG:3035, as EU-DEM and CORINE come; the polar EASE
+//! grids), and the world grids: sinusoidal (MODIS), cylindrical (EASE-Grid 2.0),
+//! Mollweide (GHSL) and Equal Earth. Away from their standard lines they stretch one
+//! axis by what they shrink the other, 1–2 % across a continent and far more across the
+//! world grids, whose axes also shear apart, so a projected metre is not a ground metre
+//! on either axis. Snyder's ellipsoidal inverses (Map Projections: A Working Manual,
+//! 1987) and PROJ's for Equal Earth take a projected point back to latitude and
+//! longitude, where the ground is measured.
 
 /// An ellipsoid by its semi-major axis (m) and first eccentricity squared (0: a sphere).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -93,6 +96,38 @@ impl Ellipsoid {
         phi
     }
 
+    /// The latitude whose meridian arc from the equator is `arc` metres: Snyder's
+    /// series (3-26) for a first guess, then Newton's steps on the arc (7-19).
+    fn footpoint_latitude(&self, arc: f64) -> f64 {
+        let e2 = self.e2;
+        let rectifying =
+            self.a * (1.0 - e2 / 4.0 - 3.0 * e2 * e2 / 64.0 - 5.0 * e2.powi(3) / 256.0);
+        let mu = arc / rectifying;
+        let root = (1.0 - e2).sqrt();
+        let e1 = (1.0 - root) / (1.0 + root);
+        let mut phi = mu
+            + (1.5 * e1 - 27.0 * e1.powi(3) / 32.0) * (2.0 * mu).sin()
+            + (21.0 * e1 * e1 / 16.0 - 55.0 * e1.powi(4) / 32.0) * (4.0 * mu).sin()
+            + (151.0 * e1.powi(3) / 96.0) * (6.0 * mu).sin()
+            + (1097.0 * e1.powi(4) / 512.0) * (8.0 * mu).sin();
+        for _ in 0..3 {
+            // dM/dφ is the meridian's radius of curvature a(1 − e²)/(1 − e² sin²φ)^1.5.
+            let w = 1.0 - e2 * phi.sin().powi(2);
+            phi -= (self.meridian_arc(phi) - arc) * w * w.sqrt() / (self.a * (1.0 - e2));
+        }
+        phi
+    }
+
+    /// The meridian's arc from the equator to latitude `phi` (Snyder 3-21), metres.
+    fn meridian_arc(&self, phi: f64) -> f64 {
+        let (e2, e4, e6) = (self.e2, self.e2 * self.e2, self.e2.powi(3));
+        self.a
+            * ((1.0 - e2 / 4.0 - 3.0 * e4 / 64.0 - 5.0 * e6 / 256.0) * phi
+                - (3.0 * e2 / 8.0 + 3.0 * e4 / 32.0 + 45.0 * e6 / 1024.0) * (2.0 * phi).sin()
+                + (15.0 * e4 / 256.0 + 45.0 * e6 / 1024.0) * (4.0 * phi).sin()
+                - (35.0 * e6 / 3072.0) * (6.0 * phi).sin())
+    }
+
     /// Earth-centred coordinates (m) of latitude `phi`, longitude `lambda` (radians).
     pub fn ecef(&self, phi: f64, lambda: f64) -> [f64; 3] {
         let n = self.a / (1.0 - self.e2 * phi.sin().powi(2)).sqrt();
@@ -123,7 +158,41 @@ pub enum EqualArea {
         centre: [f64; 2],
         false_easting_northing: [f64; 2],
     },
+    /// Sinusoidal, true to scale along every parallel, its meridians sheared apart
+    /// away from the central one: the MODIS land products' grid (on a sphere of
+    /// 6 371 007.181 m).
+    Sinusoidal {
+        ellipsoid: Ellipsoid,
+        central_meridian: f64,
+        false_easting_northing: [f64; 2],
+    },
+    /// Cylindrical equal-area, true to scale on its two standard parallels ±φs and
+    /// stretched east-west poleward of them: the EASE-Grid 2.0 global grid (EPSG:6933).
+    Cylindrical {
+        ellipsoid: Ellipsoid,
+        standard_parallel: f64,
+        central_meridian: f64,
+        false_easting_northing: [f64; 2],
+    },
+    /// Mollweide, on a sphere of radius `radius` (PROJ takes the ellipsoid's
+    /// semi-major axis): global grids such as GHSL's (ESRI:54009).
+    Mollweide {
+        radius: f64,
+        central_meridian: f64,
+        false_easting_northing: [f64; 2],
+    },
+    /// Equal Earth (Šavrič, Patterson & Jenny 2018) through the ellipsoid's authalic
+    /// latitude, as PROJ computes it (EPSG:8857).
+    EqualEarth {
+        ellipsoid: Ellipsoid,
+        central_meridian: f64,
+        false_easting_northing: [f64; 2],
+    },
 }
+
+/// Equal Earth's polynomial coefficients and √3 / 2.
+const EQUAL_EARTH: [f64; 4] = [1.340_264, -0.081_106, 0.000_893, 0.003_796];
+const HALF_ROOT_3: f64 = 0.866_025_403_784_438_6;
 
 impl EqualArea {
     /// The projections known by their EPSG code.
@@ -139,6 +208,12 @@ impl EqualArea {
             ellipsoid,
             centre,
             false_easting_northing: false_origin,
+        };
+        let cylindrical = |ellipsoid, standard_parallel| EqualArea::Cylindrical {
+            ellipsoid,
+            standard_parallel,
+            central_meridian: 0.0,
+            false_easting_northing: [0.0; 2],
         };
         let conus = [[29.5, 45.5], [23.0, -96.0]];
         Some(match code {
@@ -168,6 +243,15 @@ impl EqualArea {
             // NSIDC EASE-Grid North and South, on a sphere.
             3408 => azimuthal(E::sphere(6_371_228.0), [90.0, 0.0], [0.0; 2]),
             3409 => azimuthal(E::sphere(6_371_228.0), [-90.0, 0.0], [0.0; 2]),
+            // EASE-Grid 2.0 global (WGS 84) and the first EASE-Grid global (a sphere).
+            6933 => cylindrical(E::WGS84, 30.0),
+            3410 => cylindrical(E::sphere(6_371_228.0), 30.0),
+            // WGS 84 / Equal Earth Greenwich, Americas and Asia-Pacific.
+            8857..=8859 => EqualArea::EqualEarth {
+                ellipsoid: E::WGS84,
+                central_meridian: [0.0, -90.0, 150.0][usize::from(code - 8857)],
+                false_easting_northing: [0.0; 2],
+            },
             _ => return None,
         })
     }
@@ -232,6 +316,72 @@ impl EqualArea {
                 let lambda = (x * sin_ce)
                     .atan2(d * rho * beta1.cos() * cos_ce - d * d * y * beta1.sin() * sin_ce);
                 (el.latitude_of_q(q), lambda0 + lambda)
+            }
+            EqualArea::Sinusoidal {
+                ellipsoid: el,
+                central_meridian,
+                false_easting_northing: [fe, fn_],
+            } => {
+                // Snyder §30 on the ellipsoid: y is the meridian's arc M(φ), and
+                // x = (λ − λ0) a m(φ).
+                let phi = el.footpoint_latitude(y - fn_);
+                let lambda = (x - fe) / (el.a * el.m(phi));
+                (phi, central_meridian.to_radians() + lambda)
+            }
+            EqualArea::Cylindrical {
+                ellipsoid: el,
+                standard_parallel,
+                central_meridian,
+                false_easting_northing: [fe, fn_],
+            } => {
+                // Snyder §10 on the ellipsoid: x = a k0 (λ − λ0), y = a q / (2 k0).
+                let k0 = el.m(standard_parallel.to_radians());
+                let phi = el.latitude_of_q(2.0 * k0 * (y - fn_) / el.a);
+                (phi, central_meridian.to_radians() + (x - fe) / (el.a * k0))
+            }
+            EqualArea::Mollweide {
+                radius,
+                central_meridian,
+                false_easting_northing: [fe, fn_],
+            } => {
+                // Snyder §31: the auxiliary angle θ from y, then φ and λ.
+                let root2 = std::f64::consts::SQRT_2;
+                let theta = ((y - fn_) / (root2 * radius)).clamp(-1.0, 1.0).asin();
+                let phi = ((2.0 * theta + (2.0 * theta).sin()) / std::f64::consts::PI)
+                    .clamp(-1.0, 1.0)
+                    .asin();
+                let lambda = std::f64::consts::PI * (x - fe) / (2.0 * root2 * radius * theta.cos());
+                (phi, central_meridian.to_radians() + lambda)
+            }
+            EqualArea::EqualEarth {
+                ellipsoid: el,
+                central_meridian,
+                false_easting_northing: [fe, fn_],
+            } => {
+                // PROJ's eqearth: the parametric latitude ψ (sin ψ = √3/2 sin β) from y by
+                // Newton's steps, then λ and the authalic latitude β.
+                let [a1, a2, a3, a4] = EQUAL_EARTH;
+                let rq = el.a * (el.q(std::f64::consts::FRAC_PI_2) / 2.0).sqrt();
+                let (x, y) = ((x - fe) / rq, (y - fn_) / rq);
+                let derivative = |p2: f64| {
+                    let p6 = p2 * p2 * p2;
+                    a1 + 3.0 * a2 * p2 + p6 * (7.0 * a3 + 9.0 * a4 * p2)
+                };
+                let mut psi = y;
+                for _ in 0..12 {
+                    let (p2, p6) = (psi * psi, psi.powi(6));
+                    let step = (psi * (a1 + a2 * p2 + p6 * (a3 + a4 * p2)) - y) / derivative(p2);
+                    psi -= step;
+                    if step.abs() < 1e-12 {
+                        break;
+                    }
+                }
+                let lambda = HALF_ROOT_3 * x * derivative(psi * psi) / psi.cos();
+                let beta = (psi.sin() / HALF_ROOT_3).clamp(-1.0, 1.0).asin();
+                (
+                    el.latitude_of_authalic(beta),
+                    central_meridian.to_radians() + lambda,
+                )
             }
         }
     }
@@ -301,6 +451,96 @@ mod tests {
             inverts_to(&EqualArea::of_epsg(code).unwrap(), x, y, lat, lon, 1e-9);
         }
         assert!(EqualArea::of_epsg(32610).is_none());
+    }
+
+    #[test]
+    fn world_grids_invert_as_proj_does() {
+        // PROJ 9's inverses (rasterio.warp.transform), to 1e-8° (a millimetre).
+        let sinusoidal = |ellipsoid| EqualArea::Sinusoidal {
+            ellipsoid,
+            central_meridian: 0.0,
+            false_easting_northing: [0.0; 2],
+        };
+        let modis = sinusoidal(Ellipsoid::sphere(6_371_007.181));
+        let esri_54008 = sinusoidal(Ellipsoid::WGS84);
+        let esri_54009 = EqualArea::Mollweide {
+            radius: 6_378_137.0,
+            central_meridian: 0.0,
+            false_easting_northing: [0.0; 2],
+        };
+        let epsg = |code| EqualArea::of_epsg(code).unwrap();
+        let cases = [
+            (&modis, -8.0e6, 4.4e6, 39.570_106_059_4, -93.333_395_030_1),
+            (&modis, 1.2e6, -3.3e6, -29.677_579_544_6, 12.421_193_053_6),
+            (
+                &esri_54008,
+                -8.0e6,
+                4.4e6,
+                39.734_049_558_3,
+                -93.322_518_770_4,
+            ),
+            (
+                &esri_54008,
+                3.0e6,
+                6.0e6,
+                54.126_533_597_9,
+                45.887_874_000_1,
+            ),
+            (
+                &esri_54009,
+                -8.0e6,
+                4.4e6,
+                36.547_840_915_1,
+                -91.439_159_958_9,
+            ),
+            (
+                &esri_54009,
+                1.0e6,
+                7.5e6,
+                66.793_140_437_9,
+                17.960_078_459_3,
+            ),
+        ];
+        for (projection, x, y, lat, lon) in cases {
+            inverts_to(projection, x, y, lat, lon, 1e-8);
+        }
+        for (code, x, y, lat, lon) in [
+            (6933, -8.0e6, 4.4e6, 36.941_034_079_6, -82.913_342_489_7),
+            (6933, 1.5e7, -6.0e6, -54.925_275_196_1, 155.462_517_168_2),
+            (3410, -8.0e6, 4.4e6, 36.732_597_967_8, -83.072_798_462_9),
+            (8857, -8.0e6, 4.4e6, 35.412_474_134_7, -91.663_460_497_5),
+            (8857, 1.0e7, -7.0e6, -60.890_904_487_2, 139.646_768_501_3),
+            (8858, 1.0e6, 4.0e6, 31.986_307_481_1, -78.741_772_676_5),
+            (8859, 1.0e6, 4.0e6, 31.986_307_481_1, 161.258_227_323_5),
+        ] {
+            inverts_to(&epsg(code), x, y, lat, lon, 1e-8);
+        }
+    }
+
+    #[test]
+    fn world_grids_stretch_and_shear_their_axes() {
+        // MODIS's sinusoidal grid over Iowa (39.6° N, 93.3° W): a unit east is a ground
+        // metre, a unit north runs 1.6 rad · sin 39.6° ≈ 1.04 east for each north, so
+        // it spans √(1 + 1.04²) ≈ 1.44 m and leans 46° from the x axis's normal.
+        let modis = EqualArea::Sinusoidal {
+            ellipsoid: Ellipsoid::sphere(6_371_007.181),
+            central_meridian: 0.0,
+            false_easting_northing: [0.0; 2],
+        };
+        let ([sx, sy], skew) = modis.axis_scales(-8.0e6, 4.4e6);
+        assert!(
+            (sx - 1.0).abs() < 0.01 && (sy - 1.44).abs() < 0.02,
+            "{sx} {sy}"
+        );
+        assert!((skew.abs() - 0.72).abs() < 0.01, "{skew}");
+        // EASE-Grid 2.0 at 36.9° N: parallels stretched by cos 30° / cos 36.9° ≈ 1.083,
+        // meridians shrunk by as much; square on the ground.
+        let ([sx, sy], skew) = EqualArea::of_epsg(6933).unwrap().axis_scales(-8.0e6, 4.4e6);
+        assert!(
+            (sx - 1.0 / 1.083).abs() < 0.003 && (sy - 1.083).abs() < 0.003,
+            "{sx} {sy}"
+        );
+        assert!(skew.abs() < 1e-6, "{skew}");
     }
 
     #[test]

@@ -302,16 +302,17 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         .map_err(tiff_error)?
         .and_then(|v| v.into_string().ok())
         .unwrap_or_default();
-    geo.tiff_crs = tiff_crs(&keys, doubles.clone(), ascii, units.scale);
     let geo_keys = projection::GeoKeys {
         short: &key,
         double: &double,
+        citations: &ascii,
     };
     if let Some(projection) =
         projection::of_keys(&geo_keys, units.scale).filter(|_| !geo.varies_by_row())
     {
         projection::set_ground_scale(&mut geo, &projection, path);
     }
+    geo.tiff_crs = tiff_crs(&keys, doubles, ascii, units.scale);
     geo.validate().map_err(problem)?;
     if let Some([south, north]) = geo.latitudes() {
         if south < -90.0 - 1e-6 || north > 90.0 + 1e-6 {
@@ -450,8 +451,14 @@ fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, Str
                     .into(),
             );
         }
-        // No model type: trust the CRS keys that are there.
-        _ => key(PROJECTED_CRS).is_none() && key(GEOGRAPHIC_CRS).is_some(),
+        // No model type, or a user-defined one (GDAL's for ESRI's projections that
+        // GeoTIFF has no code for, such as Mollweide): trust the CRS keys that are
+        // there, a linear unit meaning a projection.
+        _ => {
+            key(PROJECTED_CRS).is_none()
+                && key(PROJ_LINEAR_UNITS).is_none()
+                && key(GEOGRAPHIC_CRS).is_some()
+        }
     };
     if geographic {
         return match key(GEOG_ANGULAR_UNITS) {

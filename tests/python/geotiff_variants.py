@@ -202,6 +202,16 @@ warped_plane("units--albers-plane",
              "+proj=aea +lat_1=29.5 +lat_2=45.5 +lat_0=23 +lon_0=-123 +datum=WGS84 +units=m")
 warped_plane("units--laea-plane", "+proj=laea +lat_0=90 +lon_0=-123 +datum=WGS84 +units=m")
 warped_plane("units--conus-albers-plane", "EPSG:5070")
+# The world grids, where a degree of longitude away from the central meridian shears
+# the axes apart: MODIS's sinusoidal grid (a sphere, user-defined keys with CT 24),
+# EASE-Grid 2.0 (EPSG:6933, cylindrical, stretched 1.73 east at 60° N), Mollweide as
+# GHSL comes (ESRI:54009: no GeoTIFF code, a user-defined model type and an ESRI PE
+# string in the citation) and Equal Earth (EPSG:8857).
+warped_plane("units--modis-sinusoidal-plane",
+             "+proj=sinu +lon_0=0 +x_0=0 +y_0=0 +R=6371007.181 +units=m +no_defs")
+warped_plane("units--ease2-plane", "EPSG:6933")
+warped_plane("units--mollweide-plane", "ESRI:54009")
+warped_plane("units--equal-earth-plane", "EPSG:8857")
 # A Lambert conformal cone with its standard parallels at 35° and 45° N, by its
 # parameters: at 60° N its metre spans 0.936 ground metres both ways.
 warped_plane("units--lcc-plane",
@@ -313,6 +323,10 @@ coverage[200:260, 300:420] = 0
 internal = {"GDAL_TIFF_INTERNAL_MASK": True}
 with_gdal_reading("kinds--masked-deflate", kinds, rgb, mask=coverage, env=internal,
                   compress="deflate", tiled=True, blockxsize=256, blockysize=256)
+# A float raster in strips, LZW, band-interleaved, with its mask in strips too (as
+# rasterstats' test data ships one): masks compressed as their image is.
+with_gdal_reading("kinds--masked-float-lzw", kinds, voids, mask=coverage, env=internal,
+                  compress="lzw", interleave="band")
 # JPEG imagery as GDAL writes it, YCbCr with chroma subsampled, on colours that follow
 # the brightness as a photograph's do (the SPOT band and its 5-cell mean), with the
 # uncompressed colours beside it to measure both decoders against.

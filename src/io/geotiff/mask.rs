@@ -9,7 +9,7 @@ use tiff::decoder::Decoder;
 use tiff::tags::{PlanarConfiguration, Tag};
 
 use super::chunks::Image;
-use super::samples;
+use super::{samples, unpack};
 
 /// NewSubfileType bits: a reduced-resolution image (an overview) and a mask.
 const REDUCED_RESOLUTION: u32 = 1;
@@ -35,8 +35,18 @@ pub(super) fn read<R: Read + Seek>(
                 fill: 0.0,
                 ..*image
             };
-            let values =
-                samples::read(decoder, &mask).map_err(|e| format!("its nodata mask: {e}"))?;
+            // GDAL writes masks of 1 bit per cell with PhotometricInterpretation
+            // TransparencyMask, which the `tiff` crate refuses: read them here.
+            let compression = decoder
+                .find_tag_unsigned::<u16>(Tag::Compression)
+                .map_err(|e| e.to_string())?
+                .unwrap_or(1);
+            let values = if unpack::decompresses(compression) {
+                unpack::read(decoder, &mask, compression)
+            } else {
+                samples::read(decoder, &mask)
+            }
+            .map_err(|e| format!("its nodata mask: {e}"))?;
             if values.len() != width as usize * height as usize {
                 return Err(format!(
                     "its nodata mask holds {} samples for {width}×{height} cells",

@@ -36,13 +36,18 @@ const LAMBERT_CONFORMAL_2SP: u16 = 8;
 const LAMBERT_CONFORMAL_1SP: u16 = 9;
 const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
 const ALBERS_EQUAL_AREA: u16 = 11;
+const SINUSOIDAL: u16 = 24;
+const CYLINDRICAL_EQUAL_AREA: u16 = 28;
 const ANGULAR_RADIAN: u16 = 9101;
 const NAD27: u16 = 4267;
 
-/// The GeoKeys a reader looks up: short values and double parameters.
+/// The GeoKeys a reader looks up: short values, double parameters, and the ASCII
+/// citations (GeoAsciiParams, where GDAL writes the ESRI PE string of a projection
+/// GeoTIFF has no code for, such as Mollweide).
 pub(super) struct GeoKeys<'a> {
     pub short: &'a dyn Fn(u16) -> Option<u16>,
     pub double: &'a dyn Fn(u16) -> Option<f64>,
+    pub citations: &'a str,
 }
 
 /// The projection the keys name, where it is one whose scale the reader corrects;
@@ -64,7 +69,15 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
     let metres = |id: u16| double(id).map(|v| v * metres_per_unit);
     let either = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
     let ellipsoid = ellipsoid_of(keys);
-    let equal_area = match (keys.short)(COORDINATE_TRANSFORMATION)? {
+    let Some(transformation) = (keys.short)(COORDINATE_TRANSFORMATION) else {
+        return mollweide_of_citation(keys.citations, ellipsoid, metres_per_unit);
+    };
+    let central_meridian = either(degrees(CENTER_LONGITUDE), degrees(NATURAL_ORIGIN_LONGITUDE));
+    let false_easting_northing = [
+        metres(FALSE_EASTING).unwrap_or(0.0),
+        metres(FALSE_NORTHING).unwrap_or(0.0),
+    ];
+    let equal_area = match transformation {
         LAMBERT_CONFORMAL_2SP => {
             return Some(Projection::lambert_conformal(
                 [
@@ -126,9 +139,51 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
                 either(metres(FALSE_NORTHING), metres(CENTER_NORTHING)),
             ],
         },
+        SINUSOIDAL => EqualArea::Sinusoidal {
+            ellipsoid,
+            central_meridian,
+            false_easting_northing,
+        },
+        CYLINDRICAL_EQUAL_AREA => EqualArea::Cylindrical {
+            ellipsoid,
+            standard_parallel: degrees(STANDARD_PARALLEL_1).unwrap_or(0.0),
+            central_meridian,
+            false_easting_northing,
+        },
         _ => return None,
     };
     Some(Projection::equal_area(equal_area))
+}
+
+/// Mollweide, where the citations hold an ESRI PE string of it (GDAL writes ESRI:54009
+/// and `+proj=moll` so, with no GeoTIFF code for the projection): its central meridian
+/// and false origin from the string's parameters, in the CRS's units.
+fn mollweide_of_citation(
+    citations: &str,
+    ellipsoid: Ellipsoid,
+    metres_per_unit: f64,
+) -> Option<Projection> {
+    if !citations.contains("PROJECTION[\"Mollweide\"]") {
+        return None;
+    }
+    let parameter = |name: &str| -> f64 {
+        let key = format!("PARAMETER[\"{name}\",");
+        citations
+            .find(&key)
+            .and_then(|at| {
+                let rest = &citations[at + key.len()..];
+                rest[..rest.find(']')?].trim().parse().ok()
+            })
+            .unwrap_or(0.0)
+    };
+    Some(Projection::equal_area(EqualArea::Mollweide {
+        radius: ellipsoid.a,
+        central_meridian: parameter("Central_Meridian"),
+        false_easting_northing: [
+            parameter("False_Easting") * metres_per_unit,
+            parameter("False_Northing") * metres_per_unit,
+        ],
+    }))
 }
 
 /// The ellipsoid the keys give (its axes, or NAD27's geographic CRS); WGS 84 otherwise
@@ -178,7 +233,12 @@ pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: 
             0.0,
             |a: f64, b| if b.is_nan() { f64::INFINITY } else { a.max(b) },
         );
-    let code = geo.frame.clone();
+    // A CRS with no EPSG code has the frame "map".
+    let code = if geo.frame == "map" {
+        "user-defined".to_string()
+    } else {
+        geo.frame.clone()
+    };
     if variation.is_infinite() {
         tracing::warn!(
             "{}: corners of the raster lie outside the projection's ({code}) domain; \
@@ -216,8 +276,32 @@ mod tests {
         let keys = GeoKeys {
             short: &short_key,
             double: &double_key,
+            citations: "",
         };
         of_keys(&keys, metres).expect("a projection the reader measures")
+    }
+
+    #[test]
+    fn mollweide_is_read_from_the_esri_string_in_the_citations() {
+        let pe = "ESRI PE String = PROJCS[\"World_Mollweide\",GEOGCS[\"GCS_WGS_1984\",\
+                  DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\",6378137.0,298.257223563]],\
+                  PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]],\
+                  PROJECTION[\"Mollweide\"],PARAMETER[\"False_Easting\",1000.0],\
+                  PARAMETER[\"False_Northing\",0.0],PARAMETER[\"Central_Meridian\",-90.0],\
+                  UNIT[\"Meter\",1.0]]|";
+        let Some(projection) = mollweide_of_citation(pe, Ellipsoid::WGS84, 1.0) else {
+            panic!("Mollweide in {pe}");
+        };
+        // At the equator on its central meridian (the false easting away) Mollweide's
+        // sphere spans π/(2√2) ≈ 1.111 ground metres per projected metre east and
+        // 2√2/π ≈ 0.900 north, 0.894 on WGS 84, whose meridian curves less there.
+        let ([sx, sy], skew) = projection.axis_scales(1000.0, 0.0);
+        assert!(
+            (sx - 1.1107).abs() < 1e-3 && (sy - 0.8943).abs() < 1e-3,
+            "{sx} {sy}"
+        );
+        assert!(skew.abs() < 1e-9);
+        assert!(mollweide_of_citation("WGS 84 / UTM zone 33N|", Ellipsoid::WGS84, 1.0).is_none());
     }
 
     #[test]
@@ -267,6 +351,7 @@ mod tests {
         let keys = GeoKeys {
             short: &short_key,
             double: &|_| None,
+            citations: "",
         };
         assert!(of_keys(&keys, 1.0).is_none());
     }

@@ -44,6 +44,14 @@ pub(super) fn reads<R: Read + Seek>(
         && !matches!(bits, 16 | 32 | 64))
 }
 
+/// Whether `decompress` reads strips or tiles of this compression.
+pub(super) fn decompresses(compression: u16) -> bool {
+    matches!(
+        compression,
+        NONE | LZW | DEFLATE | ADOBE_DEFLATE | PACKBITS | LZMA | ZSTD
+    )
+}
+
 /// How the samples are stored: their type and width, samples per pixel in a strip or
 /// tile, the predictor and byte order.
 #[derive(Clone, Copy, Debug)]
