@@ -350,6 +350,21 @@ fn gdal_scales_and_offsets_give_physical_values() {
 }
 
 #[test]
+fn infinite_cells_read_as_nodata() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    let map = read_geotiff(&dir.path().join("units--utm-plane-infinities.tif"), "m").unwrap();
+    let values = &map.layers[0].values;
+    assert_eq!(
+        values.iter().filter(|v| v.is_nan()).count(),
+        10 * 200 + 3 * 5
+    );
+    assert!(values.iter().all(|v| !v.is_infinite()));
+}
+
+#[test]
 fn heights_in_feet_become_metres() {
     // Heights in US survey feet, CRS EPSG:32610+6360 (NAVD88 height, ftUS).
     reads_to_the_plane_in_metres("units--utm-plane-feet-navd88", 0.001);
@@ -367,6 +382,10 @@ fn rasters_that_cannot_be_used_are_refused_by_name() {
         (
             "bad--complex",
             vec!["bad--complex.tif", "tag SampleFormat = 6", "complex"],
+        ),
+        (
+            "bad--gcps",
+            vec!["bad--gcps.tif", "3 ground control points", "gdalwarp"],
         ),
     ] {
         let out = dir.path().join(format!("out-{name}.png"));

@@ -412,6 +412,20 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                         };
                 }
             }
+            // Infinities (a ratio's division by zero) are no measurement of the ground:
+            // nodata, as NaN is.
+            let infinite = layer.iter().filter(|v| v.is_infinite()).count();
+            if infinite > 0 {
+                tracing::warn!(
+                    "{}: {infinite} cells of band {} are infinite; they are read as nodata",
+                    path.display(),
+                    band + 1
+                );
+                layer
+                    .iter_mut()
+                    .filter(|v| v.is_infinite())
+                    .for_each(|v| *v = f32::NAN);
+            }
             Layer {
                 name: format!("band{}", band + 1),
                 values: layer,
@@ -519,6 +533,11 @@ fn geotransform<R: std::io::Read + std::io::Seek>(
             let (i, j, x, y) = (t[0], t[1], t[3], t[4]);
             Ok([s[0], 0.0, x - i * s[0], 0.0, -s[1], y + j * s[1]])
         }
+        (None, Some(t)) if t.len() >= 12 => Err(format!(
+            "no georeference but {} ground control points (ModelTiepointTag): the raster \
+             is not on a grid yet; warp it onto one (gdalwarp)",
+            t.len() / 6
+        )),
         _ => Err(
             "no georeference: neither ModelTransformationTag nor ModelPixelScaleTag with \
              ModelTiepointTag"

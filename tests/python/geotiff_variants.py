@@ -157,6 +157,25 @@ write("bad--all-nodata", "bad", empty, np.zeros_like(data))
 # Complex samples (SAR): no map layer until their magnitude is taken.
 complex_profile = dict(profile, dtype="complex64")
 write("bad--complex", "bad", complex_profile, data.astype("complex64"))
+# Ground control points and no grid (a scanned map or a raw scene before warping).
+import warnings
+
+import rasterio.errors
+from rasterio.control import GroundControlPoint
+from rasterio.crs import CRS as GcpCrs
+unwarped = dict(profile)
+unwarped.pop("transform", None)
+unwarped.pop("crs", None)
+with warnings.catch_warnings():
+    warnings.simplefilter("ignore", rasterio.errors.NotGeoreferencedWarning)
+    dst = rasterio.open(os.path.join(out, "bad--gcps.tif"), "w", **unwarped)
+with dst:
+    dst.write(data)
+    dst.gcps = ([GroundControlPoint(0, 0, 440000.0, 4640000.0),
+                 GroundControlPoint(0, 100, 441000.0, 4640000.0),
+                 GroundControlPoint(100, 0, 440000.0, 4639000.0)],
+                GcpCrs.from_epsg(32616))
+print(json.dumps({"name": "bad--gcps", "source": "bad", "lossless": True}))
 
 # A DEM in UTM zone 10N (EPSG:32610) on its central meridian at 60° N, a plane rising
 # 0.2 m per metre north and 0.1 east (slope atan √0.05 = 12.6°), and GDAL's warp of it
@@ -174,6 +193,11 @@ utm = dict(driver="GTiff", width=cells, height=cells, count=1, dtype="float32",
            crs="EPSG:32610", nodata=-9999.0,
            transform=Affine(size, 0.0, west, 0.0, -size, south + cells * size))
 write("units--utm-plane", "units", utm, plane[None])
+# The plane with infinities, as a ratio band holds where it divided by zero.
+infinite = plane.copy()
+infinite[:10, :] = np.inf
+infinite[-3:, :5] = -np.inf
+write("units--utm-plane-infinities", "units", utm, infinite[None])
 bounds = (west, south, west + cells * size, south + cells * size)
 
 
