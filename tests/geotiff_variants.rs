@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data};
-use imitate::features::{FeatureSpec, Op};
+use imitate::features::{Bank, FeatureSpec, Op, compute};
 use imitate::grid::{GroundScale, Map};
 use imitate::io::geotiff::{read_geotiff, write_geotiff};
 
@@ -347,6 +347,37 @@ fn gdal_scales_and_offsets_give_physical_values() {
     // Stored as int16 decimetres above 100 m with GDAL's scale 0.1 and offset 100: the
     // same metres to the stored rounding.
     reads_to_the_plane_in_metres("units--utm-plane-decimetres", 0.051);
+}
+
+#[test]
+fn band_descriptions_name_the_layers_and_choose_the_bank() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    let plane = read_geotiff(&dir.path().join("units--utm-plane.tif"), "m").unwrap();
+    let map = read_geotiff(&dir.path().join("units--utm-plane-described.tif"), "m").unwrap();
+    assert_eq!(map.layer_names(), ["Elevation (m)", "Near infrared & more"]);
+    assert_eq!(map.layers[0].values, plane.layers[0].values);
+    // The numbered name still finds the band.
+    assert_eq!(map.layer_index("band2"), Some(1));
+    // `--bank auto` takes the described elevation band for elevation, the other for
+    // imagery.
+    let spec = FeatureSpec {
+        layers: None,
+        ops: Vec::new(),
+        bias: true,
+        nodata_fill: 0.0,
+        bank: Some(Bank::Auto),
+    };
+    let names = compute(&map, &spec).unwrap().names;
+    for expected in ["Elevation (m)/slope_deg", "Near infrared & more/blur_8c"] {
+        assert!(
+            names.iter().any(|n| n == expected),
+            "{expected} in {names:?}"
+        );
+    }
+    assert!(!names.iter().any(|n| n == "Near infrared & more/slope_deg"));
 }
 
 #[test]

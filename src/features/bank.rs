@@ -21,17 +21,33 @@ pub enum Bank {
     /// (cell minus its neighbourhood: hollows and ridges) at several scales, curvature
     /// (Laplacian), a blur and quantile indicators.
     Elevation,
-    /// Elevation on layers named like one (elevation, dem, dtm, dsm, height, altitude,
-    /// z), imagery on the others; a map with one unnamed band gets both, since a
-    /// single band may be either.
+    /// On layers named like elevation (a word of the name, or of a GeoTIFF band's
+    /// description, is elevation, elev, dem, dtm, dsm, height, altitude, z,
+    /// topography, bathymetry or topobathy), and on a map's only band (a DEM or a
+    /// panchromatic image): the elevation bank's operators and the imagery's per-band
+    /// ones. The imagery bank on the others.
     Auto,
 }
 
-/// Layer names that say "elevation".
+/// Layer names that say "elevation": a word of the name (a band description such as
+/// "Elevation (m)" or "DEM_1m") is one of these.
 fn is_elevation_name(name: &str) -> bool {
-    let n = name.to_ascii_lowercase();
-    ["elevation", "dem", "dtm", "dsm", "height", "altitude", "z"].contains(&n.as_str())
-        || n.contains("elevation")
+    const WORDS: [&str; 11] = [
+        "elevation",
+        "elev",
+        "dem",
+        "dtm",
+        "dsm",
+        "height",
+        "altitude",
+        "z",
+        "topography",
+        "bathymetry",
+        "topobathy",
+    ];
+    name.to_ascii_lowercase()
+        .split(|c: char| !c.is_ascii_alphanumeric())
+        .any(|word| WORDS.contains(&word) || word.starts_with("elevation"))
 }
 
 /// Bands beyond these are left out of the pairwise indices (a hyperspectral cube
@@ -39,7 +55,8 @@ fn is_elevation_name(name: &str) -> bool {
 const MAX_PAIRED_BANDS: usize = 8;
 
 /// The quantiles of each band (and of the brightness) the imagery bank marks, and the
-/// one whose brighter cells it measures distances to.
+/// one whose brighter cells it measures distances to. (Distances to the darkest decile
+/// too were measured and not kept: BENCHMARKS.md.)
 const QUANTILES: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 0.9];
 const BRIGHTEST: f64 = 0.9;
 
@@ -70,6 +87,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
         ops.push(Op::QuantileDistance {
             layer,
             q: BRIGHTEST,
+            side: Default::default(),
             max: None,
         });
     }
@@ -87,6 +105,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             layers: layers.iter().map(|l| l.to_string()).collect(),
             quantiles: QUANTILES.to_vec(),
             distance_above: Some(BRIGHTEST),
+            distance_below: None,
         });
     }
     ops
@@ -138,33 +157,41 @@ impl Bank {
             Bank::Imagery => imagery(&layers),
             Bank::Elevation => elevation(&layers),
             Bank::Auto => {
-                let (heights, others): (Vec<&str>, Vec<&str>) =
+                let (mut heights, mut others): (Vec<&str>, Vec<&str>) =
                     layers.iter().partition(|l| is_elevation_name(l));
                 if heights.is_empty() && others.len() == 1 {
-                    // One band: a DEM or a panchromatic image; both banks' operators,
-                    // the imagery's blurs and quantiles once.
-                    let mut ops = imagery(&others);
-                    ops.extend(elevation(&others).into_iter().filter(|op| {
-                        matches!(
-                            op,
-                            Op::Slope { .. } | Op::Aspect { .. } | Op::Laplacian { .. }
-                        ) || matches!(op, Op::Roughness { windows, .. } if windows.len() == 3)
-                            || matches!(op, Op::Relief { cells, .. } if cells.len() == 3)
-                    }));
-                    // The elevation bank's roughness and relief replace the imagery's.
-                    ops.retain(|op| {
-                        !matches!(op, Op::Roughness { windows, .. } if windows.len() == 2)
-                            && !matches!(op, Op::Relief { cells, .. } if cells.len() == 1)
-                    });
-                    ops
-                } else {
-                    let mut ops = elevation(&heights);
-                    ops.extend(imagery(&others));
-                    ops
+                    // One band: a DEM or a panchromatic image.
+                    heights = std::mem::take(&mut others);
                 }
+                let mut ops: Vec<Op> = heights
+                    .iter()
+                    .flat_map(|&h| elevation_and_imagery(h))
+                    .collect();
+                ops.extend(imagery(&others));
+                ops
             }
         }
     }
+}
+
+/// Both banks' operators on one layer, the imagery's blurs and quantiles once, with
+/// the elevation bank's roughness and relief in place of the imagery's: the bank
+/// `auto` gives a DEM. Measured on real DEMs, the elevation bank alone plans worse
+/// (BENCHMARKS.md): it has no distance to the highest ground.
+fn elevation_and_imagery(layer: &str) -> Vec<Op> {
+    let mut ops = imagery(&[layer]);
+    ops.extend(elevation(&[layer]).into_iter().filter(|op| {
+        matches!(
+            op,
+            Op::Slope { .. } | Op::Aspect { .. } | Op::Laplacian { .. }
+        ) || matches!(op, Op::Roughness { windows, .. } if windows.len() == 3)
+            || matches!(op, Op::Relief { cells, .. } if cells.len() == 3)
+    }));
+    ops.retain(|op| {
+        !matches!(op, Op::Roughness { windows, .. } if windows.len() == 2)
+            && !matches!(op, Op::Relief { cells, .. } if cells.len() == 1)
+    });
+    ops
 }
 
 #[cfg(test)]
@@ -245,5 +272,42 @@ mod tests {
         }
         let unique: std::collections::BTreeSet<_> = one.iter().collect();
         assert_eq!(unique.len(), one.len(), "no feature twice");
+        // A map's only band gets the same whether or not its name says elevation, and
+        // so does an elevation band beside imagery.
+        let dem = names(&map(&["DEM (m)"]), Bank::Auto);
+        assert_eq!(
+            dem,
+            one.iter()
+                .map(|n| n.replace("band1", "DEM (m)"))
+                .collect::<Vec<_>>()
+        );
+        assert!(n.contains(&"elevation/distance_to_above_q90_m".to_string()));
+    }
+
+    #[test]
+    fn elevation_names_are_told_by_their_words() {
+        for name in [
+            "elevation",
+            "Elevation (m)",
+            "DEM_1m",
+            "dtm",
+            "z",
+            "height",
+            "elevation_ft",
+            "Topobathy",
+        ] {
+            assert!(is_elevation_name(name), "{name}");
+        }
+        for name in [
+            "band1",
+            "red",
+            "nir",
+            "zone",
+            "demand",
+            "Near infrared",
+            "blue",
+        ] {
+            assert!(!is_elevation_name(name), "{name}");
+        }
     }
 }

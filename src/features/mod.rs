@@ -66,14 +66,16 @@ pub enum Op {
     Laplacian { layer: String },
     /// An indicator per class value.
     OneHot { layer: String, classes: Vec<f32> },
-    /// Euclidean distance (metres) to the nearest cell equal to `class`, or above
-    /// `above`; capped at `max` (default: the map's diagonal).
+    /// Euclidean distance (metres) to the nearest cell equal to `class`, above `above`
+    /// or below `below`; capped at `max` (default: the map's diagonal).
     Distance {
         layer: String,
         #[serde(default)]
         class: Option<f32>,
         #[serde(default)]
         above: Option<f32>,
+        #[serde(default)]
+        below: Option<f32>,
         #[serde(default)]
         max: Option<f64>,
     },
@@ -85,14 +87,17 @@ pub enum Op {
     /// multi-band imagery.
     NormalizedDifference { a: String, b: String },
     /// The mean of the layers; and, as for one layer, an indicator per quantile of it
-    /// on this map and the distance (metres) to the nearest cell above quantile
-    /// `distance_above` (the brightest parts of multi-band imagery: roofs, sand, snow).
+    /// on this map and the distances (metres) to the nearest cell above quantile
+    /// `distance_above` (the brightest parts of multi-band imagery: roofs, sand, snow)
+    /// and below quantile `distance_below` (the darkest: water, shadow, dense forest).
     Brightness {
         layers: Vec<String>,
         #[serde(default)]
         quantiles: Vec<f64>,
         #[serde(default)]
         distance_above: Option<f64>,
+        #[serde(default)]
+        distance_below: Option<f64>,
     },
     /// The layer minus its Gaussian blur at each σ in cells: above (ridges, bright
     /// spots) or below (hollows, dark spots) its neighbourhood.
@@ -102,14 +107,26 @@ pub enum Op {
     Aspect { layer: String },
     /// An indicator per quantile of the layer's values on this map: 1 where above it.
     Quantile { layer: String, quantiles: Vec<f64> },
-    /// Euclidean distance (metres) to the nearest cell above the layer's quantile `q`
-    /// on this map, capped at `max` (default: the map's diagonal).
+    /// Euclidean distance (metres) to the nearest cell above (or, with `side: below`,
+    /// below) the layer's quantile `q` on this map, capped at `max` (default: the
+    /// map's diagonal).
     QuantileDistance {
         layer: String,
         q: f64,
         #[serde(default)]
+        side: Side,
+        #[serde(default)]
         max: Option<f64>,
     },
+}
+
+/// Which side of a threshold a distance measures to.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Side {
+    #[default]
+    Above,
+    Below,
 }
 
 pub const BIAS: &str = "bias";
@@ -141,6 +158,34 @@ enum Plane {
 enum Target {
     Equals(f32),
     Above(f32),
+    Below(f32),
+}
+
+impl Target {
+    /// The target beyond the threshold `t` on `side`.
+    fn beyond(side: Side, t: f32) -> Self {
+        match side {
+            Side::Above => Target::Above(t),
+            Side::Below => Target::Below(t),
+        }
+    }
+
+    /// Whether a cell's value is in the target (NaN never is).
+    fn holds(self, v: f32) -> bool {
+        match self {
+            Target::Equals(c) => v == c,
+            Target::Above(t) => v > t,
+            Target::Below(t) => v < t,
+        }
+    }
+}
+
+/// "above" or "below", as feature names spell it.
+fn side_name(side: Side) -> &'static str {
+    match side {
+        Side::Above => "above",
+        Side::Below => "below",
+    }
 }
 
 /// The value below which a share `q` of the layer's data cells lie (index ⌊q(n − 1)⌋
@@ -193,17 +238,13 @@ fn mean_of(map: &Map, layers: &[usize]) -> Vec<f32> {
 fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layout, String> {
     let mut used: Vec<usize> = Vec::new();
     let layer = |name: &str, used: &mut Vec<usize>| -> Result<usize, String> {
-        let i = map
-            .layers
-            .iter()
-            .position(|l| l.name == name)
-            .ok_or_else(|| {
-                format!(
-                    "map '{}' has no layer '{name}' (it has: {})",
-                    map.name,
-                    map.layer_names().join(", ")
-                )
-            })?;
+        let i = map.layer_index(name).ok_or_else(|| {
+            format!(
+                "map '{}' has no layer '{name}' (it has: {})",
+                map.name,
+                map.layer_names().join(", ")
+            )
+        })?;
         if !used.contains(&i) {
             used.push(i);
         }
@@ -351,15 +392,23 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 layer: l,
                 class,
                 above,
+                below,
                 max,
             } => {
                 let i = layer(l, &mut used)?;
-                let (target, label) = match (class, above) {
-                    (Some(c), None) => (Target::Equals(*c), format!("class_{}", format_number(c))),
-                    (None, Some(t)) => (Target::Above(*t), format!("above_{}", format_number(t))),
+                let (target, label) = match (class, above, below) {
+                    (Some(c), None, None) => {
+                        (Target::Equals(*c), format!("class_{}", format_number(c)))
+                    }
+                    (None, Some(t), None) => {
+                        (Target::Above(*t), format!("above_{}", format_number(t)))
+                    }
+                    (None, None, Some(t)) => {
+                        (Target::Below(*t), format!("below_{}", format_number(t)))
+                    }
                     _ => {
                         return Err(format!(
-                            "distance on '{l}': give exactly one of `class` and `above`"
+                            "distance on '{l}': give exactly one of `class`, `above` and `below`"
                         ));
                     }
                 };
@@ -408,6 +457,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 layers,
                 quantiles,
                 distance_above,
+                distance_below,
             } => {
                 if layers.is_empty() {
                     return Err("brightness: name at least one layer".into());
@@ -422,7 +472,11 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     &mut names,
                     &mut planes,
                 )?;
-                if quantiles.is_empty() && distance_above.is_none() {
+                let distances = [
+                    (Side::Above, *distance_above),
+                    (Side::Below, *distance_below),
+                ];
+                if quantiles.is_empty() && distances.iter().all(|(_, q)| q.is_none()) {
                     continue;
                 }
                 // The mean (NaN where a layer has no data) as an input of its own,
@@ -430,7 +484,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 let source = map.layers.len() + derived.len();
                 derived.push(mean_of(map, &indices));
                 let values = &derived[derived.len() - 1];
-                for &q in quantiles.iter().chain(distance_above) {
+                for &q in quantiles.iter().chain(distance_above).chain(distance_below) {
                     if !(0.0..=1.0).contains(&q) {
                         return Err(format!("brightness: quantile {q} is not within 0 to 1"));
                     }
@@ -443,12 +497,17 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                         &mut planes,
                     )?;
                 }
-                if let Some(q) = *distance_above {
+                for (side, q) in distances {
+                    let Some(q) = q else { continue };
                     push(
-                        format!("brightness/distance_to_above_{}_m", quantile_name(q)),
+                        format!(
+                            "brightness/distance_to_{}_{}_m",
+                            side_name(side),
+                            quantile_name(q)
+                        ),
                         Plane::Distance(
                             source,
-                            Target::Above(quantile_of(values, q)),
+                            Target::beyond(side, quantile_of(values, q)),
                             diagonal_metres,
                         ),
                         &mut names,
@@ -499,7 +558,12 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     )?;
                 }
             }
-            Op::QuantileDistance { layer: l, q, max } => {
+            Op::QuantileDistance {
+                layer: l,
+                q,
+                side,
+                max,
+            } => {
                 let i = layer(l, &mut used)?;
                 if !(0.0..=1.0).contains(q) {
                     return Err(format!(
@@ -508,8 +572,12 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 }
                 let t = quantile_of(&map.layers[i].values, *q);
                 push(
-                    format!("{l}/distance_to_above_{}_m", quantile_name(*q)),
-                    Plane::Distance(i, Target::Above(t), max.unwrap_or(diagonal_metres)),
+                    format!(
+                        "{l}/distance_to_{}_{}_m",
+                        side_name(*side),
+                        quantile_name(*q)
+                    ),
+                    Plane::Distance(i, Target::beyond(*side, t), max.unwrap_or(diagonal_metres)),
                     &mut names,
                     &mut planes,
                 )?;
@@ -643,13 +711,7 @@ pub fn compute_with_nodata(
                 }
             }
             Plane::Distance(i, target, cap) => {
-                let mask: Vec<bool> = input(i)
-                    .iter()
-                    .map(|&v| match target {
-                        Target::Equals(c) => v == c,
-                        Target::Above(t) => v > t,
-                    })
-                    .collect();
+                let mask: Vec<bool> = input(i).iter().map(|&v| target.holds(v)).collect();
                 distance_transform(&mask, w, h, res, cap, out);
             }
             Plane::NormalizedDifference(a, b) => {
@@ -761,6 +823,14 @@ mod tests {
                 layer: "b".into(),
                 class: Some(4.0),
                 above: None,
+                below: None,
+                max: None,
+            },
+            Op::Distance {
+                layer: "a".into(),
+                class: None,
+                above: None,
+                below: Some(1.5),
                 max: None,
             },
             Op::Product {
@@ -776,6 +846,7 @@ mod tests {
                 "a/above_1.5",
                 "b/class_4",
                 "b/distance_to_class_4_m",
+                "a/distance_to_below_1.5_m",
                 "a*b/class_4",
                 "bias"
             ]
@@ -783,40 +854,79 @@ mod tests {
         assert_eq!(stack.plane(1), [0.0, 1.0]);
         assert_eq!(stack.plane(2), [0.0, 1.0]);
         assert_eq!(stack.plane(3), [1.0, 0.0]);
-        assert_eq!(stack.plane(4), [0.0, 2.0]);
+        assert_eq!(stack.plane(4), [0.0, 1.0]);
+        assert_eq!(stack.plane(5), [0.0, 2.0]);
+        let two = Op::Distance {
+            layer: "a".into(),
+            class: None,
+            above: Some(1.0),
+            below: Some(1.0),
+            max: None,
+        };
+        let err = compute(&map(), &spec(None, vec![two])).unwrap_err();
+        assert!(err.contains("exactly one"), "{err}");
     }
 
     #[test]
-    fn brightness_has_quantile_indicators_and_a_distance_to_its_brightest_cells() {
-        // Brightness [2, 3]: its median (index ⌊0.5·1⌋ of the sorted values) is 2.
-        let op = |distance_above| Op::Brightness {
+    fn quantile_distances_reach_either_side() {
+        // a = [1, 2]: the quantile 0 is 1, and the quantile 1 is 2.
+        let op = |q, side| Op::QuantileDistance {
+            layer: "a".into(),
+            q,
+            side,
+            max: None,
+        };
+        let ops = vec![op(0.0, Side::Above), op(1.0, Side::Below)];
+        let stack = compute(&map(), &spec(Some(vec![]), ops)).unwrap();
+        assert_eq!(
+            stack.names,
+            [
+                "a/distance_to_above_q0_m",
+                "a/distance_to_below_q100_m",
+                "bias"
+            ]
+        );
+        assert_eq!(stack.plane(0), [1.0, 0.0]);
+        assert_eq!(stack.plane(1), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn brightness_has_quantile_indicators_and_distances_to_its_brightest_and_darkest_cells() {
+        // Brightness [2, 3]: its median (index ⌊0.5·1⌋ of the sorted values) is 2, and
+        // its quantile 1 is 3.
+        let op = |distance_above, distance_below| Op::Brightness {
             layers: vec!["a".into(), "b".into()],
             quantiles: vec![0.5],
             distance_above,
+            distance_below,
         };
-        let stack = compute(&map(), &spec(Some(vec![]), vec![op(Some(0.5))])).unwrap();
+        let both = op(Some(0.5), Some(1.0));
+        let stack = compute(&map(), &spec(Some(vec![]), vec![both])).unwrap();
         assert_eq!(
             stack.names,
             [
                 "brightness",
                 "brightness/above_q50",
                 "brightness/distance_to_above_q50_m",
+                "brightness/distance_to_below_q100_m",
                 "bias"
             ]
         );
         assert_eq!(stack.plane(0), [2.0, 3.0]);
         assert_eq!(stack.plane(1), [0.0, 1.0]);
         assert_eq!(stack.plane(2), [1.0, 0.0]);
+        assert_eq!(stack.plane(3), [0.0, 1.0]);
         // A cell without data in any layer is neither above nor a target, and the
         // quantiles are of the cells with data.
         let mut m = map();
         m.layers[1].values[1] = f32::NAN;
-        let stack = compute(&m, &spec(Some(vec![]), vec![op(None)])).unwrap();
+        let stack = compute(&m, &spec(Some(vec![]), vec![op(None, None)])).unwrap();
         assert_eq!(stack.plane(1), [0.0, 0.0]);
         let bad = Op::Brightness {
             layers: vec!["a".into()],
-            quantiles: vec![1.5],
+            quantiles: vec![],
             distance_above: None,
+            distance_below: Some(1.5),
         };
         let err = compute(&map(), &spec(Some(vec![]), vec![bad])).unwrap_err();
         assert!(err.contains("quantile 1.5"), "{err}");
@@ -863,7 +973,7 @@ mod tests {
 
     #[test]
     fn specs_read_from_yaml() {
-        let yaml = "bias: true\nops:\n  - {op: blur, layer: a, sigmas: [1, 2.5]}\n  - {op: distance, layer: b, above: 3}\n";
+        let yaml = "bias: true\nops:\n  - {op: blur, layer: a, sigmas: [1, 2.5]}\n  - {op: distance, layer: b, above: 3}\n  - {op: quantile_distance, layer: a, q: 0.1, side: below}\n";
         let s: FeatureSpec = serde_saphyr::from_str(yaml).unwrap();
         let stack = compute(&map(), &s).unwrap();
         assert_eq!(
@@ -872,6 +982,7 @@ mod tests {
                 "a/blur_1m",
                 "a/blur_2.5m",
                 "b/distance_to_above_3_m",
+                "a/distance_to_below_q10_m",
                 "bias"
             ]
         );
@@ -884,6 +995,7 @@ mod tests {
                 layers: vec!["a".into(), "b".into()],
                 quantiles: Vec::new(),
                 distance_above: None,
+                distance_below: None,
             }
         );
         assert_eq!(
@@ -892,6 +1004,7 @@ mod tests {
                 layers: vec!["a".into()],
                 quantiles: vec![0.9],
                 distance_above: Some(0.9),
+                distance_below: None,
             }
         );
     }

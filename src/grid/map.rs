@@ -18,7 +18,21 @@ pub struct Map {
 
 impl Map {
     pub fn layer(&self, name: &str) -> Option<&Layer> {
-        self.layers.iter().find(|l| l.name == name)
+        self.layer_index(name).map(|i| &self.layers[i])
+    }
+
+    /// The layer named `name`; failing that, `bandN` names the Nth layer, so that a
+    /// spec written for a raster's numbered bands still works once its bands carry
+    /// descriptions (GeoTIFF layers are named by them).
+    pub fn layer_index(&self, name: &str) -> Option<usize> {
+        self.layers.iter().position(|l| l.name == name).or_else(|| {
+            let digits = name.strip_prefix("band")?;
+            if digits.starts_with('0') || !digits.bytes().all(|b| b.is_ascii_digit()) {
+                return None;
+            }
+            let n: usize = digits.parse().ok()?;
+            (1..=self.layers.len()).contains(&n).then(|| n - 1)
+        })
     }
 
     pub fn layer_names(&self) -> Vec<String> {
@@ -48,6 +62,26 @@ pub fn check_map_name(name: &str) -> Result<(), String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn numbered_bands_name_layers_that_carry_descriptions() {
+        let layer = |name: &str| Layer {
+            name: name.into(),
+            values: vec![0.0],
+        };
+        let map = Map {
+            name: "m".into(),
+            geo: GeoRef::square(1, 1, 1.0, [0.0, 0.0], "map"),
+            layers: vec![layer("elevation"), layer("nir"), layer("band1")],
+        };
+        assert_eq!(map.layer_index("nir"), Some(1));
+        assert_eq!(map.layer_index("band2"), Some(1));
+        // A layer's own name comes first.
+        assert_eq!(map.layer_index("band1"), Some(2));
+        for absent in ["band0", "band4", "band", "band+1", "band02", "red"] {
+            assert_eq!(map.layer_index(absent), None, "{absent}");
+        }
+    }
 
     #[test]
     fn map_names_are_plain_file_names() {

@@ -345,21 +345,20 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     };
     // Stored values times GDAL's per-band scale, plus its offset, are the physical ones;
     // heights in feet then become metres.
-    let scaling = match decoder
+    let band_metadata = match decoder
         .find_tag(Tag::Unknown(metadata::GDAL_METADATA))
         .map_err(tiff_error)?
         .and_then(|v| v.into_string().ok())
     {
-        Some(xml) => {
-            metadata::scales_and_offsets(xml.trim_end_matches('\0'), bands).map_err(|e| {
-                problem(format!(
-                    "tag GDAL_METADATA ({}): {e}",
-                    metadata::GDAL_METADATA
-                ))
-            })?
-        }
-        None => vec![(1.0, 0.0); bands],
+        Some(xml) => metadata::per_band(xml.trim_end_matches('\0'), bands).map_err(|e| {
+            problem(format!(
+                "tag GDAL_METADATA ({}): {e}",
+                metadata::GDAL_METADATA
+            ))
+        })?,
+        None => vec![metadata::BandMetadata::default(); bands],
     };
+    let layer_names = metadata::layer_names(&band_metadata);
     // GDAL masks the cells an alpha band marks transparent (ExtraSamples 1 or 2: RGBA
     // imagery, orthomosaics): 0 there.
     let extra = decoder
@@ -388,7 +387,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let layers: Vec<Layer> = (0..bands)
         .map(|band| {
             let mut layer = vec![0f32; cells];
-            let (scale, offset) = scaling[band];
+            let metadata::BandMetadata { scale, offset, .. } = band_metadata[band];
             let physical = |v: f32| {
                 if (scale, offset, heights) == (1.0, 0.0, 1.0) {
                     v
@@ -427,7 +426,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                     .for_each(|v| *v = f32::NAN);
             }
             Layer {
-                name: format!("band{}", band + 1),
+                name: layer_names[band].clone(),
                 values: layer,
             }
         })

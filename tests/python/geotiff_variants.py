@@ -251,6 +251,14 @@ with rasterio.open(path, "w", **decimetres) as dst:
     dst.offsets = (100.0,)
 print(json.dumps({"name": "units--utm-plane-decimetres", "source": "units", "lossless": True}))
 
+# The plane beside a second band, each with a band description as rasterio sets them
+# (GDAL keeps them in its metadata tag): the layers are named by them.
+path = os.path.join(out, "units--utm-plane-described.tif")
+with rasterio.open(path, "w", **dict(utm, count=2)) as dst:
+    dst.write(np.stack([plane, plane[::-1]]).astype(np.float32))
+    dst.descriptions = ("Elevation (m)", "Near infrared & more")
+print(json.dumps({"name": "units--utm-plane-described", "source": "units", "lossless": True}))
+
 # The plane's heights in US survey feet under a compound CRS (UTM 10N + NAVD88 height
 # (ftUS), as US LiDAR DEMs come): GDAL records the vertical CRS, and the heights read
 # as metres.

@@ -1,7 +1,9 @@
-//! GDAL's per-band scale and offset (the `GDAL_METADATA` tag's `role="scale"` and
-//! `role="offset"` items), which turn stored integers into physical values: a DEM kept
-//! as decimetres in int16 with scale 0.1 is metres only once scaled, and its slopes
-//! are wrong by ten times otherwise.
+//! GDAL's per-band metadata (the `GDAL_METADATA` tag's items):
+//! - scale and offset (`role="scale"`, `role="offset"`), which turn stored integers
+//!   into physical values: a DEM kept as decimetres in int16 with scale 0.1 is metres
+//!   only once scaled, and its slopes are wrong by ten times otherwise;
+//! - the description (`role="description"`, rasterio's `descriptions`), which names
+//!   what a band holds ("elevation", "nir") and so becomes its layer's name.
 
 use quick_xml::events::Event;
 use quick_xml::reader::Reader;
@@ -9,69 +11,157 @@ use quick_xml::reader::Reader;
 /// GDAL's XML metadata tag.
 pub(super) const GDAL_METADATA: u16 = 42112;
 
-/// `(scale, offset)` of each of `bands` bands from the tag's XML: (1, 0) where it names
-/// none. GDAL numbers the items' `sample` attribute from 0.
-pub(super) fn scales_and_offsets(xml: &str, bands: usize) -> Result<Vec<(f64, f64)>, String> {
-    let mut out = vec![(1.0, 0.0); bands];
+/// What GDAL's metadata says of one band.
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct BandMetadata {
+    pub scale: f64,
+    pub offset: f64,
+    /// Trimmed; `None` where empty or absent.
+    pub description: Option<String>,
+}
+
+impl Default for BandMetadata {
+    fn default() -> Self {
+        BandMetadata {
+            scale: 1.0,
+            offset: 0.0,
+            description: None,
+        }
+    }
+}
+
+/// The metadata of each of `bands` bands from the tag's XML: scale 1, offset 0 and no
+/// description where it names none. GDAL numbers the items' `sample` attribute from 0.
+pub(super) fn per_band(xml: &str, bands: usize) -> Result<Vec<BandMetadata>, String> {
+    let mut out = vec![BandMetadata::default(); bands];
+    let malformed = |e: &dyn std::fmt::Display| format!("its XML is malformed: {e}");
     let mut reader = Reader::from_str(xml);
-    // The role and sample of the <Item> whose text comes next.
-    let mut item: Option<(String, Option<usize>)> = None;
+    // The role and sample of the open <Item>, and its text so far (quick-xml reports
+    // text and entity references such as `&amp;` as separate events).
+    let mut item: Option<(String, Option<usize>, String)> = None;
     loop {
         match reader.read_event() {
-            Err(e) => return Err(format!("its XML is malformed: {e}")),
+            Err(e) => return Err(malformed(&e)),
             Ok(Event::Eof) => break,
             Ok(Event::Start(tag)) if tag.name().as_ref() == b"Item" => {
                 let (mut role, mut sample) = (String::new(), None);
                 for attribute in tag.attributes() {
-                    let attribute = attribute.map_err(|e| format!("its XML is malformed: {e}"))?;
-                    let value = attribute
-                        .unescape_value()
-                        .map_err(|e| format!("its XML is malformed: {e}"))?;
+                    let attribute = attribute.map_err(|e| malformed(&e))?;
+                    let value = attribute.unescape_value().map_err(|e| malformed(&e))?;
                     match attribute.key.as_ref() {
                         b"role" => role = value.into_owned(),
                         b"sample" => sample = value.trim().parse::<usize>().ok(),
                         _ => {}
                     }
                 }
-                item = Some((role, sample));
+                item = Some((role, sample, String::new()));
             }
             Ok(Event::Text(text)) => {
-                let Some((role, sample)) = item.take() else {
-                    continue;
-                };
-                if role != "scale" && role != "offset" {
-                    continue;
-                }
-                let text = text
-                    .decode()
-                    .map_err(|e| format!("its XML is malformed: {e}"))?;
-                let value: f64 = text.trim().parse().map_err(|_| {
-                    format!(
-                        "the {role} {:?} of sample {sample:?} is not a number",
-                        text.trim()
-                    )
-                })?;
-                if !value.is_finite() || (role == "scale" && value == 0.0) {
-                    return Err(format!(
-                        "the {role} {value} of sample {sample:?} is not usable"
-                    ));
-                }
-                let Some(band) = sample.filter(|&s| s < bands) else {
-                    return Err(format!(
-                        "a {role} for sample {sample:?}, but the raster has {bands} bands"
-                    ));
-                };
-                if role == "scale" {
-                    out[band].0 = value;
-                } else {
-                    out[band].1 = value;
+                if let Some((_, _, so_far)) = &mut item {
+                    so_far.push_str(&text.decode().map_err(|e| malformed(&e))?);
                 }
             }
-            Ok(Event::End(_)) => item = None,
+            Ok(Event::GeneralRef(reference)) => {
+                if let Some((_, _, so_far)) = &mut item {
+                    match reference.resolve_char_ref().map_err(|e| malformed(&e))? {
+                        Some(c) => so_far.push(c),
+                        None => {
+                            let name = reference.decode().map_err(|e| malformed(&e))?;
+                            let text = quick_xml::escape::resolve_xml_entity(&name)
+                                .ok_or_else(|| malformed(&format!("unknown entity &{name};")))?;
+                            so_far.push_str(text);
+                        }
+                    }
+                }
+            }
+            Ok(Event::End(_)) => {
+                if let Some((role, sample, text)) = item.take() {
+                    // GDAL escapes an item's value once more before the XML escapes it
+                    // (its "&" is "&amp;amp;" in the file), and unescapes it twice;
+                    // a value written by hand with one escape is taken as it is.
+                    let text = match quick_xml::escape::unescape(&text) {
+                        Ok(once_more) => once_more.into_owned(),
+                        Err(_) => text,
+                    };
+                    apply_item(&mut out, &role, sample, text.trim())?;
+                }
+            }
             Ok(_) => {}
         }
     }
     Ok(out)
+}
+
+/// The layer name of each band: its description where every band's is a usable,
+/// distinct name, else `band1`, `band2`, ... A name is usable when it is at most 64
+/// characters with no '/' (the separator of feature names) or control character, and
+/// is not another band's number.
+pub(super) fn layer_names(bands: &[BandMetadata]) -> Vec<String> {
+    let numbered = |band: usize| format!("band{}", band + 1);
+    let usable = |band: usize, name: &str| {
+        name.chars().count() <= 64
+            && !name.contains('/')
+            && !name.chars().any(char::is_control)
+            && (name == numbered(band)
+                || !(1..=bands.len()).any(|other| name == numbered(other - 1)))
+    };
+    let names: Vec<String> = bands
+        .iter()
+        .enumerate()
+        .map(|(band, b)| match &b.description {
+            Some(name) if usable(band, name) => name.clone(),
+            _ => numbered(band),
+        })
+        .collect();
+    let distinct = names
+        .iter()
+        .enumerate()
+        .all(|(i, n)| !names[..i].contains(n));
+    if distinct {
+        names
+    } else {
+        (0..bands.len()).map(numbered).collect()
+    }
+}
+
+/// Sets what one `<Item>` of role `role` for band `sample` says.
+fn apply_item(
+    out: &mut [BandMetadata],
+    role: &str,
+    sample: Option<usize>,
+    text: &str,
+) -> Result<(), String> {
+    let bands = out.len();
+    match role {
+        // A description of a band the raster lacks describes nothing.
+        "description" => {
+            if let Some(band) = sample.filter(|&s| s < bands && !text.is_empty()) {
+                out[band].description = Some(text.to_string());
+            }
+        }
+        "scale" | "offset" => {
+            let value: f64 = text
+                .parse()
+                .map_err(|_| format!("the {role} {text:?} of sample {sample:?} is not a number"))?;
+            if !value.is_finite() || (role == "scale" && value == 0.0) {
+                return Err(format!(
+                    "the {role} {value} of sample {sample:?} is not usable"
+                ));
+            }
+            let Some(band) = sample.filter(|&s| s < bands) else {
+                return Err(format!(
+                    "a {role} for sample {sample:?}, but the raster has {bands} bands"
+                ));
+            };
+            if role == "scale" {
+                out[band].scale = value;
+            } else {
+                out[band].offset = value;
+            }
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 #[cfg(test)]
@@ -79,19 +169,66 @@ mod tests {
     use super::*;
 
     #[test]
-    fn reads_gdal_scales_and_offsets_per_band() {
+    fn reads_gdal_scales_offsets_and_descriptions_per_band() {
         let xml = r#"<GDALMetadata>
   <Item name="STATISTICS_MEAN" sample="0">12.5</Item>
   <Item name="OFFSET" sample="0" role="offset">-100</Item>
   <Item name="SCALE" sample="0" role="scale">0.1</Item>
   <Item name="SCALE" sample="2" role="scale">2.5E-2</Item>
+  <Item name="DESCRIPTION" sample="1" role="description"> Near infrared &amp;amp; more </Item>
+  <Item name="DESCRIPTION" sample="0" role="description">Red &amp; &#x3C;ours&#62;</Item>
+  <Item name="DESCRIPTION" sample="2" role="description">  </Item>
+  <Item name="DESCRIPTION" sample="7" role="description">nothing</Item>
   <Item name="AREA_OR_POINT">Area</Item>
 </GDALMetadata>"#;
-        let got = scales_and_offsets(xml, 3).unwrap();
-        assert_eq!(got, vec![(0.1, -100.0), (1.0, 0.0), (0.025, 0.0)]);
+        let got = per_band(xml, 3).unwrap();
+        let band = |scale, offset, description: Option<&str>| BandMetadata {
+            scale,
+            offset,
+            description: description.map(String::from),
+        };
         assert_eq!(
-            scales_and_offsets("<GDALMetadata/>", 2).unwrap(),
-            vec![(1.0, 0.0); 2]
+            got,
+            vec![
+                band(0.1, -100.0, Some("Red & <ours>")),
+                band(1.0, 0.0, Some("Near infrared & more")),
+                band(0.025, 0.0, None)
+            ]
+        );
+        assert_eq!(
+            per_band("<GDALMetadata/>", 2).unwrap(),
+            vec![BandMetadata::default(); 2]
+        );
+    }
+
+    #[test]
+    fn bands_are_named_by_their_descriptions_where_they_can_be() {
+        let bands = |descriptions: &[Option<&str>]| -> Vec<BandMetadata> {
+            descriptions
+                .iter()
+                .map(|d| BandMetadata {
+                    description: d.map(String::from),
+                    ..BandMetadata::default()
+                })
+                .collect()
+        };
+        assert_eq!(
+            layer_names(&bands(&[Some("elevation"), None, Some("Near infrared")])),
+            ["elevation", "band2", "Near infrared"]
+        );
+        // A band's own number is its name anyway; another band's is not.
+        assert_eq!(
+            layer_names(&bands(&[Some("band1"), Some("band1"), Some("x/y")])),
+            ["band1", "band2", "band3"]
+        );
+        assert_eq!(
+            layer_names(&bands(&[Some("band2"), None])),
+            ["band1", "band2"]
+        );
+        // Two bands of one name: every band is numbered, so no name is ambiguous.
+        assert_eq!(
+            layer_names(&bands(&[Some("red"), Some("red"), Some("nir")])),
+            ["band1", "band2", "band3"]
         );
     }
 
@@ -115,7 +252,7 @@ mod tests {
                 "malformed",
             ),
         ] {
-            let e = scales_and_offsets(xml, 1).unwrap_err();
+            let e = per_band(xml, 1).unwrap_err();
             assert!(e.contains(needle), "{xml}: {e}");
         }
     }
