@@ -480,6 +480,31 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     assert_eq!(bad.status.code(), Some(2));
 }
 
+/// A raster whose content leaves the protocol nothing to do (one cell: no two cells
+/// half the map apart) is an input error naming it, not a failure of the run.
+#[test]
+fn bench_terrain_names_a_raster_it_cannot_use() {
+    let dir = tempfile::tempdir().unwrap();
+    let raster = dir.path().join("one-cell.tif");
+    write_geotiff(
+        &raster,
+        &GeoRef::square(1, 1, 30.0, [0.0, 0.0], "map"),
+        &[1.0],
+    )
+    .unwrap();
+    let out = imitate(
+        dir.path(),
+        &[
+            "bench",
+            "terrain",
+            raster.to_str().unwrap(),
+            "--method",
+            "learch-tree",
+        ],
+    );
+    assert_input_error(&out, &["one-cell.tif", "no 60 pairs of cells", "1 × 1"]);
+}
+
 /// `--features oracle` gives the learners the teacher's hidden cost itself: the
 /// ceiling that tells a learner's shortfall from the features'. On the SPOT image's
 /// step teacher, trees on it plan within a hair of the teacher's cost.

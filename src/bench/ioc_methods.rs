@@ -220,7 +220,9 @@ pub(super) fn teacher_paths(
         draws += 1;
         if draws > 100 * count {
             return Err(Error::Failed(format!(
-                "no {count} pairs of cells half the map apart with a teacher path"
+                "no {count} pairs of cells half the map apart with a teacher path \
+                 (the map is {} × {} cells)",
+                geo.width, geo.height
             )));
         }
         let mut random_cell = || {

@@ -294,8 +294,7 @@ fn terrain(map: &Map, teacher: Teacher, args: &TerrainArgs) -> Result<Terrain> {
         compute(map, &spec)
     }
     .map_err(Error::Failed)?;
-    let examples = teacher_paths(&truth, args.paths, args.seed, "teacher")
-        .map_err(|e| Error::Failed(format!("{}: {e}", map.name)))?;
+    let examples = teacher_paths(&truth, args.paths, args.seed, "teacher")?;
     let (training, holdout) = hold_out_every(examples, 4);
     Ok(Terrain {
         name: format!("{}/{}", map.name, teacher_name(teacher)),
@@ -406,7 +405,12 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             .map_or("raster".into(), |s| s.to_string_lossy().into_owned());
         let map = pooled(read_geotiff(path, &name)?, args.cells);
         for &teacher in &teachers {
-            let terrain = terrain(&map, teacher, &args)?;
+            // The raster is this command's only input: what its content makes fail
+            // (features, teacher paths) is an input error naming it.
+            let terrain = terrain(&map, teacher, &args).map_err(|e| match e {
+                Error::Failed(message) => Error::input(path, message),
+                other => other,
+            })?;
             results.push(uniform(&terrain));
             for (method, config) in &all_methods {
                 if args.methods.is_empty() || args.methods.iter().any(|m| m == method) {
