@@ -332,6 +332,8 @@ fn features_with_operators_from_the_command_line() {
             r#"{"op":"slope","layer":"elevation"}"#,
             "--op",
             r#"{"op":"distance","layer":"water","above":0.5}"#,
+            "--op",
+            r#"{"op":"classes","layer":"road","classes":[1],"shares":[3]}"#,
         ],
     );
     assert!(out.status.success(), "{}", stderr(&out));
@@ -344,6 +346,9 @@ fn features_with_operators_from_the_command_line() {
             "road",
             "elevation/slope_deg",
             "water/distance_to_above_0.5_m",
+            "road/class_1",
+            "road/class_1/share_3c",
+            "road/distance_to_class_1_m",
             "bias"
         ])
     );

@@ -119,7 +119,10 @@ struct TerrainReport {
 }
 
 /// The raster's bands averaged over blocks of `factor` × `factor` cells (NaN cells left
-/// out; a block with no data is NaN), the cells growing by the same factor.
+/// out; a block with no data is NaN), the cells growing by the same factor. Class
+/// layers (land cover, masks: [`is_class_layer`]) take each block's most
+/// common class instead, as GDAL's `mode` resampling does: a mean of class codes is
+/// no class, and a mean of a binary mask is a value the raster never holds.
 fn pooled(map: Map, cells: u32) -> Map {
     let (w, h) = (map.geo.width as usize, map.geo.height as usize);
     let factor = if cells == 0 {
@@ -136,23 +139,25 @@ fn pooled(map: Map, cells: u32) -> Map {
         .layers
         .iter()
         .map(|layer| {
+            let classes = is_class_layer(&layer.values);
             let values = (0..pw * ph)
                 .map(|i| {
                     let (r, c) = (i / pw, i % pw);
-                    let (mut sum, mut n) = (0.0f64, 0usize);
-                    for rr in r * factor..((r + 1) * factor).min(h) {
-                        for cc in c * factor..((c + 1) * factor).min(w) {
-                            let v = layer.values[rr * w + cc];
-                            if !v.is_nan() {
-                                sum += f64::from(v);
-                                n += 1;
-                            }
-                        }
-                    }
-                    if n == 0 {
-                        f32::NAN
+                    let block = (r * factor..((r + 1) * factor).min(h)).flat_map(|rr| {
+                        (c * factor..((c + 1) * factor).min(w))
+                            .map(move |cc| layer.values[rr * w + cc])
+                    });
+                    let data = block.filter(|v| !v.is_nan());
+                    if classes {
+                        most_common(data)
                     } else {
-                        (sum / n as f64) as f32
+                        let (sum, n) =
+                            data.fold((0.0f64, 0usize), |(sum, n), v| (sum + f64::from(v), n + 1));
+                        if n == 0 {
+                            f32::NAN
+                        } else {
+                            (sum / n as f64) as f32
+                        }
                     }
                 })
                 .collect();
@@ -177,6 +182,39 @@ fn pooled(map: Map, cells: u32) -> Map {
         geo,
         layers,
     }
+}
+
+/// A layer pools as classes when its data cells hold from 2 to this many distinct
+/// integers (land cover, slope classes, masks).
+const MAX_CLASSES: usize = 32;
+
+fn is_class_layer(values: &[f32]) -> bool {
+    let mut classes: Vec<f32> = Vec::new();
+    for &v in values.iter().filter(|v| !v.is_nan()) {
+        if classes.contains(&v) {
+            continue;
+        }
+        if v.fract() != 0.0 || classes.len() == MAX_CLASSES {
+            return false;
+        }
+        classes.push(v);
+    }
+    classes.len() >= 2
+}
+
+/// The most common of `values` (the smallest of equals; NaN when there are none).
+fn most_common(values: impl Iterator<Item = f32>) -> f32 {
+    let mut counts: Vec<(f32, usize)> = Vec::new();
+    for v in values {
+        match counts.iter_mut().find(|(c, _)| *c == v) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((v, 1)),
+        }
+    }
+    counts
+        .into_iter()
+        .max_by(|(a, m), (b, n)| m.cmp(n).then(b.total_cmp(a)))
+        .map_or(f32::NAN, |(v, _)| v)
 }
 
 /// Value at share `q` of the finite values (sorted, index ⌊q(n − 1)⌋).
@@ -476,5 +514,39 @@ mod tests {
         let block = pooled(strip(330, 170), 160);
         assert_eq!((block.geo.width, block.geo.height), (110, 56));
         assert_eq!(block.geo.cell_size(), [90.0, 90.0]);
+    }
+
+    #[test]
+    fn class_layers_pool_to_their_most_common_class() {
+        // 322 × 2 cells of classes 3 and 7 (the first block of two columns: 3, 3, 7
+        // and nodata), pooled by 3 to 107 × 1 (a 2-row raster keeps one block row).
+        let mut map = strip(322, 2);
+        let values = &mut map.layers[0].values;
+        for (i, v) in values.iter_mut().enumerate() {
+            *v = if i % 3 == 2 { 7.0 } else { 3.0 };
+        }
+        values[0] = f32::NAN;
+        values[322] = 7.0;
+        values[323] = 7.0;
+        assert!(is_class_layer(values));
+        let pooled = pooled(map, 160);
+        assert_eq!((pooled.geo.width, pooled.geo.height), (107, 1));
+        // Block 0 holds 3, 7, 7, 7, 3 (and nodata): 7; every value is a class.
+        assert_eq!(pooled.layers[0].values[0], 7.0);
+        assert!(
+            pooled.layers[0]
+                .values
+                .iter()
+                .all(|&v| v == 3.0 || v == 7.0)
+        );
+        // Equal counts: the smaller class.
+        assert_eq!(most_common([7.0, 3.0, 3.0, 7.0].into_iter()), 3.0);
+        assert!(most_common(std::iter::empty()).is_nan());
+        // Not classes: fractions, a constant, more than MAX_CLASSES values.
+        assert!(!is_class_layer(&[0.5, 1.0]));
+        assert!(!is_class_layer(&[4.0, 4.0, f32::NAN]));
+        let many: Vec<f32> = (0..=MAX_CLASSES).map(|i| i as f32).collect();
+        assert!(!is_class_layer(&many));
+        assert!(is_class_layer(&many[..MAX_CLASSES]));
     }
 }

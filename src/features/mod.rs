@@ -118,6 +118,15 @@ pub enum Op {
         #[serde(default)]
         max: Option<f64>,
     },
+    /// A class layer (land cover): per class, an indicator, its share of the
+    /// neighbourhood at each σ in `shares` (cells: a Gaussian over the indicator), and
+    /// the distance in metres to its nearest cell (capped at the map's diagonal).
+    Classes {
+        layer: String,
+        classes: Vec<f32>,
+        #[serde(default)]
+        shares: Vec<f64>,
+    },
 }
 
 /// Which side of a threshold a distance measures to.
@@ -150,6 +159,9 @@ enum Plane {
     Brightness(Vec<usize>),
     /// σ in cells along x and y.
     Relief(usize, [f64; 2]),
+    /// The share of class `c` around each cell: a Gaussian of σ cells over its
+    /// indicator.
+    Share(usize, f32, [f64; 2]),
     Aspect(usize),
     Bias,
 }
@@ -531,6 +543,38 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     )?;
                 }
             }
+            Op::Classes {
+                layer: l,
+                classes,
+                shares,
+            } => {
+                let i = layer(l, &mut used)?;
+                for &k in shares {
+                    if !(k.is_finite() && k > 0.0) {
+                        return Err(format!(
+                            "classes of '{l}': share sigma {k} must be a positive number of cells"
+                        ));
+                    }
+                }
+                for &c in classes {
+                    let class = format!("{l}/class_{}", format_number(c));
+                    push(class.clone(), Plane::Equals(i, c), &mut names, &mut planes)?;
+                    for &k in shares {
+                        push(
+                            format!("{class}/share_{}c", format_number(k)),
+                            Plane::Share(i, c, [k, k]),
+                            &mut names,
+                            &mut planes,
+                        )?;
+                    }
+                    push(
+                        format!("{l}/distance_to_class_{}_m", format_number(c)),
+                        Plane::Distance(i, Target::Equals(c), diagonal_metres),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+            }
             Op::Aspect { layer: l } => {
                 let i = layer(l, &mut used)?;
                 push(
@@ -736,6 +780,13 @@ pub fn compute_with_nodata(
                     *o = v - *o;
                 }
             }
+            Plane::Share(i, c, sigma_cells) => {
+                let indicator: Vec<f32> = input(i)
+                    .iter()
+                    .map(|&v| f32::from(u8::from(v == c)))
+                    .collect();
+                gaussian_blur(&indicator, w, h, sigma_cells, out);
+            }
             Plane::Aspect(i) => aspect(input(i), w, h, &by_row, out),
             Plane::Bias => out.fill(1.0),
             Plane::Product(..) => {}
@@ -865,6 +916,49 @@ mod tests {
         };
         let err = compute(&map(), &spec(None, vec![two])).unwrap_err();
         assert!(err.contains("exactly one"), "{err}");
+    }
+
+    #[test]
+    fn classes_have_indicators_shares_and_distances() {
+        // b = [3, 4] on two 1 m cells.
+        let op = Op::Classes {
+            layer: "b".into(),
+            classes: vec![4.0, 5.0],
+            shares: vec![1.0],
+        };
+        let stack = compute(&map(), &spec(Some(vec![]), vec![op])).unwrap();
+        assert_eq!(
+            stack.names,
+            [
+                "b/class_4",
+                "b/class_4/share_1c",
+                "b/distance_to_class_4_m",
+                "b/class_5",
+                "b/class_5/share_1c",
+                "b/distance_to_class_5_m",
+                "bias"
+            ]
+        );
+        assert_eq!(stack.plane(0), [0.0, 1.0]);
+        // The share is the blurred indicator: some of class 4 beside it, most on it.
+        let share = stack.plane(1);
+        assert!(
+            share[0] > 0.0 && share[0] < 0.5 && share[1] > 0.5,
+            "{share:?}"
+        );
+        assert_eq!(stack.plane(2), [1.0, 0.0]);
+        // A class no cell holds: no share, and the distance capped at the diagonal.
+        assert_eq!(stack.plane(3), [0.0, 0.0]);
+        assert_eq!(stack.plane(4), [0.0, 0.0]);
+        let diagonal = 2f32.hypot(1.0);
+        assert!(stack.plane(5).iter().all(|&d| (d - diagonal).abs() < 1e-5));
+        let bad = Op::Classes {
+            layer: "b".into(),
+            classes: vec![4.0],
+            shares: vec![0.0],
+        };
+        let err = compute(&map(), &spec(None, vec![bad])).unwrap_err();
+        assert!(err.contains("positive"), "{err}");
     }
 
     #[test]
