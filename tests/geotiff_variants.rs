@@ -399,6 +399,8 @@ fn infinite_cells_read_as_nodata() {
 fn heights_in_feet_become_metres() {
     // Heights in US survey feet, CRS EPSG:32610+6360 (NAVD88 height, ftUS).
     reads_to_the_plane_in_metres("units--utm-plane-feet-navd88", 0.001);
+    // The same, said by the band's unit (rasterio's `units`) alone.
+    reads_to_the_plane_in_metres("units--utm-plane-feet-unittype", 0.001);
 }
 
 #[test]

@@ -387,7 +387,18 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let layers: Vec<Layer> = (0..bands)
         .map(|band| {
             let mut layer = vec![0f32; cells];
-            let metadata::BandMetadata { scale, offset, .. } = band_metadata[band];
+            let metadata::BandMetadata {
+                scale,
+                offset,
+                ref unit,
+                ..
+            } = band_metadata[band];
+            // A band whose unit is a length (rasterio's `units`) is measured in it;
+            // others in the heights' unit the GeoKeys give.
+            let heights = unit
+                .as_deref()
+                .and_then(metadata::metres_per_unit)
+                .unwrap_or(heights);
             let physical = |v: f32| {
                 if (scale, offset, heights) == (1.0, 0.0, 1.0) {
                     v

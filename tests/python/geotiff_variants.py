@@ -269,6 +269,14 @@ feet_heights = dict(utm, crs=CRS.from_string("EPSG:32610+6360"))
 write("units--utm-plane-feet-navd88", "units", feet_heights,
       (plane / us_foot).astype(np.float32)[None])
 
+# The plane's heights in US survey feet, said by the band's unit (rasterio's `units`,
+# GDAL's unit type) and not by a vertical CRS: read as metres.
+path = os.path.join(out, "units--utm-plane-feet-unittype.tif")
+with rasterio.open(path, "w", **utm) as dst:
+    dst.write((plane / us_foot).astype(np.float32)[None])
+    dst.units = ("US survey foot",)
+print(json.dumps({"name": "units--utm-plane-feet-unittype", "source": "units", "lossless": True}))
+
 # Rasters as data comes, each with GDAL's own reading of it beside it
 # (`expected--<name>.tif`: float32, NaN wherever GDAL masks a cell): palette land-cover
 # classes, 1-bit masks, sparse files whose all-nodata tiles are left out, imagery with

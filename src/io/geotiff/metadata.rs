@@ -3,7 +3,9 @@
 //!   into physical values: a DEM kept as decimetres in int16 with scale 0.1 is metres
 //!   only once scaled, and its slopes are wrong by ten times otherwise;
 //! - the description (`role="description"`, rasterio's `descriptions`), which names
-//!   what a band holds ("elevation", "nir") and so becomes its layer's name.
+//!   what a band holds ("elevation", "nir") and so becomes its layer's name;
+//! - the unit (`role="unittype"`, rasterio's `units`): a DEM's heights in feet or
+//!   centimetres become metres, as its slopes are measured in metres.
 
 use quick_xml::events::Event;
 use quick_xml::reader::Reader;
@@ -18,6 +20,8 @@ pub(super) struct BandMetadata {
     pub offset: f64,
     /// Trimmed; `None` where empty or absent.
     pub description: Option<String>,
+    /// The band's unit as written (trimmed; `None` where empty or absent).
+    pub unit: Option<String>,
 }
 
 impl Default for BandMetadata {
@@ -26,6 +30,7 @@ impl Default for BandMetadata {
             scale: 1.0,
             offset: 0.0,
             description: None,
+            unit: None,
         }
     }
 }
@@ -92,6 +97,25 @@ pub(super) fn per_band(xml: &str, bands: usize) -> Result<Vec<BandMetadata>, Str
     Ok(out)
 }
 
+/// Metres per unit, for a band unit that is a length ("m", "ft", "US survey foot",
+/// "cm", as people and GDAL write them; any case); `None` for any other unit
+/// (reflectance, degrees, kelvin), which leaves the values as they are.
+pub(super) fn metres_per_unit(unit: &str) -> Option<f64> {
+    let unit = unit.trim().to_ascii_lowercase().replace(['_', '-'], " ");
+    Some(match unit.as_str() {
+        "m" | "metre" | "metres" | "meter" | "meters" => 1.0,
+        "ft" | "foot" | "feet" | "international foot" | "international feet" => 0.3048,
+        "us survey foot" | "us survey feet" | "survey foot" | "us ft" | "ftus" | "ft us" => {
+            1200.0 / 3937.0
+        }
+        "km" | "kilometre" | "kilometres" | "kilometer" | "kilometers" => 1000.0,
+        "dm" | "decimetre" | "decimetres" | "decimeter" | "decimeters" => 0.1,
+        "cm" | "centimetre" | "centimetres" | "centimeter" | "centimeters" => 0.01,
+        "mm" | "millimetre" | "millimetres" | "millimeter" | "millimeters" => 0.001,
+        _ => return None,
+    })
+}
+
 /// The layer name of each band: its description where every band's is a usable,
 /// distinct name, else `band1`, `band2`, ... A name is usable when it is at most 64
 /// characters with no '/' (the separator of feature names) or control character, and
@@ -133,10 +157,15 @@ fn apply_item(
 ) -> Result<(), String> {
     let bands = out.len();
     match role {
-        // A description of a band the raster lacks describes nothing.
-        "description" => {
+        // A description or unit of a band the raster lacks says nothing.
+        "description" | "unittype" => {
             if let Some(band) = sample.filter(|&s| s < bands && !text.is_empty()) {
-                out[band].description = Some(text.to_string());
+                let value = Some(text.to_string());
+                if role == "description" {
+                    out[band].description = value;
+                } else {
+                    out[band].unit = value;
+                }
             }
         }
         "scale" | "offset" => {
@@ -186,6 +215,7 @@ mod tests {
             scale,
             offset,
             description: description.map(String::from),
+            unit: None,
         };
         assert_eq!(
             got,
@@ -199,6 +229,25 @@ mod tests {
             per_band("<GDALMetadata/>", 2).unwrap(),
             vec![BandMetadata::default(); 2]
         );
+    }
+
+    #[test]
+    fn band_units_that_are_lengths_are_measured_in_metres() {
+        let xml = r#"<GDALMetadata>
+  <Item name="UNITTYPE" sample="0" role="unittype">US survey foot</Item>
+  <Item name="UNITTYPE" sample="1" role="unittype">W/m2</Item>
+</GDALMetadata>"#;
+        let bands = per_band(xml, 2).unwrap();
+        assert_eq!(bands[0].unit.as_deref(), Some("US survey foot"));
+        assert_eq!(metres_per_unit("US survey foot"), Some(1200.0 / 3937.0));
+        assert_eq!(metres_per_unit("us-ft"), Some(1200.0 / 3937.0));
+        assert_eq!(metres_per_unit(bands[1].unit.as_deref().unwrap()), None);
+        for (unit, metres) in [("m", 1.0), ("Metres", 1.0), ("ft", 0.3048), ("cm", 0.01)] {
+            assert_eq!(metres_per_unit(unit), Some(metres), "{unit}");
+        }
+        for other in ["degrees", "K", "reflectance", ""] {
+            assert_eq!(metres_per_unit(other), None, "{other}");
+        }
     }
 
     #[test]
