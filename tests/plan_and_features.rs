@@ -398,6 +398,13 @@ fn features_with_operators_from_the_command_line() {
         ],
     );
     assert!(out.status.success(), "{}", stderr(&out));
+    // The world's 0/1 layers look like classes: the bank says which operator would
+    // give them per-class features.
+    assert!(
+        stderr(&out).contains(r#"--op '{"op":"classes","layer":"#),
+        "{}",
+        stderr(&out)
+    );
     let manifest: serde_json::Value =
         serde_json::from_slice(&std::fs::read(ws.path().join("fs3/manifest.json")).unwrap())
             .unwrap();

@@ -120,7 +120,7 @@ struct TerrainReport {
 
 /// The raster's bands averaged over blocks of `factor` × `factor` cells (NaN cells left
 /// out; a block with no data is NaN), the cells growing by the same factor. Class
-/// layers (land cover, masks: [`is_class_layer`]) take each block's most
+/// layers (land cover, masks: [`crate::features::classes_of`]) take each block's most
 /// common class instead, as GDAL's `mode` resampling does: a mean of class codes is
 /// no class, and a mean of a binary mask is a value the raster never holds.
 fn pooled(map: Map, cells: u32) -> Map {
@@ -139,7 +139,7 @@ fn pooled(map: Map, cells: u32) -> Map {
         .layers
         .iter()
         .map(|layer| {
-            let classes = is_class_layer(&layer.values);
+            let classes = crate::features::classes_of(&layer.values).is_some();
             let values = (0..pw * ph)
                 .map(|i| {
                     let (r, c) = (i / pw, i % pw);
@@ -182,24 +182,6 @@ fn pooled(map: Map, cells: u32) -> Map {
         geo,
         layers,
     }
-}
-
-/// A layer pools as classes when its data cells hold from 2 to this many distinct
-/// integers (land cover, slope classes, masks).
-const MAX_CLASSES: usize = 32;
-
-fn is_class_layer(values: &[f32]) -> bool {
-    let mut classes: Vec<f32> = Vec::new();
-    for &v in values.iter().filter(|v| !v.is_nan()) {
-        if classes.contains(&v) {
-            continue;
-        }
-        if v.fract() != 0.0 || classes.len() == MAX_CLASSES {
-            return false;
-        }
-        classes.push(v);
-    }
-    classes.len() >= 2
 }
 
 /// The most common of `values` (the smallest of equals; NaN when there are none).
@@ -528,7 +510,7 @@ mod tests {
         values[0] = f32::NAN;
         values[322] = 7.0;
         values[323] = 7.0;
-        assert!(is_class_layer(values));
+        assert!(crate::features::classes_of(values).is_some());
         let pooled = pooled(map, 160);
         assert_eq!((pooled.geo.width, pooled.geo.height), (107, 1));
         // Block 0 holds 3, 7, 7, 7, 3 (and nodata): 7; every value is a class.
@@ -542,11 +524,5 @@ mod tests {
         // Equal counts: the smaller class.
         assert_eq!(most_common([7.0, 3.0, 3.0, 7.0].into_iter()), 3.0);
         assert!(most_common(std::iter::empty()).is_nan());
-        // Not classes: fractions, a constant, more than MAX_CLASSES values.
-        assert!(!is_class_layer(&[0.5, 1.0]));
-        assert!(!is_class_layer(&[4.0, 4.0, f32::NAN]));
-        let many: Vec<f32> = (0..=MAX_CLASSES).map(|i| i as f32).collect();
-        assert!(!is_class_layer(&many));
-        assert!(is_class_layer(&many[..MAX_CLASSES]));
     }
 }

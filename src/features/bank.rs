@@ -194,6 +194,58 @@ fn elevation_and_imagery(layer: &str) -> Vec<Op> {
     ops
 }
 
+impl Bank {
+    /// One message per layer of `maps` that looks like classes on every map that has
+    /// it ([`super::classes_of`]: land cover, masks): no bank makes class features
+    /// (measured: BENCHMARKS.md), so it says which operator would, with the classes.
+    /// Layers that `ops` already gives a `classes` operator get none.
+    pub fn class_layer_hints(self, maps: &[Map], ops: &[Op]) -> Vec<String> {
+        let covered = |name: &str| {
+            ops.iter()
+                .any(|op| matches!(op, Op::Classes { layer, .. } if layer == name))
+        };
+        let mut found: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
+        for layer in maps.iter().flat_map(|m| &m.layers) {
+            let entry = found
+                .entry(layer.name.as_str())
+                .or_insert_with(|| Some(Vec::new()));
+            match (entry.as_mut(), super::classes_of(&layer.values)) {
+                (Some(all), Some(classes)) => all.extend(classes),
+                _ => *entry = None,
+            }
+        }
+        found
+            .into_iter()
+            .filter(|(name, _)| !covered(name))
+            .filter_map(|(name, classes)| {
+                let mut classes = classes?;
+                classes.sort_by(f32::total_cmp);
+                classes.dedup();
+                let list = classes
+                    .iter()
+                    .map(super::format_number)
+                    .collect::<Vec<_>>()
+                    .join(",");
+                Some(format!(
+                    "layer '{name}' holds {} integer classes; the bank '{}' reads them as \
+                     values. For an indicator, share and distance per class add --op \
+                     '{{\"op\":\"classes\",\"layer\":\"{name}\",\"classes\":[{list}],\"shares\":[4]}}'",
+                    classes.len(),
+                    self.name()
+                ))
+            })
+            .collect()
+    }
+
+    fn name(self) -> &'static str {
+        match self {
+            Bank::Imagery => "imagery",
+            Bank::Elevation => "elevation",
+            Bank::Auto => "auto",
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -282,6 +334,40 @@ mod tests {
                 .collect::<Vec<_>>()
         );
         assert!(n.contains(&"elevation/distance_to_above_q90_m".to_string()));
+    }
+
+    #[test]
+    fn class_layers_get_a_hint_naming_the_operator_and_their_classes() {
+        let mut a = map(&["landcover", "red"]);
+        a.layers[0]
+            .values
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| {
+                *v = [10.0, 20.0][i % 2];
+            });
+        // Red holds fractions: not classes.
+        a.layers[1].values.iter_mut().for_each(|v| *v += 0.5);
+        let mut b = a.clone();
+        b.layers[0].values[0] = 80.0;
+        let maps = [a, b];
+        let hints = Bank::Auto.class_layer_hints(&maps, &[]);
+        assert_eq!(hints.len(), 1, "{hints:?}");
+        assert!(
+            hints[0].contains("layer 'landcover' holds 3 integer classes"),
+            "{}",
+            hints[0]
+        );
+        assert!(hints[0].contains(r#""classes":[10,20,80]"#), "{}", hints[0]);
+        // The hint's operator is one a spec accepts.
+        let json = hints[0]
+            .split_once("--op '")
+            .and_then(|(_, rest)| rest.strip_suffix('\''))
+            .unwrap();
+        let op: Op = serde_json::from_str(json).unwrap();
+        assert!(matches!(op, Op::Classes { .. }), "{op:?}");
+        // Once a spec has it, no hint.
+        assert!(Bank::Auto.class_layer_hints(&maps, &[op]).is_empty());
     }
 
     #[test]

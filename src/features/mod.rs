@@ -200,6 +200,27 @@ fn side_name(side: Side) -> &'static str {
     }
 }
 
+/// A layer whose data cells hold from 2 to this many distinct integers looks like
+/// classes (land cover, slope classes, masks).
+pub const MAX_CLASSES: usize = 32;
+
+/// The classes of a layer that looks like classes ([`MAX_CLASSES`]), in ascending
+/// order; `None` for any other.
+pub fn classes_of(values: &[f32]) -> Option<Vec<f32>> {
+    let mut classes: Vec<f32> = Vec::new();
+    for &v in values.iter().filter(|v| !v.is_nan()) {
+        if classes.contains(&v) {
+            continue;
+        }
+        if v.fract() != 0.0 || classes.len() == MAX_CLASSES {
+            return None;
+        }
+        classes.push(v);
+    }
+    classes.sort_by(f32::total_cmp);
+    (classes.len() >= 2).then_some(classes)
+}
+
 /// The value below which a share `q` of the layer's data cells lie (index ⌊q(n − 1)⌋
 /// of the sorted non-NaN values; 0 when there are none).
 fn quantile_of(values: &[f32], q: f64) -> f32 {
@@ -959,6 +980,17 @@ mod tests {
         };
         let err = compute(&map(), &spec(None, vec![bad])).unwrap_err();
         assert!(err.contains("positive"), "{err}");
+    }
+
+    #[test]
+    fn layers_of_few_integers_look_like_classes() {
+        assert_eq!(classes_of(&[7.0, 3.0, f32::NAN, 3.0]), Some(vec![3.0, 7.0]));
+        // Not classes: fractions, a constant, more than MAX_CLASSES values.
+        assert_eq!(classes_of(&[0.5, 1.0]), None);
+        assert_eq!(classes_of(&[4.0, 4.0, f32::NAN]), None);
+        let many: Vec<f32> = (0..=MAX_CLASSES).map(|i| i as f32).collect();
+        assert_eq!(classes_of(&many), None);
+        assert_eq!(classes_of(&many[..MAX_CLASSES]).unwrap().len(), MAX_CLASSES);
     }
 
     #[test]

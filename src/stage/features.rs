@@ -87,6 +87,11 @@ impl StageParams for FeaturesParams {
             .collect();
         let maps = first_error_in_order(map_files.par_iter().map(|p| read_map(p)).collect())?;
         let nodata = nodata_layers(&maps);
+        if let Some(bank) = spec.bank {
+            for hint in bank.class_layer_hints(&maps, &spec.ops) {
+                tracing::warn!("{hint}");
+            }
+        }
         let progress = super::progress_bar(maps.len(), "feature maps");
         let stacks = maps
             .par_iter()
