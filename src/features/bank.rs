@@ -13,7 +13,7 @@ use crate::grid::Map;
 #[serde(rename_all = "snake_case")]
 pub enum Bank {
     /// Overhead imagery: per band multi-scale blurs, local spread (texture), relief,
-    /// quantile indicators and the distance to the brightest decile; normalised
+    /// contrast with the neighbourhood at the blurs' scales, quantile indicators and the distance to the brightest decile; normalised
     /// differences of every pair of bands and the brightness (with its quantile
     /// indicators and the distance to its brightest decile), when there are several.
     Imagery,
@@ -60,6 +60,10 @@ const MAX_PAIRED_BANDS: usize = 8;
 const QUANTILES: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 0.9];
 const BRIGHTEST: f64 = 0.9;
 
+/// The scales (σ in cells) of each band's blurs, and of its contrast with its
+/// neighbourhood.
+const IMAGERY_CELLS: [f64; 3] = [1.0, 3.0, 8.0];
+
 fn imagery(layers: &[&str]) -> Vec<Op> {
     let mut ops = Vec::new();
     for &l in layers {
@@ -70,7 +74,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
         ops.push(Op::Blur {
             layer: layer.clone(),
             sigmas: Vec::new(),
-            cells: vec![1.0, 3.0, 8.0],
+            cells: IMAGERY_CELLS.to_vec(),
         });
         ops.push(Op::Roughness {
             layer: layer.clone(),
@@ -79,6 +83,10 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
         ops.push(Op::Relief {
             layer: layer.clone(),
             cells: vec![4.0],
+        });
+        ops.push(Op::Contrast {
+            layer: layer.clone(),
+            cells: IMAGERY_CELLS.to_vec(),
         });
         ops.push(Op::Quantile {
             layer: layer.clone(),
@@ -291,6 +299,8 @@ mod tests {
             "band2/blur_3c",
             "band3/roughness_9c",
             "band1/relief_4c",
+            "band1/contrast_1c",
+            "band3/contrast_8c",
             "band2/above_q90",
             "band3/distance_to_above_q90_m",
             "nd(band1,band3)",
@@ -318,6 +328,7 @@ mod tests {
             "band1/roughness_15c",
             "band1/relief_16c",
             "band1/blur_8c",
+            "band1/contrast_3c",
             "band1/above_q10",
         ] {
             assert!(one.iter().any(|x| x == expected), "{expected} in {one:?}");

@@ -102,6 +102,10 @@ pub enum Op {
     /// The layer minus its Gaussian blur at each σ in cells: above (ridges, bright
     /// spots) or below (hollows, dark spots) its neighbourhood.
     Relief { layer: String, cells: Vec<f64> },
+    /// The normalised difference of the layer and its Gaussian blur at each σ in cells,
+    /// (x − m) / (x + m), 0 where x + m is 0: the cell's contrast with its
+    /// neighbourhood, the same under any scaling of the layer (illumination, gain).
+    Contrast { layer: String, cells: Vec<f64> },
     /// Direction of steepest descent in degrees clockwise from north (0–360; 0 where
     /// flat), for an elevation layer in metres.
     Aspect { layer: String },
@@ -159,6 +163,8 @@ enum Plane {
     Brightness(Vec<usize>),
     /// σ in cells along x and y.
     Relief(usize, [f64; 2]),
+    /// σ in cells along x and y.
+    Contrast(usize, [f64; 2]),
     /// The share of class `c` around each cell: a Gaussian of σ cells over its
     /// indicator.
     Share(usize, f32, [f64; 2]),
@@ -548,17 +554,26 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     )?;
                 }
             }
-            Op::Relief { layer: l, cells } => {
+            Op::Relief { layer: l, cells } | Op::Contrast { layer: l, cells } => {
                 let i = layer(l, &mut used)?;
+                let what = if matches!(op, Op::Relief { .. }) {
+                    "relief"
+                } else {
+                    "contrast"
+                };
                 for &k in cells {
                     if !(k.is_finite() && k > 0.0) {
                         return Err(format!(
-                            "relief of '{l}': sigma {k} must be a positive number of cells"
+                            "{what} of '{l}': sigma {k} must be a positive number of cells"
                         ));
                     }
                     push(
-                        format!("{l}/relief_{}c", format_number(k)),
-                        Plane::Relief(i, [k, k]),
+                        format!("{l}/{what}_{}c", format_number(k)),
+                        if what == "relief" {
+                            Plane::Relief(i, [k, k])
+                        } else {
+                            Plane::Contrast(i, [k, k])
+                        },
                         &mut names,
                         &mut planes,
                     )?;
@@ -781,8 +796,7 @@ pub fn compute_with_nodata(
             }
             Plane::NormalizedDifference(a, b) => {
                 for ((o, &x), &y) in out.iter_mut().zip(input(a)).zip(input(b)) {
-                    let sum = x + y;
-                    *o = if sum == 0.0 { 0.0 } else { (x - y) / sum };
+                    *o = normalized_difference(x, y);
                 }
             }
             Plane::Brightness(ref layers) => {
@@ -799,6 +813,12 @@ pub fn compute_with_nodata(
                 gaussian_blur(input(i), w, h, sigma_cells, out);
                 for (o, &v) in out.iter_mut().zip(input(i)) {
                     *o = v - *o;
+                }
+            }
+            Plane::Contrast(i, sigma_cells) => {
+                gaussian_blur(input(i), w, h, sigma_cells, out);
+                for (o, &v) in out.iter_mut().zip(input(i)) {
+                    *o = normalized_difference(v, *o);
                 }
             }
             Plane::Share(i, c, sigma_cells) => {
@@ -825,6 +845,12 @@ pub fn compute_with_nodata(
         names,
         data,
     })
+}
+
+/// (x − y) / (x + y), 0 where x + y is 0.
+fn normalized_difference(x: f32, y: f32) -> f32 {
+    let sum = x + y;
+    if sum == 0.0 { 0.0 } else { (x - y) / sum }
 }
 
 #[cfg(test)]
@@ -991,6 +1017,41 @@ mod tests {
         let many: Vec<f32> = (0..=MAX_CLASSES).map(|i| i as f32).collect();
         assert_eq!(classes_of(&many), None);
         assert_eq!(classes_of(&many[..MAX_CLASSES]).unwrap().len(), MAX_CLASSES);
+    }
+
+    #[test]
+    fn contrast_is_the_normalised_difference_with_the_blur_whatever_the_scale() {
+        let op = |cells| Op::Contrast {
+            layer: "a".into(),
+            cells,
+        };
+        let stack = compute(&map(), &spec(Some(vec![]), vec![op(vec![1.0])])).unwrap();
+        assert_eq!(stack.names, ["a/contrast_1c", "bias"]);
+        let mut blur = [0.0f32; 2];
+        gaussian_blur(&map().layers[0].values, 2, 1, [1.0; 2], &mut blur);
+        let expected = [
+            (1.0 - blur[0]) / (1.0 + blur[0]),
+            (2.0 - blur[1]) / (2.0 + blur[1]),
+        ];
+        assert_eq!(stack.plane(0), expected);
+        assert!(expected[0] < 0.0 && expected[1] > 0.0, "{expected:?}");
+        // Scaling the layer (a brighter scene, another sensor gain) changes nothing;
+        // where the cell and its neighbourhood sum to 0 the contrast is 0.
+        let mut scaled = map();
+        scaled.layers[0].values = vec![3.0, 6.0];
+        let again = compute(&scaled, &spec(Some(vec![]), vec![op(vec![1.0])])).unwrap();
+        for (a, b) in again.plane(0).iter().zip(stack.plane(0)) {
+            assert!((a - b).abs() < 1e-6, "{a} against {b}");
+        }
+        let mut zero = map();
+        zero.layers[0].values = vec![0.0, 0.0];
+        let flat = compute(&zero, &spec(Some(vec![]), vec![op(vec![1.0])])).unwrap();
+        assert_eq!(flat.plane(0), [0.0, 0.0]);
+        let err = compute(&map(), &spec(Some(vec![]), vec![op(vec![-2.0])])).unwrap_err();
+        assert!(
+            err.contains("contrast of 'a'") && err.contains("positive"),
+            "{err}"
+        );
     }
 
     #[test]

@@ -20,7 +20,10 @@ pub fn scale_in_cells(name: &str, cell_metres: f64) -> f64 {
     const STENCIL: f64 = 1.5;
     if op.starts_with("distance_to_") {
         f64::INFINITY
-    } else if let Some(cells) = number("blur_", "c").or_else(|| number("relief_", "c")) {
+    } else if let Some(cells) = number("blur_", "c")
+        .or_else(|| number("relief_", "c"))
+        .or_else(|| number("contrast_", "c"))
+    {
         cells
     } else if let Some(metres) = number("blur_", "m") {
         metres / cell_metres
@@ -56,6 +59,7 @@ mod tests {
             ("elevation/roughness_3c", 1.5),
             ("elevation/roughness_15c", 7.5),
             ("elevation/relief_16c", 16.0),
+            ("band1/contrast_3c", 3.0),
             ("band1/robust*elevation/relief_6c", 6.0),
         ] {
             assert_eq!(scale(name), expected, "{name}");
