@@ -35,6 +35,10 @@ pub enum Teacher {
     /// A margin: dear above the 70th percentile and within 3 cells of the brightest
     /// decile (a distance, which per-cell features only approximate).
     Margin,
+    /// Obstacles: dear above the median brightness and 43 times the cheapest cost above
+    /// the 90th percentile, as a planner's near-lethal cells are. A learner that flattens
+    /// the contrast sends plans across them.
+    Obstacle,
 }
 
 /// What the learners are given to learn from.
@@ -285,6 +289,15 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                 })
                 .collect()
         }
+        Teacher::Obstacle => z
+            .iter()
+            .map(|&v| {
+                data(
+                    v,
+                    1.0 + 2.0 * f32::from(v > q50) + 40.0 * f32::from(v > q90),
+                )
+            })
+            .collect(),
     }
 }
 
@@ -332,6 +345,7 @@ fn teacher_name(teacher: Teacher) -> &'static str {
         Teacher::Square => "square",
         Teacher::Ratio => "ratio",
         Teacher::Margin => "margin",
+        Teacher::Obstacle => "obstacle",
     }
 }
 
@@ -414,6 +428,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             Teacher::Square,
             Teacher::Ratio,
             Teacher::Margin,
+            Teacher::Obstacle,
         ]
     } else {
         args.teachers.clone()
@@ -524,5 +539,20 @@ mod tests {
         // Equal counts: the smaller class.
         assert_eq!(most_common([7.0, 3.0, 3.0, 7.0].into_iter()), 3.0);
         assert!(most_common(std::iter::empty()).is_nan());
+    }
+
+    #[test]
+    fn the_obstacle_teacher_has_three_levels_and_its_obstacles_are_the_brightest_decile() {
+        // Brightness 0..100: cells above the median cost 3, the top decile 43, and a cell
+        // without data 12, as in every teacher.
+        let mut map = strip(100, 1);
+        map.layers[0].values[0] = f32::NAN;
+        let cost = teacher_cost(&map, Teacher::Obstacle);
+        assert_eq!(cost[0], 12.0);
+        assert_eq!(cost[10], 1.0);
+        assert_eq!(cost[60], 3.0);
+        assert_eq!(cost[99], 43.0);
+        let obstacles = cost.iter().filter(|&&c| c == 43.0).count();
+        assert!((9..=11).contains(&obstacles), "{obstacles} obstacle cells");
     }
 }
