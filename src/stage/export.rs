@@ -15,8 +15,9 @@ use crate::report::costmap_artifact::CostmapArtifact;
 use crate::report::export::{export_geotiff, export_mcap, export_nav2, export_png};
 
 pub const KIND: &str = "export";
-/// 2: the PNG with a labelled colour bar and a scale bar.
-const VERSION: u32 = 2;
+/// 2: the PNG with a labelled colour bar and a scale bar. 3: GeoTIFFs keep the CRS
+/// their map was read with.
+const VERSION: u32 = 3;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize, Deserialize)]
 #[serde(rename_all = "kebab-case")]

@@ -13,8 +13,10 @@ use crate::io::tables::{read_map, write_features};
 
 pub const KIND: &str = "features";
 /// 2: every map gets the no-data indicators of any map in the dataset. 3: slope,
-/// aspect and curvature with each row's cell size in geographic frames.
-const VERSION: u32 = 3;
+/// aspect and curvature with each row's cell size in geographic frames. 4: the banks'
+/// brightness indicators, distances and contrasts, and both banks for elevation
+/// layers under `auto`.
+const VERSION: u32 = 4;
 
 fn default_bias() -> bool {
     true

@@ -22,7 +22,9 @@ use crate::io::nav2::read_nav2_map;
 use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, write_paths};
 
 pub const KIND: &str = "ingest";
-const VERSION: u32 = 2;
+/// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
+/// metres per axis, more compressions, band units and descriptions).
+const VERSION: u32 = 3;
 
 fn default_split() -> Split {
     Split::File
