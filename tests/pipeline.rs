@@ -61,7 +61,7 @@ fn only_stale_stages_rerun_and_say_why() {
     assert_eq!(touched.status.code(), Some(0), "{}", stdout(&touched));
 
     // One parameter: only that stage is stale, and the reason names it.
-    edit(ws.path(), "rounds: 80", "rounds: 5");
+    edit(ws.path(), "rounds: 160", "rounds: 5");
     let status = imitate(ws.path(), &["status", PIPELINE, "--exit-code"]);
     assert_eq!(status.status.code(), Some(1));
     assert_eq!(
@@ -69,14 +69,14 @@ fn only_stale_stages_rerun_and_say_why() {
         [
             "ingest: up to date",
             "features: up to date",
-            "learch: stale: param changed: learch.rounds 80 → 5",
+            "learch: stale: param changed: learch.rounds 160 → 5",
             "export: stale: input will be remade: out/quickstart/costmap",
             "report: stale: input will be remade: out/quickstart/costmap"
         ]
     );
     let dry = imitate(ws.path(), &["run", PIPELINE, "--dry-run"]);
     assert!(stdout(&dry).contains(
-        "learch\tout/quickstart/costmap\twould run: param changed: learch.rounds 80 → 5"
+        "learch\tout/quickstart/costmap\twould run: param changed: learch.rounds 160 → 5"
     ));
     let rerun = run(ws.path(), &[]);
     let rerun_lines = lines(&rerun);
@@ -97,12 +97,12 @@ fn only_stale_stages_rerun_and_say_why() {
     }
 
     // Reverting restores the first run's artifact from the cache, without training.
-    edit(ws.path(), "rounds: 5", "rounds: 80");
+    edit(ws.path(), "rounds: 5", "rounds: 160");
     let reverted = run(ws.path(), &[]);
     assert_eq!(stdout(&reverted), digests);
     assert_eq!(
         lines(&reverted)[2],
-        "learch: restored from the output cache (param changed: learch.rounds 5 → 80)"
+        "learch: restored from the output cache (param changed: learch.rounds 5 → 160)"
     );
     let status = imitate(ws.path(), &["status", PIPELINE, "--exit-code"]);
     assert_eq!(status.status.code(), Some(0), "{}", stdout(&status));
@@ -373,7 +373,7 @@ fn independent_stages_run_at_once_with_the_same_results() {
 fn log_lists_the_stored_versions_with_their_changes() {
     let ws = quickstart_workspace();
     run(ws.path(), &[]);
-    edit(ws.path(), "rounds: 80", "rounds: 3");
+    edit(ws.path(), "rounds: 160", "rounds: 3");
     run(ws.path(), &[]);
     let out = imitate(ws.path(), &["log", "out/quickstart/costmap", "--json"]);
     assert!(out.status.success(), "{}", stderr(&out));
@@ -383,12 +383,12 @@ fn log_lists_the_stored_versions_with_their_changes() {
     assert_eq!(versions[0]["changes"][0], "first version");
     assert_eq!(
         versions[1]["changes"][0],
-        "param changed: learch.rounds 80 → 3"
+        "param changed: learch.rounds 160 → 3"
     );
     assert_eq!(versions[1]["current"], true);
     let text = imitate(ws.path(), &["log", "out/quickstart/costmap"]);
     assert!(
-        stdout(&text).contains("(current): param changed: learch.rounds 80 → 3"),
+        stdout(&text).contains("(current): param changed: learch.rounds 160 → 3"),
         "{}",
         stdout(&text)
     );

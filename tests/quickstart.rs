@@ -57,9 +57,9 @@ fn quickstart_learns_a_costmap_that_imitates_the_teacher() {
         "{holdout}"
     );
     let rounds = metrics["rounds"].as_array().unwrap();
-    assert_eq!(rounds.len(), 80);
+    assert_eq!(rounds.len(), 160);
     let first = rounds[0]["training_loss"].as_f64().unwrap();
-    let last = rounds[79]["training_loss"].as_f64().unwrap();
+    let last = rounds[159]["training_loss"].as_f64().unwrap();
     assert!(last < first, "training loss {first} -> {last}");
 }
 

@@ -32,8 +32,10 @@ use crate::report::{Preview, render_preview};
 pub const KIND: &str = "learch";
 /// 7: previews with a colour bar and a scale bar; MaxEnt's own exponential; step
 /// lengths per row in geographic frames. 8: MaxEnt's forward pass drops negligible
-/// mass. 9: LEARCH plans its examples with Dijkstra (other ties than A*'s).
-const VERSION: u32 = 9;
+/// mass. 9: LEARCH plans its examples with Dijkstra (other ties than A*'s). 10: cells
+/// weighed by their steps' lengths, trees widened in stages, ridge and trees in turn
+/// for 160 rounds by default.
+const VERSION: u32 = 10;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
@@ -51,11 +53,14 @@ mod defaults {
     pub fn preview_scale() -> u32 {
         4
     }
-    /// Trees for LEARCH and MaxEnt (a nonlinear cost); MMP learns a linear one.
+    /// Ridge and trees in turn for LEARCH (a log-linear trend that keeps rising where
+    /// the demonstrations only avoid, and trees for the nonlinear rest), trees for
+    /// MaxEnt; MMP learns a linear cost.
     pub fn weak_learner(method: crate::ioc::GridMethod) -> crate::ioc::WeakLearnerKind {
         match method {
             crate::ioc::GridMethod::Mmp => crate::ioc::WeakLearnerKind::Ridge,
-            _ => crate::ioc::WeakLearnerKind::Tree,
+            crate::ioc::GridMethod::Learch => crate::ioc::WeakLearnerKind::Alternate,
+            crate::ioc::GridMethod::Maxent => crate::ioc::WeakLearnerKind::Tree,
         }
     }
     pub fn tree_depth() -> usize {
@@ -99,12 +104,12 @@ pub struct LearchParams {
     #[arg(long, value_enum, default_value_t = defaults::method())]
     #[serde(default = "defaults::method")]
     pub method: GridMethod,
-    /// Rounds T (boosting rounds, or gradient steps for MMP and MaxEnt); default 80
-    /// for LEARCH with trees, 40 otherwise.
+    /// Rounds T (boosting rounds, or gradient steps for MMP and MaxEnt); default 160
+    /// for LEARCH with ridge and trees in turn, 80 for LEARCH with trees, 40 otherwise.
     #[arg(long)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rounds: Option<usize>,
-    /// Step size α (the first round's, under inverse-sqrt); default 0.5 for LEARCH with trees (shrinkage), 1 otherwise.
+    /// Step size α (the first round's, under inverse-sqrt); default 0.5 for LEARCH with trees or ridge and trees in turn (shrinkage), 1 otherwise.
     #[arg(long)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub step_size: Option<f64>,
@@ -115,12 +120,14 @@ pub struct LearchParams {
     #[arg(long, default_value_t = defaults::schedule_offset())]
     #[serde(default = "defaults::schedule_offset")]
     pub schedule_offset: f64,
-    /// The weak learner of LEARCH and MaxEnt: regression trees (a nonlinear cost; the
-    /// default), ridge regression (a log-linear cost) or both in turn (alternate); MMP's
-    /// is ridge. Trees imitate best across real terrains (`imitate bench terrain`,
-    /// BENCHMARKS.md); ridge only where the true cost is log-linear in the features.
-    /// MaxEnt's trees fit its functional gradient, expected minus demonstrated visits
-    /// times the cost, per cell.
+    /// The weak learner of LEARCH and MaxEnt: regression trees (a nonlinear cost; MaxEnt's
+    /// default), ridge regression (a log-linear cost) or both in turn (alternate,
+    /// LEARCH's default); MMP's is ridge. Ridge and trees in turn imitate best across
+    /// real terrains and teachers (`imitate bench terrain`, BENCHMARKS.md): trees alone
+    /// raise the cost of what the demonstrations avoid only as far as the training
+    /// plans need, ridge alone only fits a cost log-linear in the features. MaxEnt's
+    /// trees fit its functional gradient, expected minus demonstrated visits times the
+    /// cost, per cell.
     #[arg(long, value_enum)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub weak_learner: Option<WeakLearnerKind>,
