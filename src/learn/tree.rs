@@ -1,7 +1,8 @@
 //! Weighted regression trees with histogram split finding: LEARCH's nonlinear weak
-//! learner. Each feature's values are binned once (at most `bins` quantile edges); a
-//! split is the bin edge that most reduces the weighted squared error; ties go to the
-//! lower feature index and the lower edge, so trees are deterministic.
+//! learner. Each feature's values are binned once (at most `bins` quantile edges, or
+//! every edge for features split exactly, [`Candidates`]); a split is the bin edge
+//! that most reduces the weighted squared error; ties go to the lower feature index
+//! and the lower edge, so trees are deterministic.
 
 use serde::{Deserialize, Serialize};
 
@@ -26,6 +27,20 @@ impl Default for TreeConfig {
             leaf_l2: 0.0,
         }
     }
+}
+
+/// The thresholds a tree may split one feature at.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Candidates {
+    /// None: the feature is never split on.
+    Unused,
+    /// At most `TreeConfig::bins − 1`: midpoints between quantiles of the feature's
+    /// distinct values, enough to place a threshold on a continuous feature.
+    Binned,
+    /// Between every two consecutive distinct values (up to `u16::MAX` of them), for a
+    /// feature whose every level may be where the cost changes: a distance in cells
+    /// takes hundreds of values, and binned candidates skip most of the small ones.
+    Exact,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -89,26 +104,32 @@ impl RegressionTree {
         weights: &[f64],
         config: &TreeConfig,
     ) -> RegressionTree {
-        Self::fit_on(features, dims, targets, weights, config, &vec![true; dims])
+        let candidates = vec![Candidates::Binned; dims];
+        Self::fit_on(features, dims, targets, weights, config, &candidates)
     }
 
-    /// [`RegressionTree::fit`] splitting only on the features `usable` marks.
+    /// [`RegressionTree::fit`] with each feature's split thresholds as `candidates`
+    /// says.
     pub fn fit_on(
         features: &[f64],
         dims: usize,
         targets: &[f64],
         weights: &[f64],
         config: &TreeConfig,
-        usable: &[bool],
+        candidates: &[Candidates],
     ) -> RegressionTree {
         let rows = targets.len();
         debug_assert_eq!(features.len(), rows * dims);
-        debug_assert_eq!(usable.len(), dims);
+        debug_assert_eq!(candidates.len(), dims);
         // A feature with no split candidates is never split on.
         let edges: Vec<Vec<f64>> = (0..dims)
-            .map(|j| match usable[j] {
-                true => bin_edges((0..rows).map(|i| features[i * dims + j]), config.bins),
-                false => Vec::new(),
+            .map(|j| {
+                let column = (0..rows).map(|i| features[i * dims + j]);
+                match candidates[j] {
+                    Candidates::Unused => Vec::new(),
+                    Candidates::Binned => bin_edges(column, config.bins),
+                    Candidates::Exact => bin_edges(column, usize::from(u16::MAX)),
+                }
             })
             .collect();
         // Bin index of every value, column by column (none for a feature never split on).
@@ -301,8 +322,34 @@ mod tests {
         };
         let free = RegressionTree::fit(&x, 2, &y, &w, &config);
         assert!(uses(&free.root, 0));
-        let held = RegressionTree::fit_on(&x, 2, &y, &w, &config, &[false, true]);
+        let held = RegressionTree::fit_on(
+            &x,
+            2,
+            &y,
+            &w,
+            &config,
+            &[Candidates::Unused, Candidates::Binned],
+        );
         assert!(!uses(&held.root, 0) && uses(&held.root, 1));
+    }
+
+    #[test]
+    fn exact_candidates_find_a_step_between_values_that_bins_merge() {
+        // y steps between x = 3 and x = 4 of 0..1000: 32 bins put no edge there.
+        let x: Vec<f64> = (0..1000).map(f64::from).collect();
+        let y: Vec<f64> = (0..1000).map(|i| f64::from(u8::from(i <= 3))).collect();
+        let w = vec![1.0; y.len()];
+        let config = TreeConfig {
+            max_depth: 1,
+            ..TreeConfig::default()
+        };
+        let threshold =
+            |candidates| match RegressionTree::fit_on(&x, 1, &y, &w, &config, &[candidates]).root {
+                Node::Split { threshold, .. } => threshold,
+                Node::Leaf { .. } => panic!("no split"),
+            };
+        assert_eq!(threshold(Candidates::Exact), 3.5);
+        assert!(threshold(Candidates::Binned) > 4.0);
     }
 
     #[test]

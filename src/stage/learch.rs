@@ -34,8 +34,9 @@ pub const KIND: &str = "learch";
 /// lengths per row in geographic frames. 8: MaxEnt's forward pass drops negligible
 /// mass. 9: LEARCH plans its examples with Dijkstra (other ties than A*'s). 10: cells
 /// weighed by their steps' lengths, trees widened in stages, ridge and trees in turn
-/// for 160 rounds by default.
-const VERSION: u32 = 10;
+/// for 160 rounds by default. 11: trees split distances between any two of their
+/// values.
+const VERSION: u32 = 11;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
