@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::ioc_methods::{MethodResult, Terrain, measure, methods, results_table, teacher_paths};
 use crate::cli::emit;
 use crate::error::{Error, Result};
-use crate::features::{Bank, FeatureSpec, compute, gaussian_blur};
+use crate::features::{Bank, FeatureSpec, compute, gaussian_blur, gradient};
 use crate::grid::{GeoRef, Grid, Layer, Map};
 use crate::io::geotiff::read_geotiff;
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
@@ -39,6 +39,11 @@ pub enum Teacher {
     /// the 90th percentile, as a planner's near-lethal cells are. A learner that flattens
     /// the contrast sends plans across them.
     Obstacle,
+    /// Steepness, as a ground robot pays for it: the gradient magnitude of the
+    /// brightness (of the elevation, on a DEM) per metre, free up to its median and
+    /// rising as the square of its rank between median and 90th percentile to 9 times
+    /// the cheapest. The bank holds slope for DEMs but no gradient of imagery.
+    Slope,
 }
 
 /// What the learners are given to learn from.
@@ -298,6 +303,18 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                 )
             })
             .collect(),
+        Teacher::Slope => {
+            let mut steepness = vec![0.0; z.len()];
+            let spacing = map.geo.cell_metres_by_row();
+            gradient(&z, w, h, &spacing, false, &mut steepness);
+            let (s50, s90) = (quantile(&steepness, 0.5), quantile(&steepness, 0.9));
+            let span = (s90 - s50).max(f32::EPSILON);
+            steepness
+                .iter()
+                .zip(&z)
+                .map(|(&s, &v)| data(v, 1.0 + 8.0 * ((s - s50) / span).clamp(0.0, 1.0).powi(2)))
+                .collect()
+        }
     }
 }
 
@@ -346,6 +363,7 @@ fn teacher_name(teacher: Teacher) -> &'static str {
         Teacher::Ratio => "ratio",
         Teacher::Margin => "margin",
         Teacher::Obstacle => "obstacle",
+        Teacher::Slope => "slope",
     }
 }
 
@@ -429,6 +447,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             Teacher::Ratio,
             Teacher::Margin,
             Teacher::Obstacle,
+            Teacher::Slope,
         ]
     } else {
         args.teachers.clone()
@@ -539,6 +558,23 @@ mod tests {
         // Equal counts: the smaller class.
         assert_eq!(most_common([7.0, 3.0, 3.0, 7.0].into_iter()), 3.0);
         assert!(most_common(std::iter::empty()).is_nan());
+    }
+
+    #[test]
+    fn the_slope_teacher_is_free_on_flat_ground_and_dearest_where_steepest() {
+        // Flat for half the strip, then ever steeper: the flat half costs 1, the cost
+        // rises along the ramp and tops out at 9 from its 90th percentile of steepness.
+        let mut map = strip(100, 1);
+        for (i, v) in map.layers[0].values.iter_mut().enumerate() {
+            *v = (i.saturating_sub(50) as f32).powi(2);
+        }
+        map.layers[0].values[0] = f32::NAN;
+        let cost = teacher_cost(&map, Teacher::Slope);
+        assert_eq!(cost[0], 12.0);
+        assert!(cost[1..49].iter().all(|&c| c == 1.0), "{cost:?}");
+        assert!(cost[50..99].windows(2).all(|w| w[0] <= w[1]), "{cost:?}");
+        assert_eq!(cost[98], 9.0);
+        assert!(cost[70] > 1.0 && cost[70] < 9.0, "{}", cost[70]);
     }
 
     #[test]

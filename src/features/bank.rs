@@ -12,10 +12,12 @@ use crate::grid::Map;
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Bank {
-    /// Overhead imagery: per band multi-scale blurs, local spread (texture), relief,
-    /// contrast with the neighbourhood at the blurs' scales, quantile indicators and the distance to the brightest decile; normalised
-    /// differences of every pair of bands and the brightness (with its quantile
-    /// indicators and the distance to its brightest decile), when there are several.
+    /// Overhead imagery: per band multi-scale blurs, gradient (edges), local spread
+    /// (texture), relief, contrast with the neighbourhood at the blurs' scales,
+    /// quantile indicators and the distance to the brightest decile; normalised
+    /// differences of every pair of bands and the brightness (with its gradient, its
+    /// quantile indicators and the distance to its brightest decile), when there are
+    /// several.
     Imagery,
     /// Elevation: slope and aspect in degrees, roughness at several scales, relief
     /// (cell minus its neighbourhood: hollows and ridges) at several scales, curvature
@@ -76,6 +78,9 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             sigmas: Vec::new(),
             cells: IMAGERY_CELLS.to_vec(),
         });
+        ops.push(Op::Gradient {
+            layer: layer.clone(),
+        });
         ops.push(Op::Roughness {
             layer: layer.clone(),
             windows: vec![3, 9],
@@ -114,6 +119,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             quantiles: QUANTILES.to_vec(),
             distance_above: Some(BRIGHTEST),
             distance_below: None,
+            gradient: true,
         });
     }
     ops
@@ -196,7 +202,8 @@ fn elevation_and_imagery(layer: &str) -> Vec<Op> {
             || matches!(op, Op::Relief { cells, .. } if cells.len() == 3)
     }));
     ops.retain(|op| {
-        !matches!(op, Op::Roughness { windows, .. } if windows.len() == 2)
+        !matches!(op, Op::Gradient { .. })
+            && !matches!(op, Op::Roughness { windows, .. } if windows.len() == 2)
             && !matches!(op, Op::Relief { cells, .. } if cells.len() == 1)
     });
     ops
@@ -298,6 +305,7 @@ mod tests {
             "band1/robust",
             "band2/blur_3c",
             "band3/roughness_9c",
+            "band2/gradient",
             "band1/relief_4c",
             "band1/contrast_1c",
             "band3/contrast_8c",
@@ -306,6 +314,7 @@ mod tests {
             "nd(band1,band3)",
             "nd(band2,band3)",
             "brightness",
+            "brightness/gradient",
             "brightness/above_q25",
             "brightness/distance_to_above_q90_m",
             "bias",
@@ -335,6 +344,8 @@ mod tests {
         }
         let unique: std::collections::BTreeSet<_> = one.iter().collect();
         assert_eq!(unique.len(), one.len(), "no feature twice");
+        // Slope is the band's gradient in degrees: not both.
+        assert!(!one.iter().any(|x| x.ends_with("/gradient")), "{one:?}");
         // A map's only band gets the same whether or not its name says elevation, and
         // so does an elevation band beside imagery.
         let dem = names(&map(&["DEM (m)"]), Bank::Auto);

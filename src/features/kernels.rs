@@ -190,7 +190,9 @@ pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out:
 }
 
 /// Derivative along one axis the way numpy.gradient takes it: central differences
-/// inside, one-sided at the two ends; `before` and `after` are the neighbours.
+/// inside, one-sided at the two ends; `before` and `after` are the neighbours. A
+/// neighbour without data (NaN) is an end too, so that a DEM's voids do not read as
+/// cliffs; a cell without data gets 0.
 #[inline(always)]
 fn difference(
     before: f32,
@@ -200,6 +202,11 @@ fn difference(
     at_end: bool,
     spacing: f64,
 ) -> f64 {
+    if here.is_nan() {
+        return 0.0;
+    }
+    // A neighbour without data is an edge: the difference is one-sided there.
+    let (at_start, at_end) = (at_start || before.is_nan(), at_end || after.is_nan());
     let (b, h, a) = (f64::from(before), f64::from(here), f64::from(after));
     match (at_start, at_end) {
         (true, true) => 0.0,
@@ -496,6 +503,21 @@ mod tests {
         );
         laplacian(&input, w, h, &[[0.5; 2]], &mut out);
         assert!(out[w + 2].abs() < 1e-6, "a plane has no curvature inside");
+    }
+
+    #[test]
+    fn derivatives_step_around_cells_without_data() {
+        // One row 1, 2, void, 4, 6 on 1 m cells: the void's neighbours take one-sided
+        // differences away from it, and the void itself is flat; no cliff to a fill.
+        let input = [1.0, 2.0, f32::NAN, 4.0, 6.0];
+        let mut out = [0.0; 5];
+        gradient(&input, 5, 1, &[[1.0; 2]], false, &mut out);
+        assert_eq!(out, [1.0, 1.0, 0.0, 2.0, 2.0]);
+        // A cell between two voids has nothing to differ from.
+        let island = [f32::NAN, 3.0, f32::NAN];
+        let mut out = [9.0; 3];
+        gradient(&island, 3, 1, &[[1.0; 2]], false, &mut out);
+        assert_eq!(out, [0.0; 3]);
     }
 
     #[test]

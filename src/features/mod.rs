@@ -98,6 +98,10 @@ pub enum Op {
         distance_above: Option<f64>,
         #[serde(default)]
         distance_below: Option<f64>,
+        /// Also the mean's gradient magnitude per metre (`brightness/gradient`): edges
+        /// in every band at once, which no band's own gradient states.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        gradient: bool,
     },
     /// The layer minus its Gaussian blur at each σ in cells: above (ridges, bright
     /// spots) or below (hollows, dark spots) its neighbourhood.
@@ -497,6 +501,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 quantiles,
                 distance_above,
                 distance_below,
+                gradient,
             } => {
                 if layers.is_empty() {
                     return Err("brightness: name at least one layer".into());
@@ -515,14 +520,23 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                     (Side::Above, *distance_above),
                     (Side::Below, *distance_below),
                 ];
-                if quantiles.is_empty() && distances.iter().all(|(_, q)| q.is_none()) {
+                if quantiles.is_empty() && distances.iter().all(|(_, q)| q.is_none()) && !*gradient
+                {
                     continue;
                 }
                 // The mean (NaN where a layer has no data) as an input of its own,
-                // after the map's layers, for the indicators and the distance.
+                // after the map's layers, for the gradient, indicators and distances.
                 let source = map.layers.len() + derived.len();
                 derived.push(mean_of(map, &indices));
                 let values = &derived[derived.len() - 1];
+                if *gradient {
+                    push(
+                        "brightness/gradient".into(),
+                        Plane::Gradient(source, false),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
                 for &q in quantiles.iter().chain(distance_above).chain(distance_below) {
                     if !(0.0..=1.0).contains(&q) {
                         return Err(format!("brightness: quantile {q} is not within 0 to 1"));
@@ -764,6 +778,13 @@ pub fn compute_with_nodata(
             .find(|(j, _)| *j == i)
             .map_or(&map.layers[i].values, |(_, v)| v)
     };
+    // Derivatives read the layers with their gaps, which they step around.
+    let unfilled = |i: usize| -> &[f32] {
+        match i.checked_sub(map.layers.len()) {
+            Some(k) => &derived[k],
+            None => &map.layers[i].values,
+        }
+    };
     let mut data = vec![0.0f32; n * names.len()];
     // Everything but products, in parallel, each plane written in place.
     data.par_chunks_mut(n)
@@ -777,7 +798,7 @@ pub fn compute_with_nodata(
             }
             Plane::Normalize(i) => robust_normalize(input(i), out),
             Plane::Blur(i, sigma_cells) => gaussian_blur(input(i), w, h, sigma_cells, out),
-            Plane::Gradient(i, degrees) => gradient(input(i), w, h, &by_row, degrees, out),
+            Plane::Gradient(i, degrees) => gradient(unfilled(i), w, h, &by_row, degrees, out),
             Plane::Roughness(i, window) => local_std(input(i), w, h, window, out),
             Plane::Laplacian(i) => laplacian(input(i), w, h, &by_row, out),
             Plane::Equals(i, c) => {
@@ -828,7 +849,7 @@ pub fn compute_with_nodata(
                     .collect();
                 gaussian_blur(&indicator, w, h, sigma_cells, out);
             }
-            Plane::Aspect(i) => aspect(input(i), w, h, &by_row, out),
+            Plane::Aspect(i) => aspect(unfilled(i), w, h, &by_row, out),
             Plane::Bias => out.fill(1.0),
             Plane::Product(..) => {}
         });
@@ -1086,6 +1107,7 @@ mod tests {
             quantiles: vec![0.5],
             distance_above,
             distance_below,
+            gradient: false,
         };
         let both = op(Some(0.5), Some(1.0));
         let stack = compute(&map(), &spec(Some(vec![]), vec![both])).unwrap();
@@ -1114,9 +1136,32 @@ mod tests {
             quantiles: vec![],
             distance_above: None,
             distance_below: Some(1.5),
+            gradient: false,
         };
         let err = compute(&map(), &spec(Some(vec![]), vec![bad])).unwrap_err();
         assert!(err.contains("quantile 1.5"), "{err}");
+    }
+
+    #[test]
+    fn brightness_gradient_is_the_means_slope_stepping_around_gaps() {
+        // Brightness [2, 3] on 1 m cells: one-sided differences give 1 per metre at
+        // both cells.
+        let op = Op::Brightness {
+            layers: vec!["a".into(), "b".into()],
+            quantiles: vec![],
+            distance_above: None,
+            distance_below: None,
+            gradient: true,
+        };
+        let stack = compute(&map(), &spec(Some(vec![]), vec![op.clone()])).unwrap();
+        assert_eq!(stack.names, ["brightness", "brightness/gradient", "bias"]);
+        assert_eq!(stack.plane(1), [1.0, 1.0]);
+        // Without data in a layer at one cell, neither cell has a neighbour to differ
+        // from: no cliff to the fill value.
+        let mut m = map();
+        m.layers[1].values[1] = f32::NAN;
+        let stack = compute(&m, &spec(Some(vec![]), vec![op])).unwrap();
+        assert_eq!(stack.plane(1), [0.0, 0.0]);
     }
 
     #[test]
@@ -1183,6 +1228,7 @@ mod tests {
                 quantiles: Vec::new(),
                 distance_above: None,
                 distance_below: None,
+                gradient: false,
             }
         );
         assert_eq!(
@@ -1192,6 +1238,7 @@ mod tests {
                 quantiles: vec![0.9],
                 distance_above: Some(0.9),
                 distance_below: None,
+                gradient: false,
             }
         );
     }

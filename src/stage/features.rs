@@ -15,8 +15,9 @@ pub const KIND: &str = "features";
 /// 2: every map gets the no-data indicators of any map in the dataset. 3: slope,
 /// aspect and curvature with each row's cell size in geographic frames. 4: the banks'
 /// brightness indicators, distances and contrasts, and both banks for elevation
-/// layers under `auto`.
-const VERSION: u32 = 4;
+/// layers under `auto`. 5: the imagery bank's gradients (every band's and the
+/// brightness's); derivatives step around cells with no data.
+const VERSION: u32 = 5;
 
 fn default_bias() -> bool {
     true
