@@ -44,6 +44,10 @@ pub enum Teacher {
     /// rising as the square of its rank between median and 90th percentile to 9 times
     /// the cheapest. The bank holds slope for DEMs but no gradient of imagery.
     Slope,
+    /// A shore: 7 times the cheapest within 3 cells of the darkest decile (water,
+    /// shadow; the lowest ground on a DEM), the mirror of `margin`, and cheap
+    /// everywhere else.
+    Shore,
 }
 
 /// What the learners are given to learn from.
@@ -226,6 +230,14 @@ fn brightness(map: &Map) -> Vec<f32> {
         .collect()
 }
 
+/// Distance in cells to the nearest cell of `z` where `target` holds.
+fn cells_to(z: &[f32], target: impl Fn(f32) -> bool, w: usize, h: usize) -> Vec<f32> {
+    let mask: Vec<bool> = z.iter().map(|&v| target(v)).collect();
+    let mut distance = vec![0.0f32; z.len()];
+    crate::features::distance_transform(&mask, w, h, [1.0; 2], 1e9, &mut distance);
+    distance
+}
+
 /// The teacher's cost per cell: ≥ 1 on data cells, 12 on cells without data.
 fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
     let (w, h) = (map.geo.width as usize, map.geo.height as usize);
@@ -281,9 +293,7 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                 .collect()
         }
         Teacher::Margin => {
-            let bright: Vec<bool> = z.iter().map(|&v| v > q90).collect();
-            let mut distance = vec![0.0f32; z.len()];
-            crate::features::distance_transform(&bright, w, h, [1.0; 2], 1e9, &mut distance);
+            let distance = cells_to(&z, |v| v > q90, w, h);
             z.iter()
                 .zip(&distance)
                 .map(|(&v, &d)| {
@@ -313,6 +323,14 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                 .iter()
                 .zip(&z)
                 .map(|(&s, &v)| data(v, 1.0 + 8.0 * ((s - s50) / span).clamp(0.0, 1.0).powi(2)))
+                .collect()
+        }
+        Teacher::Shore => {
+            let q10 = quantile(&z, 0.1);
+            let distance = cells_to(&z, |v| v < q10, w, h);
+            z.iter()
+                .zip(&distance)
+                .map(|(&v, &d)| data(v, 1.0 + 6.0 * f32::from(d <= 3.0)))
                 .collect()
         }
     }
@@ -364,6 +382,7 @@ fn teacher_name(teacher: Teacher) -> &'static str {
         Teacher::Margin => "margin",
         Teacher::Obstacle => "obstacle",
         Teacher::Slope => "slope",
+        Teacher::Shore => "shore",
     }
 }
 
@@ -448,6 +467,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             Teacher::Margin,
             Teacher::Obstacle,
             Teacher::Slope,
+            Teacher::Shore,
         ]
     } else {
         args.teachers.clone()
@@ -590,5 +610,19 @@ mod tests {
         assert_eq!(cost[99], 43.0);
         let obstacles = cost.iter().filter(|&&c| c == 43.0).count();
         assert!((9..=11).contains(&obstacles), "{obstacles} obstacle cells");
+    }
+
+    #[test]
+    fn the_shore_teacher_is_dear_within_three_cells_of_the_darkest_decile() {
+        // Brightness 0..100 along a strip: the darkest decile is its first ten cells,
+        // so cells up to three beyond it cost 7 and the rest 1.
+        let map = strip(100, 1);
+        let cost = teacher_cost(&map, Teacher::Shore);
+        let dark = (0..100)
+            .filter(|&i| map.layers[0].values[i] < quantile(&map.layers[0].values, 0.1))
+            .count();
+        assert!((9..=11).contains(&dark), "{dark} dark cells");
+        assert!(cost[..dark + 3].iter().all(|&c| c == 7.0), "{cost:?}");
+        assert!(cost[dark + 3..].iter().all(|&c| c == 1.0), "{cost:?}");
     }
 }

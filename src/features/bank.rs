@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::Op;
+use super::{Op, Side};
 use crate::grid::Map;
 
 /// Which bank (`imitate features --bank`, or `bank:` in a spec).
@@ -14,10 +14,10 @@ use crate::grid::Map;
 pub enum Bank {
     /// Overhead imagery: per band multi-scale blurs, gradient (edges), local spread
     /// (texture), relief, contrast with the neighbourhood at the blurs' scales,
-    /// quantile indicators and the distance to the brightest decile; normalised
-    /// differences of every pair of bands and the brightness (with its gradient, its
-    /// quantile indicators and the distance to its brightest decile), when there are
-    /// several.
+    /// quantile indicators and the distances to the brightest and the darkest decile;
+    /// normalised differences of every pair of bands and the brightness (with its
+    /// gradient, its quantile indicators and the distances to its brightest and
+    /// darkest decile), when there are several.
     Imagery,
     /// Elevation: slope and aspect in degrees, roughness at several scales, relief
     /// (cell minus its neighbourhood: hollows and ridges) at several scales, curvature
@@ -57,10 +57,12 @@ fn is_elevation_name(name: &str) -> bool {
 const MAX_PAIRED_BANDS: usize = 8;
 
 /// The quantiles of each band (and of the brightness) the imagery bank marks, and the
-/// one whose brighter cells it measures distances to. (Distances to the darkest decile
-/// too were measured and not kept: BENCHMARKS.md.)
+/// ones whose brighter and darker cells it measures distances to: margins around
+/// roofs, sand or peaks, and shores of water, shadow or valleys (a cost that the
+/// bank's per-cell features cannot state; BENCHMARKS.md, "A shore teacher").
 const QUANTILES: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 0.9];
 const BRIGHTEST: f64 = 0.9;
+const DARKEST: f64 = 0.1;
 
 /// The scales (σ in cells) of each band's blurs, and of its contrast with its
 /// neighbourhood.
@@ -98,9 +100,15 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             quantiles: QUANTILES.to_vec(),
         });
         ops.push(Op::QuantileDistance {
-            layer,
+            layer: layer.clone(),
             q: BRIGHTEST,
-            side: Default::default(),
+            side: Side::Above,
+            max: None,
+        });
+        ops.push(Op::QuantileDistance {
+            layer,
+            q: DARKEST,
+            side: Side::Below,
             max: None,
         });
     }
@@ -118,7 +126,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             layers: layers.iter().map(|l| l.to_string()).collect(),
             quantiles: QUANTILES.to_vec(),
             distance_above: Some(BRIGHTEST),
-            distance_below: None,
+            distance_below: Some(DARKEST),
             gradient: true,
         });
     }
@@ -311,12 +319,14 @@ mod tests {
             "band3/contrast_8c",
             "band2/above_q90",
             "band3/distance_to_above_q90_m",
+            "band1/distance_to_below_q10_m",
             "nd(band1,band3)",
             "nd(band2,band3)",
             "brightness",
             "brightness/gradient",
             "brightness/above_q25",
             "brightness/distance_to_above_q90_m",
+            "brightness/distance_to_below_q10_m",
             "bias",
         ] {
             assert!(n.iter().any(|x| x == expected), "{expected} in {n:?}");
@@ -339,6 +349,7 @@ mod tests {
             "band1/blur_8c",
             "band1/contrast_3c",
             "band1/above_q10",
+            "band1/distance_to_below_q10_m",
         ] {
             assert!(one.iter().any(|x| x == expected), "{expected} in {one:?}");
         }
