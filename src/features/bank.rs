@@ -64,6 +64,12 @@ const QUANTILES: [f64; 5] = [0.1, 0.25, 0.5, 0.75, 0.9];
 const BRIGHTEST: f64 = 0.9;
 const DARKEST: f64 = 0.1;
 
+/// Where the bank's distances stop growing, in cells. Near a region, a distance says
+/// "on its margin"; far from it, only where on the map a cell lies, a code that
+/// boosted trees fit to the training paths and that misleads on held-out ones
+/// (BENCHMARKS.md, "Distances capped at 8 cells").
+const DISTANCE_CAP_CELLS: f64 = 8.0;
+
 /// The scales (σ in cells) of each band's blurs, and of its contrast with its
 /// neighbourhood.
 const IMAGERY_CELLS: [f64; 3] = [1.0, 3.0, 8.0];
@@ -104,12 +110,14 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             q: BRIGHTEST,
             side: Side::Above,
             max: None,
+            max_cells: Some(DISTANCE_CAP_CELLS),
         });
         ops.push(Op::QuantileDistance {
             layer,
             q: DARKEST,
             side: Side::Below,
             max: None,
+            max_cells: Some(DISTANCE_CAP_CELLS),
         });
     }
     let paired = &layers[..layers.len().min(MAX_PAIRED_BANDS)];
@@ -127,6 +135,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             quantiles: QUANTILES.to_vec(),
             distance_above: Some(BRIGHTEST),
             distance_below: Some(DARKEST),
+            distance_max_cells: Some(DISTANCE_CAP_CELLS),
             gradient: true,
         });
     }
@@ -401,6 +410,36 @@ mod tests {
         assert!(matches!(op, Op::Classes { .. }), "{op:?}");
         // Once a spec has it, no hint.
         assert!(Bank::Auto.class_layer_hints(&maps, &[op]).is_empty());
+    }
+
+    #[test]
+    fn bank_distances_stop_at_eight_cells() {
+        // One bright cell in a corner of a 24 × 20 map of 10 m cells: the far corner
+        // lies 300 m from it, but the bank's distances say no more than 80 m.
+        let mut m = map(&["band1", "band2"]);
+        for layer in &mut m.layers {
+            layer.values.fill(1.0);
+            layer.values[0] = 5.0;
+        }
+        let spec = FeatureSpec {
+            layers: None,
+            ops: Vec::new(),
+            bias: false,
+            nodata_fill: 0.0,
+            bank: Some(Bank::Imagery),
+        };
+        let stack = compute(&m, &spec).unwrap();
+        for name in [
+            "band1/distance_to_above_q90_m",
+            "brightness/distance_to_above_q90_m",
+        ] {
+            let k = stack.names.iter().position(|n| n == name).unwrap();
+            let plane = stack.plane(k);
+            assert_eq!(plane[0], 0.0, "{name}");
+            assert_eq!(plane[1], 10.0, "{name}");
+            let far = plane.iter().copied().fold(0.0f32, f32::max);
+            assert_eq!(far, 10.0 * DISTANCE_CAP_CELLS as f32, "{name}");
+        }
     }
 
     #[test]

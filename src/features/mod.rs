@@ -67,7 +67,8 @@ pub enum Op {
     /// An indicator per class value.
     OneHot { layer: String, classes: Vec<f32> },
     /// Euclidean distance (metres) to the nearest cell equal to `class`, above `above`
-    /// or below `below`; capped at `max` (default: the map's diagonal).
+    /// or below `below`; capped at `max` metres and at `max_cells` cells (of the
+    /// longer side), by default at the map's diagonal.
     Distance {
         layer: String,
         #[serde(default)]
@@ -78,6 +79,8 @@ pub enum Op {
         below: Option<f32>,
         #[serde(default)]
         max: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_cells: Option<f64>,
     },
     /// An indicator per threshold: 1 where the layer is above it.
     Threshold { layer: String, above: Vec<f32> },
@@ -89,7 +92,9 @@ pub enum Op {
     /// The mean of the layers; and, as for one layer, an indicator per quantile of it
     /// on this map and the distances (metres) to the nearest cell above quantile
     /// `distance_above` (the brightest parts of multi-band imagery: roofs, sand, snow)
-    /// and below quantile `distance_below` (the darkest: water, shadow, dense forest).
+    /// and below quantile `distance_below` (the darkest: water, shadow, dense forest),
+    /// capped at `distance_max_cells` cells (of the longer side; by default at the
+    /// map's diagonal).
     Brightness {
         layers: Vec<String>,
         #[serde(default)]
@@ -98,6 +103,8 @@ pub enum Op {
         distance_above: Option<f64>,
         #[serde(default)]
         distance_below: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        distance_max_cells: Option<f64>,
         /// Also the mean's gradient magnitude per metre (`brightness/gradient`): edges
         /// in every band at once, which no band's own gradient states.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
@@ -116,8 +123,8 @@ pub enum Op {
     /// An indicator per quantile of the layer's values on this map: 1 where above it.
     Quantile { layer: String, quantiles: Vec<f64> },
     /// Euclidean distance (metres) to the nearest cell above (or, with `side: below`,
-    /// below) the layer's quantile `q` on this map, capped at `max` (default: the
-    /// map's diagonal).
+    /// below) the layer's quantile `q` on this map, capped at `max` metres and at
+    /// `max_cells` cells (of the longer side), by default at the map's diagonal.
     QuantileDistance {
         layer: String,
         q: f64,
@@ -125,6 +132,8 @@ pub enum Op {
         side: Side,
         #[serde(default)]
         max: Option<f64>,
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        max_cells: Option<f64>,
     },
     /// A class layer (land cover): per class, an indicator, its share of the
     /// neighbourhood at each σ in `shares` (cells: a Gaussian over the indicator), and
@@ -322,6 +331,17 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
     let [metres_x, metres_y] = map.geo.cell_metres();
     let diagonal_metres =
         (f64::from(map.geo.width) * metres_x).hypot(f64::from(map.geo.height) * metres_y);
+    // A distance's cap in metres: the tightest of `max` metres, `max_cells` cells of
+    // the longer side and the map's diagonal.
+    let distance_cap = |what: &str, max: Option<f64>, max_cells: Option<f64>| {
+        for (field, v) in [("max", max), ("max_cells", max_cells)] {
+            if let Some(v) = v.filter(|v| !(v.is_finite() && *v > 0.0)) {
+                return Err(format!("{what}: `{field}` {v} is not a positive length"));
+            }
+        }
+        let cells = max_cells.map_or(f64::INFINITY, |k| k * metres_x.max(metres_y));
+        Ok(diagonal_metres.min(max.unwrap_or(f64::INFINITY)).min(cells))
+    };
     for op in bank_ops.iter().chain(&spec.ops) {
         match op {
             Op::Normalize { layer: l } => {
@@ -437,6 +457,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 above,
                 below,
                 max,
+                max_cells,
             } => {
                 let i = layer(l, &mut used)?;
                 let (target, label) = match (class, above, below) {
@@ -455,7 +476,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                         ));
                     }
                 };
-                let cap = max.unwrap_or(diagonal_metres);
+                let cap = distance_cap(&format!("distance on '{l}'"), *max, *max_cells)?;
                 push(
                     format!("{l}/distance_to_{label}_m"),
                     Plane::Distance(i, target, cap),
@@ -501,11 +522,13 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 quantiles,
                 distance_above,
                 distance_below,
+                distance_max_cells,
                 gradient,
             } => {
                 if layers.is_empty() {
                     return Err("brightness: name at least one layer".into());
                 }
+                let cap = distance_cap("brightness", None, *distance_max_cells)?;
                 let indices = layers
                     .iter()
                     .map(|l| layer(l, &mut used))
@@ -558,11 +581,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                             side_name(side),
                             quantile_name(q)
                         ),
-                        Plane::Distance(
-                            source,
-                            Target::beyond(side, quantile_of(values, q)),
-                            diagonal_metres,
-                        ),
+                        Plane::Distance(source, Target::beyond(side, quantile_of(values, q)), cap),
                         &mut names,
                         &mut planes,
                     )?;
@@ -657,8 +676,10 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 q,
                 side,
                 max,
+                max_cells,
             } => {
                 let i = layer(l, &mut used)?;
+                let cap = distance_cap(&format!("distance of '{l}'"), *max, *max_cells)?;
                 if !(0.0..=1.0).contains(q) {
                     return Err(format!(
                         "distance of '{l}': quantile {q} is not within 0 to 1"
@@ -671,7 +692,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                         side_name(*side),
                         quantile_name(*q)
                     ),
-                    Plane::Distance(i, Target::beyond(*side, t), max.unwrap_or(diagonal_metres)),
+                    Plane::Distance(i, Target::beyond(*side, t), cap),
                     &mut names,
                     &mut planes,
                 )?;
@@ -944,6 +965,7 @@ mod tests {
                 above: None,
                 below: None,
                 max: None,
+                max_cells: None,
             },
             Op::Distance {
                 layer: "a".into(),
@@ -951,6 +973,7 @@ mod tests {
                 above: None,
                 below: Some(1.5),
                 max: None,
+                max_cells: None,
             },
             Op::Product {
                 a: "a".into(),
@@ -981,6 +1004,7 @@ mod tests {
             above: Some(1.0),
             below: Some(1.0),
             max: None,
+            max_cells: None,
         };
         let err = compute(&map(), &spec(None, vec![two])).unwrap_err();
         assert!(err.contains("exactly one"), "{err}");
@@ -1083,6 +1107,7 @@ mod tests {
             q,
             side,
             max: None,
+            max_cells: None,
         };
         let ops = vec![op(0.0, Side::Above), op(1.0, Side::Below)];
         let stack = compute(&map(), &spec(Some(vec![]), ops)).unwrap();
@@ -1099,6 +1124,68 @@ mod tests {
     }
 
     #[test]
+    fn distances_stop_at_the_tightest_of_their_caps() {
+        // One row of 12 cells, 2 m wide and 1 m tall; the target is the first cell.
+        let mut m = map();
+        m.geo.width = 12;
+        m.geo.resolution = 2.0;
+        m.geo.resolution_y = Some(1.0);
+        m.layers = vec![Layer {
+            name: "a".into(),
+            values: (0..12).map(|x| x as f32).collect(),
+        }];
+        let distance = |max, max_cells| Op::Distance {
+            layer: "a".into(),
+            class: None,
+            above: None,
+            below: Some(0.5),
+            max,
+            max_cells,
+        };
+        // The quantile 0.1 is 1: the first cell is below it.
+        let quantile = |max, max_cells| Op::QuantileDistance {
+            layer: "a".into(),
+            q: 0.1,
+            side: Side::Below,
+            max,
+            max_cells,
+        };
+        let brightness = |distance_max_cells| Op::Brightness {
+            layers: vec!["a".into()],
+            quantiles: vec![],
+            distance_above: None,
+            distance_below: Some(0.1),
+            distance_max_cells,
+            gradient: false,
+        };
+        let ramp = |cap: f32| -> Vec<f32> { (0..12).map(|x| (2.0 * x as f32).min(cap)).collect() };
+        // Uncapped, the distance runs to 22 m; 3 cells of the longer (2 m) side stop
+        // it at 6 m, and the tighter of 3 cells and 5 m at 5 m.
+        for (max, max_cells, cap) in [
+            (None, None, f32::INFINITY),
+            (None, Some(3.0), 6.0),
+            (Some(5.0), Some(3.0), 5.0),
+            (Some(9.0), Some(3.0), 6.0),
+        ] {
+            for op in [distance(max, max_cells), quantile(max, max_cells)] {
+                let stack = compute(&m, &spec(Some(vec![]), vec![op])).unwrap();
+                assert_eq!(stack.plane(0), ramp(cap), "{max:?} {max_cells:?}");
+            }
+        }
+        let stack = compute(&m, &spec(Some(vec![]), vec![brightness(Some(3.0))])).unwrap();
+        assert_eq!(stack.names[1], "brightness/distance_to_below_q10_m");
+        assert_eq!(stack.plane(1), ramp(6.0));
+        for op in [
+            distance(None, Some(0.0)),
+            quantile(Some(-1.0), None),
+            brightness(Some(f64::NAN)),
+        ] {
+            let err = compute(&m, &spec(Some(vec![]), vec![op])).unwrap_err();
+            assert!(err.contains("is not a positive length"), "{err}");
+        }
+    }
+
+    #[test]
     fn brightness_has_quantile_indicators_and_distances_to_its_brightest_and_darkest_cells() {
         // Brightness [2, 3]: its median (index ⌊0.5·1⌋ of the sorted values) is 2, and
         // its quantile 1 is 3.
@@ -1107,6 +1194,7 @@ mod tests {
             quantiles: vec![0.5],
             distance_above,
             distance_below,
+            distance_max_cells: None,
             gradient: false,
         };
         let both = op(Some(0.5), Some(1.0));
@@ -1136,6 +1224,7 @@ mod tests {
             quantiles: vec![],
             distance_above: None,
             distance_below: Some(1.5),
+            distance_max_cells: None,
             gradient: false,
         };
         let err = compute(&map(), &spec(Some(vec![]), vec![bad])).unwrap_err();
@@ -1151,6 +1240,7 @@ mod tests {
             quantiles: vec![],
             distance_above: None,
             distance_below: None,
+            distance_max_cells: None,
             gradient: true,
         };
         let stack = compute(&map(), &spec(Some(vec![]), vec![op.clone()])).unwrap();
@@ -1228,6 +1318,7 @@ mod tests {
                 quantiles: Vec::new(),
                 distance_above: None,
                 distance_below: None,
+                distance_max_cells: None,
                 gradient: false,
             }
         );
@@ -1238,6 +1329,7 @@ mod tests {
                 quantiles: vec![0.9],
                 distance_above: Some(0.9),
                 distance_below: None,
+                distance_max_cells: None,
                 gradient: false,
             }
         );

@@ -17,7 +17,7 @@ pub const KIND: &str = "features";
 /// brightness indicators, distances and contrasts, and both banks for elevation
 /// layers under `auto`. 5: the imagery bank's gradients (every band's and the
 /// brightness's); derivatives step around cells with no data.
-const VERSION: u32 = 6;
+const VERSION: u32 = 7;
 
 fn default_bias() -> bool {
     true
