@@ -48,6 +48,10 @@ pub enum Teacher {
     /// shadow; the lowest ground on a DEM), the mirror of `margin`, and cheap
     /// everywhere else.
     Shore,
+    /// Land cover: every class its own cost between 1 and 9, in no order of the codes
+    /// (a class layer's classes where every band is one, else the brightness's deciles
+    /// as classes), as a planner's cost table per land-cover class is.
+    Classes,
 }
 
 /// What the learners are given to learn from.
@@ -333,7 +337,43 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                 .map(|(&v, &d)| data(v, 1.0 + 6.0 * f32::from(d <= 3.0)))
                 .collect()
         }
+        Teacher::Classes => {
+            let codes = class_codes(map, &z);
+            codes
+                .iter()
+                .zip(&z)
+                .map(|(&k, &v)| {
+                    // The golden ratio's multiples mod 1 spread the classes' costs over
+                    // [1, 9) in an order unrelated to the codes'.
+                    let scrambled = ((k + 1) as f64 * 0.618_033_988_749_895).fract();
+                    data(v, 1.0 + 8.0 * scrambled as f32)
+                })
+                .collect()
+        }
     }
+}
+
+/// Each cell's class index: its rank among the classes of the first layer where every
+/// layer holds classes ([`crate::features::classes_of`]), else the decile of the
+/// brightness `z` it falls in (0 where there is no data).
+fn class_codes(map: &Map, z: &[f32]) -> Vec<usize> {
+    let all_classes = map
+        .layers
+        .iter()
+        .all(|l| crate::features::classes_of(&l.values).is_some());
+    if let (true, Some(first)) = (all_classes, map.layers.first())
+        && let Some(classes) = crate::features::classes_of(&first.values)
+    {
+        return first
+            .values
+            .iter()
+            .map(|&v| classes.iter().position(|&c| c == v).unwrap_or(0))
+            .collect();
+    }
+    let edges: Vec<f32> = (1..10).map(|d| quantile(z, f64::from(d) / 10.0)).collect();
+    z.iter()
+        .map(|&v| edges.iter().filter(|&&e| v > e).count())
+        .collect()
 }
 
 /// One raster and teacher: features as `--features` says, seeded teacher paths between
@@ -383,6 +423,7 @@ fn teacher_name(teacher: Teacher) -> &'static str {
         Teacher::Obstacle => "obstacle",
         Teacher::Slope => "slope",
         Teacher::Shore => "shore",
+        Teacher::Classes => "classes",
     }
 }
 
@@ -624,5 +665,34 @@ mod tests {
         assert!((9..=11).contains(&dark), "{dark} dark cells");
         assert!(cost[..dark + 3].iter().all(|&c| c == 7.0), "{cost:?}");
         assert!(cost[dark + 3..].iter().all(|&c| c == 1.0), "{cost:?}");
+    }
+    #[test]
+    fn the_classes_teacher_gives_each_class_one_cost_in_no_order_of_the_codes() {
+        // A class layer of codes 10, 20, 30, 40: each code one cost in [1, 9), the
+        // costs not rising with the codes, and a cell without data 12.
+        let mut map = strip(100, 1);
+        for (i, v) in map.layers[0].values.iter_mut().enumerate() {
+            *v = 10.0 * (1 + i / 25) as f32;
+        }
+        map.layers[0].values[0] = f32::NAN;
+        let cost = teacher_cost(&map, Teacher::Classes);
+        assert_eq!(cost[0], 12.0);
+        let per_class: Vec<f32> = (0..4).map(|k| cost[k * 25 + 1]).collect();
+        for k in 0..4 {
+            assert!(
+                cost[k * 25 + 1..(k + 1) * 25]
+                    .iter()
+                    .all(|&c| c == per_class[k])
+            );
+            assert!((1.0..9.0).contains(&per_class[k]), "{per_class:?}");
+        }
+        assert!(!per_class.windows(2).all(|w| w[0] <= w[1]), "{per_class:?}");
+        assert!(!per_class.windows(2).all(|w| w[0] >= w[1]), "{per_class:?}");
+        // Brightness that is no class layer: its deciles are the classes.
+        let continuous = strip(100, 1);
+        let mut distinct = teacher_cost(&continuous, Teacher::Classes);
+        distinct.sort_by(f32::total_cmp);
+        distinct.dedup();
+        assert_eq!(distinct.len(), 10, "{distinct:?}");
     }
 }
