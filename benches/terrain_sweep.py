@@ -9,7 +9,7 @@ cells of 25.5 m in a user-defined Albers cone, float32, with and without voids),
 GDAL's 1-bit internal mask) and `all_nodata.tif`; and layouts made with rasterio from
 the Landsat scene of `benches/terrain_imagery.py`: 13 bands, one row, 9 × 12 cells, a
 constant, int8, uint32, negative int32, float64 with -9999 voids, mostly NaN, a 6000²
-tiled LZW image, palette classes, infinities, south-up rows, PixelIsPoint, grey with
+tiled LZW image, palette classes, twenty classes coded as NLCD's, infinities, south-up rows, PixelIsPoint, grey with
 alpha, ground control points only, and no georeference at all:
 
     python3 benches/terrain_imagery.py target/imagery
@@ -91,6 +91,11 @@ path = write("palette_classes", classes, "uint8", photometric="palette")
 with rasterio.open(path, "r+") as dst:
     dst.write_colormap(1, {10: (0, 100, 0, 255), 20: (255, 255, 0, 255), 30: (0, 0, 255, 255),
                            40: (128, 128, 128, 255), 50: (255, 0, 0, 255)})
+# Twenty classes coded as NLCD's land-cover codes (11 water … 95 wetland), quantiles of
+# the first band: codes with gaps, more classes than a depth-3 tree has leaves.
+nlcd = np.array([11, 12, 21, 22, 23, 24, 31, 41, 42, 43, 51, 52, 71, 72, 73, 74, 81, 82, 90, 95])
+write("nlcd_codes", nlcd[np.digitize(first, np.quantile(first, np.linspace(0, 1, 21)[1:-1]))],
+      "uint8", compress="deflate")
 small = first[:400, :400]
 infinite = small.copy()
 infinite[50:60, 50:200] = np.inf
