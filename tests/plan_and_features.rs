@@ -558,3 +558,91 @@ fn bench_terrain_measures_the_learners_ceiling_on_the_hidden_cost() {
     let ratio = tree["mean_cost_ratio"].as_f64().unwrap();
     assert!((1.0 - 1e-9..1.02).contains(&ratio), "{tree}");
 }
+
+/// The quickstart maps with a land-cover layer: elevation cut into classes coded as
+/// NLCD's, the last map without the highest class.
+#[test]
+fn a_land_cover_layer_gets_the_same_class_indicators_on_every_map() {
+    use imitate::grid::Layer;
+    use imitate::io::tables::{read_map, write_map};
+    let ws = quickstart_workspace();
+    const CODES: [f32; 5] = [11.0, 21.0, 41.0, 82.0, 90.0];
+    let mut args: Vec<String> = vec!["ingest".into()];
+    for m in 0..4 {
+        let from = ws
+            .path()
+            .join(format!("testdata/world/maps/terrain-00{m}.parquet"));
+        let mut map = read_map(&from).unwrap();
+        let elevation = &map.layer("elevation").unwrap().values;
+        let (lo, hi) = elevation
+            .iter()
+            .fold((f32::MAX, f32::MIN), |(lo, hi), &v| (lo.min(v), hi.max(v)));
+        let classes = if m == 3 { 4 } else { 5 };
+        let values = elevation
+            .iter()
+            .map(|&v| {
+                let k = ((v - lo) / (hi - lo) * classes as f32) as usize;
+                CODES[k.min(classes - 1)]
+            })
+            .collect();
+        map.layers.push(Layer {
+            name: "landcover".into(),
+            values,
+        });
+        let to = ws.path().join(format!("terrain-00{m}.parquet"));
+        write_map(&to, &map).unwrap();
+        args.extend(["--map".into(), to.display().to_string()]);
+    }
+    args.extend(
+        [
+            "--demonstrations",
+            "testdata/world/demonstrations.parquet",
+            "--out",
+            "ds",
+        ]
+        .map(String::from),
+    );
+    let args: Vec<&str> = args.iter().map(String::as_str).collect();
+    let out = imitate(ws.path(), &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = imitate(
+        ws.path(),
+        &[
+            "features",
+            "--dataset",
+            "ds",
+            "--out",
+            "fs",
+            "--bank",
+            "auto",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    // The 0/1 layers still get a hint; the land cover, which the bank now reads per
+    // class, none.
+    assert!(stderr(&out).contains("classes"), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("'landcover'"), "{}", stderr(&out));
+    let features = ws.path().join("fs/features");
+    let mut stacks = 0;
+    for entry in std::fs::read_dir(&features).unwrap() {
+        let path = entry.unwrap().path();
+        let (_, stack, _) = imitate::io::tables::read_features(&path).unwrap();
+        let indicators: Vec<&String> = stack
+            .names
+            .iter()
+            .filter(|n| n.starts_with("landcover/class_"))
+            .collect();
+        let expected: Vec<String> = CODES
+            .iter()
+            .map(|c| format!("landcover/class_{c}"))
+            .collect();
+        assert_eq!(
+            indicators,
+            expected.iter().collect::<Vec<_>>(),
+            "{}",
+            path.display()
+        );
+        stacks += 1;
+    }
+    assert_eq!(stacks, 4);
+}

@@ -8,7 +8,9 @@ use serde::{Deserialize, Serialize};
 use super::{Op, Side};
 use crate::grid::Map;
 
-/// Which bank (`imitate features --bank`, or `bank:` in a spec).
+/// Which bank (`imitate features --bank`, or `bank:` in a spec). Every bank adds an
+/// indicator per class on the dataset's class layers of 4 to 32 integer codes (land
+/// cover).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "snake_case")]
 pub enum Bank {
@@ -174,17 +176,24 @@ fn elevation(layers: &[&str]) -> Vec<Op> {
     ops
 }
 
+/// Class layers (land cover) with at least this many classes get an indicator per
+/// class (`one_hot`): a cost per class in no order of the codes takes the trees many
+/// splits on the codes alone. On three classes the indicators planned worse, on
+/// masks they add nothing (BENCHMARKS.md, "Per-class indicators in the bank").
+pub const MIN_INDICATED_CLASSES: usize = 4;
+
 impl Bank {
     /// The operators this bank computes on `map` (layers with no data at all are left
-    /// out).
-    pub fn ops(self, map: &Map) -> Vec<Op> {
+    /// out), given the class layers of its dataset ([`super::DatasetLayers`]): the
+    /// same names on every map of the dataset.
+    pub fn ops(self, map: &Map, class_layers: &[(String, Vec<f32>)]) -> Vec<Op> {
         let layers: Vec<&str> = map
             .layers
             .iter()
             .filter(|l| l.values.iter().any(|v| !v.is_nan()))
             .map(|l| l.name.as_str())
             .collect();
-        match self {
+        let mut ops = match self {
             Bank::Imagery => imagery(&layers),
             Bank::Elevation => elevation(&layers),
             Bank::Auto => {
@@ -201,8 +210,24 @@ impl Bank {
                 ops.extend(imagery(&others));
                 ops
             }
-        }
+        };
+        ops.extend(
+            indicated(class_layers)
+                .filter(|(name, _)| layers.contains(&name.as_str()))
+                .map(|(name, classes)| Op::OneHot {
+                    layer: name.clone(),
+                    classes: classes.clone(),
+                }),
+        );
+        ops
     }
+}
+
+/// The class layers that get an indicator per class.
+fn indicated(class_layers: &[(String, Vec<f32>)]) -> impl Iterator<Item = &(String, Vec<f32>)> {
+    class_layers
+        .iter()
+        .filter(|(_, classes)| classes.len() >= MIN_INDICATED_CLASSES)
 }
 
 /// Both banks' operators on one layer, the imagery's blurs and quantiles once, with
@@ -227,44 +252,33 @@ fn elevation_and_imagery(layer: &str) -> Vec<Op> {
 }
 
 impl Bank {
-    /// One message per layer of `maps` that looks like classes on every map that has
-    /// it ([`super::classes_of`]: land cover, masks): no bank makes class features
-    /// (measured: BENCHMARKS.md), so it says which operator would, with the classes.
-    /// Layers that `ops` already gives a `classes` operator get none.
-    pub fn class_layer_hints(self, maps: &[Map], ops: &[Op]) -> Vec<String> {
+    /// One message per class layer of a dataset ([`super::DatasetLayers`]: land cover,
+    /// masks) that the bank reads as values only (fewer than
+    /// [`MIN_INDICATED_CLASSES`] classes): it says which operator adds an indicator,
+    /// a share and a distance per class, with the classes. Layers that `ops` already
+    /// gives a `classes` operator get none.
+    pub fn class_layer_hints(self, class_layers: &[(String, Vec<f32>)], ops: &[Op]) -> Vec<String> {
         let covered = |name: &str| {
             ops.iter()
                 .any(|op| matches!(op, Op::Classes { layer, .. } if layer == name))
         };
-        let mut found: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
-        for layer in maps.iter().flat_map(|m| &m.layers) {
-            let entry = found
-                .entry(layer.name.as_str())
-                .or_insert_with(|| Some(Vec::new()));
-            match (entry.as_mut(), super::classes_of(&layer.values)) {
-                (Some(all), Some(classes)) => all.extend(classes),
-                _ => *entry = None,
-            }
-        }
-        found
-            .into_iter()
+        class_layers
+            .iter()
+            .filter(|(_, classes)| classes.len() < MIN_INDICATED_CLASSES)
             .filter(|(name, _)| !covered(name))
-            .filter_map(|(name, classes)| {
-                let mut classes = classes?;
-                classes.sort_by(f32::total_cmp);
-                classes.dedup();
+            .map(|(name, classes)| {
                 let list = classes
                     .iter()
                     .map(super::format_number)
                     .collect::<Vec<_>>()
                     .join(",");
-                Some(format!(
+                format!(
                     "layer '{name}' holds {} integer classes; the bank '{}' reads them as \
                      values. For an indicator, share and distance per class add --op \
                      '{{\"op\":\"classes\",\"layer\":\"{name}\",\"classes\":[{list}],\"shares\":[4]}}'",
                     classes.len(),
                     self.name()
-                ))
+                )
             })
             .collect()
     }
@@ -281,7 +295,7 @@ impl Bank {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::features::{FeatureSpec, compute};
+    use crate::features::{DatasetLayers, FeatureSpec, compute, compute_in_dataset};
     use crate::grid::{GeoRef, Layer};
 
     fn map(layers: &[&str]) -> Map {
@@ -392,8 +406,8 @@ mod tests {
         a.layers[1].values.iter_mut().for_each(|v| *v += 0.5);
         let mut b = a.clone();
         b.layers[0].values[0] = 80.0;
-        let maps = [a, b];
-        let hints = Bank::Auto.class_layer_hints(&maps, &[]);
+        let classes = DatasetLayers::of(&[a, b]).classes;
+        let hints = Bank::Auto.class_layer_hints(&classes, &[]);
         assert_eq!(hints.len(), 1, "{hints:?}");
         assert!(
             hints[0].contains("layer 'landcover' holds 3 integer classes"),
@@ -409,7 +423,110 @@ mod tests {
         let op: Op = serde_json::from_str(json).unwrap();
         assert!(matches!(op, Op::Classes { .. }), "{op:?}");
         // Once a spec has it, no hint.
-        assert!(Bank::Auto.class_layer_hints(&maps, &[op]).is_empty());
+        assert!(Bank::Auto.class_layer_hints(&classes, &[op]).is_empty());
+    }
+
+    /// A map whose first layer holds `classes` in turn, cell by cell, and whose
+    /// second holds fractions.
+    fn class_map(classes: &[f32]) -> Map {
+        let mut m = map(&["landcover", "red"]);
+        m.layers[1].values.iter_mut().for_each(|v| *v += 0.5);
+        m.layers[0]
+            .values
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, v)| *v = classes[i % classes.len()]);
+        m
+    }
+
+    #[test]
+    fn layers_of_many_classes_get_an_indicator_per_class_of_the_whole_dataset() {
+        // Map b lacks class 90: it still gets its (empty) indicator, so both stacks
+        // have the same features.
+        let a = class_map(&[11.0, 21.0, 41.0, 90.0]);
+        let b = class_map(&[11.0, 21.0, 41.0, 82.0]);
+        let dataset = DatasetLayers::of(&[a.clone(), b.clone()]);
+        let spec = FeatureSpec {
+            layers: None,
+            ops: Vec::new(),
+            bias: false,
+            nodata_fill: 0.0,
+            bank: Some(Bank::Auto),
+        };
+        let stack_a = compute_in_dataset(&a, &spec, &dataset).unwrap();
+        let stack_b = compute_in_dataset(&b, &spec, &dataset).unwrap();
+        assert_eq!(stack_a.names, stack_b.names);
+        let indicators: Vec<&str> = stack_b
+            .names
+            .iter()
+            .map(String::as_str)
+            .filter(|n| n.starts_with("landcover/class_"))
+            .collect();
+        assert_eq!(
+            indicators,
+            [
+                "landcover/class_11",
+                "landcover/class_21",
+                "landcover/class_41",
+                "landcover/class_82",
+                "landcover/class_90"
+            ]
+        );
+        let plane = |stack: &crate::features::FeatureStack, name: &str| {
+            let k = stack.names.iter().position(|n| n == name).unwrap();
+            stack.plane(k).to_vec()
+        };
+        assert!(
+            plane(&stack_b, "landcover/class_90")
+                .iter()
+                .all(|&v| v == 0.0)
+        );
+        let class_82 = plane(&stack_b, "landcover/class_82");
+        for (i, v) in class_82.iter().enumerate() {
+            assert_eq!(*v, if i % 4 == 3 { 1.0 } else { 0.0 }, "cell {i}");
+        }
+        // The bank reads these classes itself: no hint.
+        assert!(
+            Bank::Auto
+                .class_layer_hints(&dataset.classes, &[])
+                .is_empty()
+        );
+        // A spec's own class operator on the layer replaces the bank's indicators.
+        let mut own = spec.clone();
+        own.ops.push(Op::Classes {
+            layer: "landcover".into(),
+            classes: vec![11.0, 90.0],
+            shares: vec![4.0],
+        });
+        let stack = compute_in_dataset(&a, &own, &dataset).unwrap();
+        assert!(
+            stack
+                .names
+                .iter()
+                .any(|n| n == "landcover/class_90/share_4c")
+        );
+        assert!(!stack.names.iter().any(|n| n == "landcover/class_21"));
+    }
+
+    #[test]
+    fn layers_of_few_classes_and_mixed_layers_get_no_indicators() {
+        let few = class_map(&[1.0, 2.0, 3.0]);
+        let ops = Bank::Auto.ops(&few, &DatasetLayers::of(std::slice::from_ref(&few)).classes);
+        assert!(
+            !ops.iter().any(|op| matches!(op, Op::OneHot { .. })),
+            "{ops:?}"
+        );
+        // Classes on one map, fractions on another: not a class layer.
+        let a = class_map(&[1.0, 2.0, 3.0, 4.0, 5.0]);
+        let mut b = a.clone();
+        b.layers[0].values[0] = 0.5;
+        let dataset = DatasetLayers::of(&[a.clone(), b]);
+        assert!(dataset.classes.iter().all(|(name, _)| name != "landcover"));
+        let ops = Bank::Auto.ops(&a, &dataset.classes);
+        assert!(
+            !ops.iter().any(|op| matches!(op, Op::OneHot { .. })),
+            "{ops:?}"
+        );
     }
 
     #[test]

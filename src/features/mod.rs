@@ -287,7 +287,7 @@ fn mean_of(map: &Map, layers: &[usize]) -> Vec<f32> {
 }
 
 /// Turns the spec into named planes over the given layers; errors name what is wrong.
-fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layout, String> {
+fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout, String> {
     let mut used: Vec<usize> = Vec::new();
     let layer = |name: &str, used: &mut Vec<usize>| -> Result<usize, String> {
         let i = map.layer_index(name).ok_or_else(|| {
@@ -318,7 +318,20 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
         planes.push(plane);
         Ok(())
     }
-    let bank_ops = spec.bank.map(|b| b.ops(map)).unwrap_or_default();
+    // A layer the spec gives its own class operator keeps that one (the bank's
+    // indicators would repeat its names).
+    let own_classes = |name: &str| {
+        spec.ops.iter().any(|op| {
+            matches!(op, Op::Classes { layer, .. } | Op::OneHot { layer, .. } if layer == name)
+        })
+    };
+    let bank_ops: Vec<Op> = spec
+        .bank
+        .map(|b| b.ops(map, &dataset.classes))
+        .unwrap_or_default()
+        .into_iter()
+        .filter(|op| !matches!(op, Op::OneHot { layer, .. } if own_classes(layer)))
+        .collect();
     let plain = match (&spec.layers, spec.ops.is_empty() && spec.bank.is_none()) {
         (Some(layers), _) => layers.clone(),
         (None, true) => map.layer_names(),
@@ -712,7 +725,7 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
                 map.geo.cell_at(j)
             ));
         }
-        if nodata_layers.contains(&map.layers[i].name) || values.iter().any(|v| v.is_nan()) {
+        if dataset.nodata.contains(&map.layers[i].name) || values.iter().any(|v| v.is_nan()) {
             nodata.push(i);
             push(
                 format!("{}/nodata", map.layers[i].name),
@@ -737,38 +750,70 @@ fn plan(map: &Map, spec: &FeatureSpec, nodata_layers: &[String]) -> Result<Layou
 }
 
 /// Builds the feature stack of one map; the error names what is missing or invalid.
+/// A map on its own is its own dataset ([`DatasetLayers::of`]).
 pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
-    compute_with_nodata(map, spec, &[])
+    compute_in_dataset(map, spec, &DatasetLayers::of(std::slice::from_ref(map)))
 }
 
-/// The layers of `maps` that hold no-data (NaN) cells in any of them: each gets its
-/// `<layer>/nodata` indicator on every map, so that all stacks of a dataset have the
-/// same features.
-pub fn nodata_layers(maps: &[Map]) -> Vec<String> {
-    let mut names: Vec<String> = maps
-        .iter()
-        .flat_map(|m| m.layers.iter())
-        .filter(|l| l.values.iter().any(|v| v.is_nan()))
-        .map(|l| l.name.clone())
-        .collect();
-    names.sort();
-    names.dedup();
-    names
+/// What the features of each map take from every map of its dataset, so that all the
+/// stacks of a dataset have the same features.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct DatasetLayers {
+    /// The layers that hold no-data (NaN) cells in any map: each gets its
+    /// `<layer>/nodata` indicator on every map.
+    pub nodata: Vec<String>,
+    /// The layers that look like classes ([`classes_of`]) on every map that has them,
+    /// by name, with the classes of all those maps in ascending order.
+    pub classes: Vec<(String, Vec<f32>)>,
 }
 
-/// [`compute`], with a `<layer>/nodata` indicator for each of `nodata_layers` the spec
-/// uses, whether or not this map has no-data cells in it.
-pub fn compute_with_nodata(
+impl DatasetLayers {
+    pub fn of(maps: &[Map]) -> Self {
+        let mut nodata: Vec<String> = maps
+            .iter()
+            .flat_map(|m| m.layers.iter())
+            .filter(|l| l.values.iter().any(|v| v.is_nan()))
+            .map(|l| l.name.clone())
+            .collect();
+        nodata.sort();
+        nodata.dedup();
+        let mut classes: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
+        for layer in maps.iter().flat_map(|m| &m.layers) {
+            let entry = classes
+                .entry(layer.name.as_str())
+                .or_insert_with(|| Some(Vec::new()));
+            match (entry.as_mut(), classes_of(&layer.values)) {
+                (Some(all), Some(these)) => all.extend(these),
+                _ => *entry = None,
+            }
+        }
+        let classes = classes
+            .into_iter()
+            .filter_map(|(name, classes)| {
+                let mut classes = classes?;
+                classes.sort_by(f32::total_cmp);
+                classes.dedup();
+                Some((name.to_string(), classes))
+            })
+            .collect();
+        DatasetLayers { nodata, classes }
+    }
+}
+
+/// [`compute`] for one map of a dataset: a `<layer>/nodata` indicator for each of the
+/// dataset's no-data layers the spec uses, whether or not this map has no-data cells
+/// in it, and the bank's class features from the dataset's classes.
+pub fn compute_in_dataset(
     map: &Map,
     spec: &FeatureSpec,
-    nodata_layers: &[String],
+    dataset: &DatasetLayers,
 ) -> Result<FeatureStack, String> {
     let Layout {
         names,
         planes,
         nodata,
         derived,
-    } = plan(map, spec, nodata_layers)?;
+    } = plan(map, spec, dataset)?;
     let (w, h, res) = (
         map.geo.width as usize,
         map.geo.height as usize,

@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
-use crate::features::{Bank, FeatureSpec, Op, compute_with_nodata, nodata_layers};
+use crate::features::{Bank, DatasetLayers, FeatureSpec, Op, compute_in_dataset};
 use crate::io::tables::{read_map, write_features};
 
 pub const KIND: &str = "features";
@@ -16,8 +16,9 @@ pub const KIND: &str = "features";
 /// aspect and curvature with each row's cell size in geographic frames. 4: the banks'
 /// brightness indicators, distances and contrasts, and both banks for elevation
 /// layers under `auto`. 5: the imagery bank's gradients (every band's and the
-/// brightness's); derivatives step around cells with no data.
-const VERSION: u32 = 7;
+/// brightness's); derivatives step around cells with no data. 8: the banks' per-class
+/// indicators on layers of many classes.
+const VERSION: u32 = 8;
 
 fn default_bias() -> bool {
     true
@@ -89,9 +90,9 @@ impl StageParams for FeaturesParams {
             .map(|f| self.dataset.join(&f.path))
             .collect();
         let maps = first_error_in_order(map_files.par_iter().map(|p| read_map(p)).collect())?;
-        let nodata = nodata_layers(&maps);
+        let dataset_layers = DatasetLayers::of(&maps);
         if let Some(bank) = spec.bank {
-            for hint in bank.class_layer_hints(&maps, &spec.ops) {
+            for hint in bank.class_layer_hints(&dataset_layers.classes, &spec.ops) {
                 tracing::warn!("{hint}");
             }
         }
@@ -100,8 +101,8 @@ impl StageParams for FeaturesParams {
             .par_iter()
             .zip(&map_files)
             .map(|(map, path)| {
-                let stack =
-                    compute_with_nodata(map, &spec, &nodata).map_err(|e| Error::input(path, e))?;
+                let stack = compute_in_dataset(map, &spec, &dataset_layers)
+                    .map_err(|e| Error::input(path, e))?;
                 progress.inc(1);
                 Ok((map.name.clone(), stack))
             })
