@@ -277,6 +277,38 @@ fn polar_stereographic_cells_are_measured_on_the_ground() {
 }
 
 #[test]
+fn transverse_mercator_cells_far_outside_their_zone_are_measured_on_the_ground() {
+    let dir = tempfile::tempdir().unwrap();
+    if write_variants(dir.path()).is_none() {
+        return;
+    }
+    // The plane warped into UTM 14N and into a Transverse Mercator grid by its
+    // parameters, 24° east of it (PROJ's scales at the centre: 0.9795 and 0.9791).
+    // Read in nominal metres it would slope atan(tan 12.6° · 0.98) = 12.4°.
+    let truth = 0.05f64.sqrt().atan().to_degrees();
+    for (name, expected) in [
+        ("units--utm-far-plane", 0.9795),
+        ("units--tmerc-far-plane", 0.9791),
+    ] {
+        let map = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+        let scale = map.geo.ground_scale.unwrap();
+        assert_eq!(scale, GroundScale::Uniform(scale.per_axis()[0]));
+        assert!(
+            (scale.per_axis()[0] - expected).abs() < 5e-4,
+            "{name}: {scale:?}"
+        );
+        let slope = median_slope(&map, 4);
+        assert!(
+            (slope - truth).abs() < 0.1,
+            "{name}: {slope} against {truth}"
+        );
+    }
+    // Inside its zone a UTM metre is read as a ground metre, as gdalinfo's cell size.
+    let utm = read_geotiff(&dir.path().join("units--utm-plane.tif"), "m").unwrap();
+    assert_eq!(utm.geo.ground_scale, None);
+}
+
+#[test]
 fn equal_area_and_conic_cells_are_measured_on_the_ground_per_axis() {
     let dir = tempfile::tempdir().unwrap();
     if write_variants(dir.path()).is_none() {

@@ -70,6 +70,9 @@ fn latitude_of_t(t: f64) -> f64 {
     phi
 }
 
+/// How far from 1 a Transverse Mercator's scale is read as 1.
+const TRUE_SCALE_TOLERANCE: f64 = 1e-3;
+
 /// A conformal projection on WGS 84 whose point scale the reader corrects for.
 enum Conformal {
     /// Mercator on the ellipsoid (EPSG:3395).
@@ -89,6 +92,9 @@ enum Conformal {
         rho0: f64,
         false_origin: [f64; 2],
     },
+    /// Transverse Mercator (UTM and the national grids), scaled `k0` on its central
+    /// meridian, which lies at the false easting.
+    TransverseMercator { k0: f64, false_easting: f64 },
 }
 
 enum PolarScale {
@@ -118,6 +124,31 @@ impl Conformal {
             3978 | 3979 => lambert([49.0, 77.0], 1.0, 49.0, [0.0; 2]), // Canada Atlas Lambert
             3347 => lambert([49.0, 77.0], 1.0, 63.390_675, [6.2e6, 3.0e6]), // Statistics Canada
             3112 => lambert([-18.0, -36.0], 1.0, 0.0, [0.0; 2]), // Geoscience Australia
+            _ => return Conformal::transverse_mercator_of(code),
+        })
+    }
+
+    /// The Transverse Mercator grids known by their EPSG code: UTM on WGS 84, ETRS89,
+    /// NAD83 (and its 2011 realisation), NAD27, GDA94 and GDA2020 (MGA), and the
+    /// national grids of Britain, New Zealand, Finland, Sweden, Greece and Germany's
+    /// Gauss–Krüger zones.
+    fn transverse_mercator_of(code: u16) -> Option<Conformal> {
+        let utm = |k0, false_easting| Conformal::TransverseMercator { k0, false_easting };
+        Some(match code {
+            32601..=32660
+            | 32701..=32760
+            | 25828..=25838
+            | 26901..=26923
+            | 6328..=6348
+            | 26701..=26722
+            | 28348..=28358
+            | 7846..=7859
+            | 3067
+            | 3006
+            | 2100 => utm(0.9996, 500_000.0),
+            27700 => utm(0.999_601_271_7, 400_000.0), // British National Grid
+            2193 => utm(0.9996, 1_600_000.0),         // New Zealand TM
+            31466..=31469 => utm(1.0, f64::from(code - 31464) * 1.0e6 + 500_000.0), // DHDN GK
             _ => return None,
         })
     }
@@ -191,6 +222,18 @@ impl Conformal {
                 let phi = latitude_of_t((rho / (A * k)).powf(1.0 / n));
                 A * m(phi) / (rho * n)
             }
+            Conformal::TransverseMercator { k0, false_easting } => {
+                // The sphere's k = k0·cosh(x / (k0·A)): within 1e-4 of PROJ's ellipsoidal
+                // scale 2000 km from the meridian. Within 0.1 % of true scale (UTM
+                // inside its zone) a grid metre is read as a ground metre, as gdalinfo's
+                // cell size is.
+                let k = k0 * ((x - false_easting) / (k0 * A)).cosh();
+                if (k - 1.0).abs() <= TRUE_SCALE_TOLERANCE {
+                    1.0
+                } else {
+                    1.0 / k
+                }
+            }
         }
     }
 }
@@ -200,8 +243,9 @@ impl Conformal {
 /// stereographic: NSIDC's 3413 and 3976, 3995, 3031, UPS; World Mercator, 3395;
 /// Lambert conformal conic: LCC Europe 3034, Canada's 3978 and 3347, Australia's
 /// 3112, Lambert-93), whose scale is one number at a point, and the equal-area ones
-/// (Albers, LAEA), whose scale differs along x and y. UTM and the like, within 0.1 %
-/// of 1, are not here.
+/// (Albers, LAEA), whose scale differs along x and y. Transverse Mercator (UTM and the
+/// national grids) is measured where a raster lies more than 0.1 % from true scale:
+/// far outside its zone.
 pub struct Projection(Kind);
 
 enum Kind {
@@ -221,6 +265,15 @@ impl Projection {
     /// An equal-area projection the GeoKeys define by its parameters.
     pub fn equal_area(projection: EqualArea) -> Projection {
         Projection(Kind::EqualArea(projection))
+    }
+
+    /// A Transverse Mercator projection the GeoKeys define by its parameters: its scale
+    /// on the central meridian and its false easting (metres).
+    pub fn transverse_mercator(k0: f64, false_easting: f64) -> Projection {
+        Projection(Kind::Conformal(Conformal::TransverseMercator {
+            k0,
+            false_easting,
+        }))
     }
 
     /// A Lambert conformal conic projection the GeoKeys define by its parameters:
@@ -304,7 +357,39 @@ mod tests {
         let y60 = A * (75f64.to_radians().tan() * ((1.0 - s60) / (1.0 + s60)).powf(e / 2.0)).ln();
         assert!((scale(3395, 0.0, y60) - m(60.0)).abs() < 1e-12);
         assert!((scale(3395, 0.0, -y60) - m(60.0)).abs() < 1e-12);
-        assert!(Projection::of_epsg(32610).is_none());
+    }
+
+    #[test]
+    fn transverse_mercator_is_measured_far_from_its_meridian() {
+        // PROJ's inverses at x ± 10 m (rasterio.warp.transform), measured as chords on
+        // WGS 84: ground metres per projected metre.
+        let by_code = |code| Projection::of_epsg(code).unwrap();
+        for (projection, x, y, expected) in [
+            // UTM 33N 1000 km and 2000 km east of its meridian, 700 km west of it.
+            (by_code(32633), 1.5e6, 5.0e6, 0.988_219_404_8),
+            (by_code(32633), 2.5e6, 6.0e6, 0.953_210_425_8),
+            (by_code(32633), -2.0e5, 1.0e6, 0.994_362_141_9),
+            // UTM 33S, 400 km east.
+            (by_code(32733), 9.0e5, 8.0e6, 0.998_423_792_1),
+            // NAD83 / UTM 15N, 300 km west: at 0.9993 inside 0.1 % of true scale.
+            (by_code(26915), 2.0e5, 4.5e6, 1.0),
+            // UTM 33N on its meridian (0.9996): read as it is.
+            (by_code(32633), 5.0e5, 5.0e6, 1.0),
+            // A user-defined grid: Germany's zone 4 (k0 = 1) 800 km east of it.
+            (
+                Projection::transverse_mercator(1.0, 4.5e6),
+                5.3e6,
+                5.4e6,
+                0.992_191_657_6,
+            ),
+        ] {
+            let ([sx, sy], skew) = projection.axis_scales(x, y);
+            assert!(
+                (sx - expected).abs() < 1e-4,
+                "{x} {y}: {sx} against {expected}"
+            );
+            assert_eq!((sx, skew), (sy, 0.0));
+        }
     }
 
     #[test]

@@ -240,6 +240,12 @@ warped_plane("units--equal-earth-plane", "EPSG:8857")
 # parameters: at 60° N its metre spans 0.936 ground metres both ways.
 warped_plane("units--lcc-plane",
              "+proj=lcc +lat_1=35 +lat_2=45 +lat_0=40 +lon_0=-123 +datum=WGS84 +units=m")
+# Transverse Mercator 24° east of the plane: UTM zone 14N (EPSG:32614, by its code),
+# whose metre spans 0.9795 ground metres there, and a Gauss–Krüger-like grid on the
+# same meridian by its parameters (k0 = 1, false easting 300 km): 0.9791.
+warped_plane("units--utm-far-plane", "EPSG:32614")
+warped_plane("units--tmerc-far-plane",
+             "+proj=tmerc +lat_0=0 +lon_0=-99 +k=1 +x_0=300000 +y_0=0 +datum=WGS84 +units=m")
 
 # The same plane stored as int16 decimetres above 100 m, with GDAL's scale 0.1 and
 # offset 100 in its metadata: read as metres once scaled.

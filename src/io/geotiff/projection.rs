@@ -30,8 +30,9 @@ const CENTER_LATITUDE: u16 = 3089;
 const CENTER_EASTING: u16 = 3090;
 const CENTER_NORTHING: u16 = 3091;
 const SCALE_AT_NATURAL_ORIGIN: u16 = 3092;
-/// GeoTIFF's codes for the coordinate transformations (CT_LambertConfConic_2SP and
-/// _1SP, CT_LambertAzimEqualArea, CT_AlbersEqualArea).
+/// GeoTIFF's codes for the coordinate transformations (CT_TransverseMercator,
+/// CT_LambertConfConic_2SP and _1SP, CT_LambertAzimEqualArea, CT_AlbersEqualArea).
+const TRANSVERSE_MERCATOR: u16 = 1;
 const LAMBERT_CONFORMAL_2SP: u16 = 8;
 const LAMBERT_CONFORMAL_1SP: u16 = 9;
 const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
@@ -78,6 +79,12 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
         metres(FALSE_NORTHING).unwrap_or(0.0),
     ];
     let equal_area = match transformation {
+        TRANSVERSE_MERCATOR => {
+            return Some(Projection::transverse_mercator(
+                double(SCALE_AT_NATURAL_ORIGIN).unwrap_or(1.0),
+                false_easting_northing[0],
+            ));
+        }
         LAMBERT_CONFORMAL_2SP => {
             return Some(Projection::lambert_conformal(
                 [
@@ -220,6 +227,10 @@ pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: 
         // Outside the projection's domain: leave the frame's metres as they are.
         return;
     }
+    if [sx, sy] == [1.0, 1.0] {
+        // True to scale (UTM inside its zone): the frame's metres are ground metres.
+        return;
+    }
     geo.ground_scale = Some(if (sx - sy).abs() <= 1e-12 * sx {
         GroundScale::Uniform(sx)
     } else {
@@ -346,8 +357,20 @@ mod tests {
             (ours.0[0] - epsg.0[0]).abs() < 1e-10 && (ours.0[1] - epsg.0[1]).abs() < 1e-10,
             "{ours:?} against {epsg:?}"
         );
-        // Transverse Mercator (CT 1) is not corrected: within 0.1 % of true scale.
-        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(1);
+        // Transverse Mercator (CT 1) with its false easting in feet: 1000 km east of
+        // its meridian a projected metre spans 0.9882 ground metres.
+        let tm = projection(
+            &[(COORDINATE_TRANSFORMATION, 1)],
+            &[
+                (SCALE_AT_NATURAL_ORIGIN, 0.9996),
+                (FALSE_EASTING, 500_000.0 / feet),
+            ],
+            feet,
+        );
+        let ([sx, _], _) = tm.axis_scales(1.5e6, 0.0);
+        assert!((sx - 0.988_219_404_8).abs() < 1e-4, "{sx}");
+        // An unknown transformation is not measured.
+        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(7);
         let keys = GeoKeys {
             short: &short_key,
             double: &|_| None,
