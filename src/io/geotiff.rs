@@ -796,7 +796,8 @@ mod tests {
             height: 2,
             resolution: 2.5,
             resolution_y: None,
-            origin: [500.0, 1000.0],
+            // On the zone's meridian: a UTM metre there is read as a ground metre.
+            origin: [500_000.0, 1000.0],
             frame: "EPSG:32633".into(),
             degrees: false,
             web_mercator: false,
