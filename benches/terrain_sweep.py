@@ -9,7 +9,7 @@ cells of 25.5 m in a user-defined Albers cone, float32, with and without voids),
 GDAL's 1-bit internal mask) and `all_nodata.tif`; and layouts made with rasterio from
 the Landsat scene of `benches/terrain_imagery.py`: 13 bands, one row, 9 × 12 cells, a
 constant, int8, uint32, negative int32, float64 with -9999 voids, mostly NaN, a 6000²
-tiled LZW image, palette classes, twenty classes coded as NLCD's, infinities, south-up rows, PixelIsPoint, grey with
+tiled LZW image, palette classes, twenty classes coded as NLCD's, 44 classes coded as CORINE's, infinities, south-up rows, PixelIsPoint, grey with
 alpha, ground control points only, and no georeference at all:
 
     python3 benches/terrain_imagery.py target/imagery
@@ -96,6 +96,25 @@ with rasterio.open(path, "r+") as dst:
 nlcd = np.array([11, 12, 21, 22, 23, 24, 31, 41, 42, 43, 51, 52, 71, 72, 73, 74, 81, 82, 90, 95])
 write("nlcd_codes", nlcd[np.digitize(first, np.quantile(first, np.linspace(0, 1, 21)[1:-1]))],
       "uint8", compress="deflate")
+# A land cover of 44 classes as CORINE ships it (codes 1 to 44, a colour table): k-means
+# clusters of the four bands, each cluster a seeded code. The codes are in no order, and
+# more than a layer's values are read as classes by (the colour table declares them).
+pixels = np.log1p(np.maximum(bands, 0)).reshape(len(bands), -1).T
+pixels = (pixels - pixels.mean(0)) / (pixels.std(0) + 1e-9)
+centres = pixels[rng.choice(len(pixels), 44, replace=False)]
+sample = pixels[rng.choice(len(pixels), 20000, replace=False)]
+for _ in range(25):
+    nearest = np.argmin(((sample[:, None] - centres[None]) ** 2).sum(-1), axis=1)
+    for k in range(44):
+        if (nearest == k).any():
+            centres[k] = sample[nearest == k].mean(0)
+nearest = np.concatenate([np.argmin(((chunk[:, None] - centres[None]) ** 2).sum(-1), axis=1)
+                          for chunk in np.array_split(pixels, 64)])
+corine = (rng.permutation(44) + 1)[nearest].reshape(first.shape)
+path = write("corine_codes", corine, "uint8", compress="lzw", photometric="palette")
+with rasterio.open(path, "r+") as dst:
+    dst.write_colormap(1, {i: ((37 * i) % 256, (91 * i) % 256, (53 * i) % 256, 255)
+                           for i in range(256)})
 small = first[:400, :400]
 infinite = small.copy()
 infinite[50:60, 50:200] = np.inf

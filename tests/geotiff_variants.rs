@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data};
 use imitate::features::{Bank, FeatureSpec, Op, compute};
-use imitate::grid::{GroundScale, Map};
+use imitate::grid::{GroundScale, LayerKind, Map};
 use imitate::io::geotiff::{read_geotiff, write_geotiff};
 
 /// Writes the variants into `out` with rasterio (see [`python_script`]).
@@ -531,6 +531,11 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
     // The land-cover palette reads as its class codes, the 1-bit mask as 0 and 1, and
     // the internal mask takes a third of the image and a block away.
     let codes = read("kinds--palette").unwrap();
+    assert_eq!(
+        codes.layers[0].kind,
+        LayerKind::Classes,
+        "the colour table says so"
+    );
     assert!(
         codes.layers[0]
             .values
@@ -539,6 +544,7 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
     );
     let bits = read("kinds--bits1").unwrap();
     assert!(bits.layers[0].values.iter().all(|&v| v == 0.0 || v == 1.0));
+    assert_eq!(bits.layers[0].kind, LayerKind::Values);
     // The 12-bit bands were written as v and 4095 − v (GDAL's reading would agree on
     // a file read as zeros too).
     let twelve = read("kinds--bits12-tiled-deflate").unwrap();

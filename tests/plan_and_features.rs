@@ -585,10 +585,7 @@ fn a_land_cover_layer_gets_the_same_class_indicators_on_every_map() {
                 CODES[k.min(classes - 1)]
             })
             .collect();
-        map.layers.push(Layer {
-            name: "landcover".into(),
-            values,
-        });
+        map.layers.push(Layer::new("landcover", values));
         let to = ws.path().join(format!("terrain-00{m}.parquet"));
         write_map(&to, &map).unwrap();
         args.extend(["--map".into(), to.display().to_string()]);
@@ -645,4 +642,50 @@ fn a_land_cover_layer_gets_the_same_class_indicators_on_every_map() {
         stacks += 1;
     }
     assert_eq!(stacks, 4);
+}
+
+/// A land cover as CORINE ships it, written by rasterio: 44 codes under a colour table.
+/// The colour table declares them classes, so the bank indicates every one, past the 32
+/// codes after which an undeclared integer layer is read as values (the same codes
+/// without the table get none).
+#[test]
+fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
+    use imitate::grid::LayerKind;
+    let dir = tempfile::tempdir().unwrap();
+    let Some(_) = python_script("land_cover.py", &[dir.path()]) else {
+        return;
+    };
+    let indicators = |raster: &str| -> (LayerKind, usize) {
+        let (ds, fs) = (format!("{raster}-ds"), format!("{raster}-fs"));
+        let out = imitate(
+            dir.path(),
+            &[
+                "ingest",
+                "--map",
+                &format!("{raster}.tif"),
+                "--demonstrations",
+                "demonstrations.parquet",
+                "--out",
+                &ds,
+            ],
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let map_path = dir.path().join(format!("{ds}/maps/{raster}.parquet"));
+        let kind = imitate::io::tables::read_map(&map_path).unwrap().layers[0].kind;
+        let out = imitate(
+            dir.path(),
+            &["features", "--dataset", &ds, "--out", &fs, "--bank", "auto"],
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let stack = dir.path().join(format!("{fs}/features/{raster}.parquet"));
+        let (_, stack, _) = imitate::io::tables::read_features(&stack).unwrap();
+        let classes = stack
+            .names
+            .iter()
+            .filter(|n| n.starts_with("band1/class_"))
+            .count();
+        (kind, classes)
+    };
+    assert_eq!(indicators("corine"), (LayerKind::Classes, 44));
+    assert_eq!(indicators("codes"), (LayerKind::Values, 0));
 }

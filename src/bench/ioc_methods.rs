@@ -154,10 +154,7 @@ fn pooled_raster(args: &IocMethodsArgs) -> Result<Map> {
     Ok(Map {
         name: "shade".into(),
         geo,
-        layers: vec![Layer {
-            name: "shade".into(),
-            values: pooled,
-        }],
+        layers: vec![Layer::new("shade", pooled)],
     })
 }
 

@@ -137,7 +137,7 @@ struct TerrainReport {
 
 /// The raster's bands averaged over blocks of `factor` × `factor` cells (NaN cells left
 /// out; a block with no data is NaN), the cells growing by the same factor. Class
-/// layers (land cover, masks: [`crate::features::classes_of`]) take each block's most
+/// layers (land cover, masks: [`Layer::classes`]) take each block's most
 /// common class instead, as GDAL's `mode` resampling does: a mean of class codes is
 /// no class, and a mean of a binary mask is a value the raster never holds.
 fn pooled(map: Map, cells: u32) -> Map {
@@ -156,7 +156,7 @@ fn pooled(map: Map, cells: u32) -> Map {
         .layers
         .iter()
         .map(|layer| {
-            let classes = crate::features::classes_of(&layer.values).is_some();
+            let classes = layer.classes().is_some();
             let values = (0..pw * ph)
                 .map(|i| {
                     let (r, c) = (i / pw, i % pw);
@@ -181,6 +181,7 @@ fn pooled(map: Map, cells: u32) -> Map {
             Layer {
                 name: layer.name.clone(),
                 values,
+                kind: layer.kind,
             }
         })
         .collect();
@@ -354,15 +355,12 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
 }
 
 /// Each cell's class index: its rank among the classes of the first layer where every
-/// layer holds classes ([`crate::features::classes_of`]), else the decile of the
+/// layer holds classes ([`Layer::classes`]), else the decile of the
 /// brightness `z` it falls in (0 where there is no data).
 fn class_codes(map: &Map, z: &[f32]) -> Vec<usize> {
-    let all_classes = map
-        .layers
-        .iter()
-        .all(|l| crate::features::classes_of(&l.values).is_some());
+    let all_classes = map.layers.iter().all(|l| l.classes().is_some());
     if let (true, Some(first)) = (all_classes, map.layers.first())
-        && let Some(classes) = crate::features::classes_of(&first.values)
+        && let Some(classes) = first.classes()
     {
         return first
             .values
@@ -392,10 +390,7 @@ fn terrain(map: &Map, teacher: Teacher, args: &TerrainArgs) -> Result<Terrain> {
         let oracle = Map {
             name: map.name.clone(),
             geo: geo.clone(),
-            layers: vec![Layer {
-                name: "teacher_cost".into(),
-                values: truth.data.clone(),
-            }],
+            layers: vec![Layer::new("teacher_cost", truth.data.clone())],
         };
         compute(&oracle, &spec)
     } else {
@@ -570,10 +565,10 @@ mod tests {
         let geo = GeoRef::square(width, height, 30.0, [0.0, 0.0], "map");
         Map {
             name: "strip".into(),
-            layers: vec![Layer {
-                name: "band1".into(),
-                values: (0..geo.cell_count()).map(|i| i as f32).collect(),
-            }],
+            layers: vec![Layer::new(
+                "band1",
+                (0..geo.cell_count()).map(|i| i as f32).collect(),
+            )],
             geo,
         }
     }
@@ -605,7 +600,7 @@ mod tests {
         values[0] = f32::NAN;
         values[322] = 7.0;
         values[323] = 7.0;
-        assert!(crate::features::classes_of(values).is_some());
+        assert!(crate::grid::classes_of(values).is_some());
         let pooled = pooled(map, 160);
         assert_eq!((pooled.geo.width, pooled.geo.height), (107, 1));
         // Block 0 holds 3, 7, 7, 7, 3 (and nodata): 7; every value is a class.

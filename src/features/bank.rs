@@ -305,11 +305,13 @@ mod tests {
             layers: layers
                 .iter()
                 .enumerate()
-                .map(|(k, name)| Layer {
-                    name: name.to_string(),
-                    values: (0..geo.cell_count())
-                        .map(|i| ((i * (k + 3)) % 17) as f32 + 1.0)
-                        .collect(),
+                .map(|(k, name)| {
+                    Layer::new(
+                        name.to_string(),
+                        (0..geo.cell_count())
+                            .map(|i| ((i * (k + 3)) % 17) as f32 + 1.0)
+                            .collect(),
+                    )
                 })
                 .collect(),
             geo,

@@ -219,27 +219,6 @@ fn side_name(side: Side) -> &'static str {
     }
 }
 
-/// A layer whose data cells hold from 2 to this many distinct integers looks like
-/// classes (land cover, slope classes, masks).
-pub const MAX_CLASSES: usize = 32;
-
-/// The classes of a layer that looks like classes ([`MAX_CLASSES`]), in ascending
-/// order; `None` for any other.
-pub fn classes_of(values: &[f32]) -> Option<Vec<f32>> {
-    let mut classes: Vec<f32> = Vec::new();
-    for &v in values.iter().filter(|v| !v.is_nan()) {
-        if classes.contains(&v) {
-            continue;
-        }
-        if v.fract() != 0.0 || classes.len() == MAX_CLASSES {
-            return None;
-        }
-        classes.push(v);
-    }
-    classes.sort_by(f32::total_cmp);
-    (classes.len() >= 2).then_some(classes)
-}
-
 /// The value below which a share `q` of the layer's data cells lie (index ⌊q(n − 1)⌋
 /// of the sorted non-NaN values; 0 when there are none).
 fn quantile_of(values: &[f32], q: f64) -> f32 {
@@ -762,7 +741,7 @@ pub struct DatasetLayers {
     /// The layers that hold no-data (NaN) cells in any map: each gets its
     /// `<layer>/nodata` indicator on every map.
     pub nodata: Vec<String>,
-    /// The layers that look like classes ([`classes_of`]) on every map that has them,
+    /// The layers that hold classes ([`Layer::classes`]) on every map that has them,
     /// by name, with the classes of all those maps in ascending order.
     pub classes: Vec<(String, Vec<f32>)>,
 }
@@ -782,7 +761,7 @@ impl DatasetLayers {
             let entry = classes
                 .entry(layer.name.as_str())
                 .or_insert_with(|| Some(Vec::new()));
-            match (entry.as_mut(), classes_of(&layer.values)) {
+            match (entry.as_mut(), layer.classes()) {
                 (Some(all), Some(these)) => all.extend(these),
                 _ => *entry = None,
             }
@@ -961,14 +940,8 @@ mod tests {
                 tiff_crs: None,
             },
             layers: vec![
-                Layer {
-                    name: "a".into(),
-                    values: vec![1.0, 2.0],
-                },
-                Layer {
-                    name: "b".into(),
-                    values: vec![3.0, 4.0],
-                },
+                Layer::new("a", vec![1.0, 2.0]),
+                Layer::new("b", vec![3.0, 4.0]),
             ],
         }
     }
@@ -1099,17 +1072,6 @@ mod tests {
     }
 
     #[test]
-    fn layers_of_few_integers_look_like_classes() {
-        assert_eq!(classes_of(&[7.0, 3.0, f32::NAN, 3.0]), Some(vec![3.0, 7.0]));
-        // Not classes: fractions, a constant, more than MAX_CLASSES values.
-        assert_eq!(classes_of(&[0.5, 1.0]), None);
-        assert_eq!(classes_of(&[4.0, 4.0, f32::NAN]), None);
-        let many: Vec<f32> = (0..=MAX_CLASSES).map(|i| i as f32).collect();
-        assert_eq!(classes_of(&many), None);
-        assert_eq!(classes_of(&many[..MAX_CLASSES]).unwrap().len(), MAX_CLASSES);
-    }
-
-    #[test]
     fn contrast_is_the_normalised_difference_with_the_blur_whatever_the_scale() {
         let op = |cells| Op::Contrast {
             layer: "a".into(),
@@ -1175,10 +1137,7 @@ mod tests {
         m.geo.width = 12;
         m.geo.resolution = 2.0;
         m.geo.resolution_y = Some(1.0);
-        m.layers = vec![Layer {
-            name: "a".into(),
-            values: (0..12).map(|x| x as f32).collect(),
-        }];
+        m.layers = vec![Layer::new("a", (0..12).map(|x| x as f32).collect())];
         let distance = |max, max_cells| Op::Distance {
             layer: "a".into(),
             class: None,

@@ -7,6 +7,81 @@ pub struct Layer {
     pub name: String,
     /// One value per cell, row by row.
     pub values: Vec<f32>,
+    pub kind: LayerKind,
+}
+
+/// What a layer's values mean, where the file says so.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum LayerKind {
+    /// Measurements, or nothing said: whether the values look like classes is read
+    /// from the values themselves ([`classes_of`]).
+    #[default]
+    Values,
+    /// Class codes, as the file declares them: a palette (colour-mapped) GeoTIFF,
+    /// the way land-cover products (NLCD, CORINE, ESA WorldCover) are shipped.
+    Classes,
+}
+
+/// A layer whose data cells hold from 2 to this many distinct integers looks like
+/// classes (land cover, slope classes, masks). Past it, integer layers are far more
+/// often quantised measurements (8-bit imagery, DEMs in whole metres).
+pub const MAX_CLASSES: usize = 32;
+
+/// The most classes a layer declared as classes ([`LayerKind::Classes`]) is read with:
+/// CORINE's 44 and ESA CCI's 37 fit; past it, one indicator per class would make a
+/// feature stack of hundreds of planes, so the layer is read as values.
+pub const MAX_DECLARED_CLASSES: usize = 64;
+
+impl Layer {
+    /// A layer of values ([`LayerKind::Values`]).
+    pub fn new(name: impl Into<String>, values: Vec<f32>) -> Self {
+        Layer {
+            name: name.into(),
+            values,
+            kind: LayerKind::Values,
+        }
+    }
+
+    /// The same layer, declared as class codes.
+    pub fn declared_classes(self) -> Self {
+        Layer {
+            kind: LayerKind::Classes,
+            ..self
+        }
+    }
+
+    /// The layer's classes in ascending order, if it holds classes: declared ones of 2
+    /// to [`MAX_DECLARED_CLASSES`] integer codes, otherwise as [`classes_of`] finds.
+    pub fn classes(&self) -> Option<Vec<f32>> {
+        let most = match self.kind {
+            LayerKind::Values => MAX_CLASSES,
+            LayerKind::Classes => MAX_DECLARED_CLASSES,
+        };
+        integer_classes(&self.values, most)
+    }
+}
+
+/// The classes of a layer whose values look like classes: from 2 to [`MAX_CLASSES`]
+/// distinct integers, in ascending order; `None` for any other.
+pub fn classes_of(values: &[f32]) -> Option<Vec<f32>> {
+    integer_classes(values, MAX_CLASSES)
+}
+
+/// The distinct non-NaN values in ascending order, if they are from 2 to `most`
+/// integers.
+fn integer_classes(values: &[f32], most: usize) -> Option<Vec<f32>> {
+    let mut classes: Vec<f32> = Vec::new();
+    for &v in values.iter().filter(|v| !v.is_nan()) {
+        if classes.contains(&v) {
+            continue;
+        }
+        if v.fract() != 0.0 || classes.len() == most {
+            return None;
+        }
+        classes.push(v);
+    }
+    classes.sort_by(f32::total_cmp);
+    (classes.len() >= 2).then_some(classes)
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -64,11 +139,29 @@ mod tests {
     use super::*;
 
     #[test]
+    fn layers_of_few_integers_look_like_classes() {
+        assert_eq!(classes_of(&[7.0, 3.0, f32::NAN, 3.0]), Some(vec![3.0, 7.0]));
+        // Not classes: fractions, a constant, more than MAX_CLASSES values.
+        assert_eq!(classes_of(&[0.5, 1.0]), None);
+        assert_eq!(classes_of(&[4.0, 4.0, f32::NAN]), None);
+        let many: Vec<f32> = (0..=MAX_CLASSES).map(|i| i as f32).collect();
+        assert_eq!(classes_of(&many), None);
+        assert_eq!(classes_of(&many[..MAX_CLASSES]).unwrap().len(), MAX_CLASSES);
+        // Declared classes may hold up to MAX_DECLARED_CLASSES codes, never fractions.
+        let layer = |n: usize| Layer::new("c", (0..n).map(|i| i as f32).collect());
+        assert_eq!(layer(44).classes(), None);
+        assert_eq!(layer(44).declared_classes().classes().unwrap().len(), 44);
+        assert_eq!(
+            layer(MAX_DECLARED_CLASSES + 1).declared_classes().classes(),
+            None
+        );
+        let fractions = Layer::new("f", vec![0.5, 1.0]).declared_classes();
+        assert_eq!(fractions.classes(), None);
+    }
+
+    #[test]
     fn numbered_bands_name_layers_that_carry_descriptions() {
-        let layer = |name: &str| Layer {
-            name: name.into(),
-            values: vec![0.0],
-        };
+        let layer = |name: &str| Layer::new(name, vec![0.0]);
         let map = Map {
             name: "m".into(),
             geo: GeoRef::square(1, 1, 1.0, [0.0, 0.0], "map"),

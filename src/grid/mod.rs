@@ -18,7 +18,9 @@ pub use demo::{Demonstration, Pose};
 pub use equal_area::{Ellipsoid, EqualArea};
 pub use geodesy::{Projection, metres_per_degree};
 
-pub use map::{Layer, Map, check_map_name};
+pub use map::{
+    Layer, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, check_map_name, classes_of,
+};
 pub use path::{CellPath, PathError, is_connected8, rasterize};
 pub use points::locate;
 

@@ -124,7 +124,10 @@ const MAX_DECODED_BYTES: usize = 16 << 30;
 /// Reads the GeoTIFF at `path` as the map `name`.
 pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let mut bytes = read_input(path)?;
-    if grey::relabel_grey(&mut bytes) {
+    // A palette image's values are the codes of its colours' classes (land cover):
+    // its layers are declared classes.
+    let palette = grey::relabel_grey(&mut bytes);
+    if palette {
         tracing::debug!(
             "{}: a palette image: its layers hold the class codes",
             path.display()
@@ -436,9 +439,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                     .filter(|v| v.is_infinite())
                     .for_each(|v| *v = f32::NAN);
             }
-            Layer {
-                name: layer_names[band].clone(),
-                values: layer,
+            let layer = Layer::new(layer_names[band].clone(), layer);
+            if palette {
+                layer.declared_classes()
+            } else {
+                layer
             }
         })
         .collect();

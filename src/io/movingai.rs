@@ -86,14 +86,13 @@ pub fn read_map_layer(path: &Path, name: &str) -> Result<Map> {
     let grid = read_map(path)?;
     Ok(Map {
         name: name.to_string(),
-        layers: vec![Layer {
-            name: "blocked".into(),
-            values: grid
-                .data
+        layers: vec![Layer::new(
+            "blocked",
+            grid.data
                 .iter()
                 .map(|&c| if c.is_finite() { 0.0 } else { 1.0 })
                 .collect(),
-        }],
+        )],
         geo: grid.geo,
     })
 }

@@ -132,10 +132,7 @@ pub fn read_nav2_map(path: &Path, name: &str) -> Result<Map> {
     Ok(Map {
         name: name.to_string(),
         geo,
-        layers: vec![Layer {
-            name: "occupancy".into(),
-            values,
-        }],
+        layers: vec![Layer::new("occupancy", values)],
     })
 }
 

@@ -23,7 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fs::write_atomic;
 use crate::error::{Error, Result, guard_decoder, read_input};
-use crate::grid::{CellPath, Demonstration, FeatureStack, GeoRef, Grid, Layer, Map};
+use crate::grid::{CellPath, Demonstration, FeatureStack, GeoRef, Grid, Layer, LayerKind, Map};
 
 pub const SCHEMA_KEY: &str = "imitate.schema";
 const RASTER_KEY: &str = "imitate.raster";
@@ -510,13 +510,29 @@ fn read_raster(path: &Path, table: Table) -> Result<Raster> {
     })
 }
 
+/// The names of a map's layers declared as classes ([`LayerKind::Classes`]), a JSON
+/// list; absent where there are none.
+const CLASS_LAYERS_KEY: &str = "imitate.class_layers";
+
 pub fn write_map(path: &Path, map: &Map) -> Result<()> {
     let columns = map
         .layers
         .iter()
         .map(|l| (l.name.clone(), l.values.clone()))
         .collect();
-    write_raster(path, Table::MAP, &map.name, &map.geo, columns, Vec::new())
+    let class_layers: Vec<&str> = map
+        .layers
+        .iter()
+        .filter(|l| l.kind == LayerKind::Classes)
+        .map(|l| l.name.as_str())
+        .collect();
+    let metadata = if class_layers.is_empty() {
+        Vec::new()
+    } else {
+        let names = serde_json::to_string(&class_layers).expect("names serialise");
+        vec![(CLASS_LAYERS_KEY.to_string(), names)]
+    };
+    write_raster(path, Table::MAP, &map.name, &map.geo, columns, metadata)
 }
 
 pub fn read_map(path: &Path) -> Result<Map> {
@@ -524,10 +540,22 @@ pub fn read_map(path: &Path) -> Result<Map> {
     if raster.columns.is_empty() {
         return Err(Error::input(path, "map has no layers"));
     }
+    let class_layers: Vec<String> = match raster.metadata.get(CLASS_LAYERS_KEY) {
+        None => Vec::new(),
+        Some(json) => serde_json::from_str(json)
+            .map_err(|e| Error::input(path, format!("'{CLASS_LAYERS_KEY}' metadata: {e}")))?,
+    };
     let layers = raster
         .columns
         .into_iter()
-        .map(|(name, values)| Layer { name, values })
+        .map(|(name, values)| {
+            let layer = Layer::new(name, values);
+            if class_layers.contains(&layer.name) {
+                layer.declared_classes()
+            } else {
+                layer
+            }
+        })
         .collect();
     Ok(Map {
         name: raster.name,
@@ -780,14 +808,10 @@ mod tests {
             name: "m".into(),
             geo: geo(),
             layers: vec![
-                Layer {
-                    name: "elevation".into(),
-                    values: vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0],
-                },
-                Layer {
-                    name: "road".into(),
-                    values: vec![0.0, 1.0, 0.0, 1.0, 0.0, 1.0],
-                },
+                Layer::new("elevation", vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]),
+                Layer::new("road", vec![0.0, 1.0, 0.0, 1.0, 0.0, 1.0]),
+                Layer::new("land_cover", vec![11.0, 21.0, 41.0, 11.0, 90.0, 95.0])
+                    .declared_classes(),
             ],
         };
         let p = dir.path().join("map.parquet");

@@ -122,14 +122,8 @@ pub fn export_mcap(
             name: map.to_string(),
             geo: costs.geo.clone(),
             layers: vec![
-                crate::grid::Layer {
-                    name: "cost".into(),
-                    values: valued(&costs.data),
-                },
-                crate::grid::Layer {
-                    name: "log_cost".into(),
-                    values: valued(&log_costs),
-                },
+                crate::grid::Layer::new("cost", valued(&costs.data)),
+                crate::grid::Layer::new("log_cost", valued(&log_costs)),
             ],
         };
         log.write(grid_map_channel, 0, &ros2::grid_map(0, &layers))?;

@@ -142,10 +142,7 @@ fn terrain(name: &str, config: &WorldConfig, rng: &mut ChaCha8Rng) -> Map {
             vegetation[i] = 0.0;
         }
     }
-    let layer = |name: &str, values: Vec<f32>| Layer {
-        name: name.into(),
-        values,
-    };
+    let layer = |name: &str, values: Vec<f32>| Layer::new(name, values);
     Map {
         name: name.into(),
         geo,

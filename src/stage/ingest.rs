@@ -23,8 +23,9 @@ use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, 
 
 pub const KIND: &str = "ingest";
 /// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
-/// metres per axis, more compressions, band units and descriptions).
-const VERSION: u32 = 3;
+/// metres per axis, more compressions, band units and descriptions). 4: palette
+/// GeoTIFFs' layers stored as declared classes.
+const VERSION: u32 = 4;
 
 fn default_split() -> Split {
     Split::File

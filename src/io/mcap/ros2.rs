@@ -595,10 +595,7 @@ fn occupancy_map(message: &Value, name: &str) -> Result<Map, String> {
     Ok(Map {
         name: name.to_string(),
         geo,
-        layers: vec![Layer {
-            name: "occupancy".into(),
-            values,
-        }],
+        layers: vec![Layer::new("occupancy", values)],
     })
 }
 
@@ -701,10 +698,7 @@ fn grid_map_map(message: &Value, name: &str) -> Result<Map, String> {
                 data[bi * cols + bj]
             };
         }
-        layers.push(Layer {
-            name: layer_name.to_string(),
-            values,
-        });
+        layers.push(Layer::new(layer_name.to_string(), values));
     }
     Ok(Map {
         name: name.to_string(),
@@ -793,10 +787,7 @@ fn foxglove_grid_map(message: &Value, name: &str) -> Result<Map, String> {
                 read(&data[at..at + width_bytes])
             })
             .collect();
-        layers.push(Layer {
-            name: layer_name.to_string(),
-            values,
-        });
+        layers.push(Layer::new(layer_name.to_string(), values));
     }
     Ok(Map {
         name: name.to_string(),
@@ -865,10 +856,7 @@ mod tests {
             ground_scale: None,
             tiff_crs: None,
         };
-        let layer = |k: f32| Layer {
-            name: format!("l{k}"),
-            values: (0..15).map(|i| i as f32 * k).collect(),
-        };
+        let layer = |k: f32| Layer::new(format!("l{k}"), (0..15).map(|i| i as f32 * k).collect());
         Map {
             name: "m".into(),
             geo,
