@@ -646,8 +646,8 @@ fn a_land_cover_layer_gets_the_same_class_indicators_on_every_map() {
 
 /// A land cover as CORINE ships it, written by rasterio: 44 codes under a colour table.
 /// The colour table declares them classes, so the bank indicates every one, past the 32
-/// codes after which an undeclared integer layer is read as values (the same codes
-/// without the table get none).
+/// codes after which an undeclared integer layer is read as values. The same codes
+/// without the table get none, and a hint with the operator that reads them as classes.
 #[test]
 fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
     use imitate::grid::LayerKind;
@@ -655,8 +655,8 @@ fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
     let Some(_) = python_script("land_cover.py", &[dir.path()]) else {
         return;
     };
-    let indicators = |raster: &str| -> (LayerKind, usize) {
-        let (ds, fs) = (format!("{raster}-ds"), format!("{raster}-fs"));
+    let ingest = |raster: &str| -> LayerKind {
+        let ds = format!("{raster}-ds");
         let out = imitate(
             dir.path(),
             &[
@@ -671,21 +671,46 @@ fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
         );
         assert!(out.status.success(), "{}", stderr(&out));
         let map_path = dir.path().join(format!("{ds}/maps/{raster}.parquet"));
-        let kind = imitate::io::tables::read_map(&map_path).unwrap().layers[0].kind;
-        let out = imitate(
-            dir.path(),
-            &["features", "--dataset", &ds, "--out", &fs, "--bank", "auto"],
-        );
-        assert!(out.status.success(), "{}", stderr(&out));
-        let stack = dir.path().join(format!("{fs}/features/{raster}.parquet"));
+        imitate::io::tables::read_map(&map_path).unwrap().layers[0].kind
+    };
+    // The features of `raster`'s dataset with the bank and `ops`: how many class
+    // indicators, and what the run said.
+    let features = |raster: &str, out: &str, ops: &[&str]| -> (usize, String) {
+        let ds = format!("{raster}-ds");
+        let mut args = vec!["features", "--dataset", &ds, "--out", out, "--bank", "auto"];
+        for op in ops {
+            args.extend(["--op", op]);
+        }
+        let run = imitate(dir.path(), &args);
+        assert!(run.status.success(), "{}", stderr(&run));
+        let stack = dir.path().join(format!("{out}/features/{raster}.parquet"));
         let (_, stack, _) = imitate::io::tables::read_features(&stack).unwrap();
         let classes = stack
             .names
             .iter()
             .filter(|n| n.starts_with("band1/class_"))
             .count();
-        (kind, classes)
+        (classes, stderr(&run))
     };
-    assert_eq!(indicators("corine"), (LayerKind::Classes, 44));
-    assert_eq!(indicators("codes"), (LayerKind::Values, 0));
+    assert_eq!(ingest("corine"), LayerKind::Classes);
+    let (classes, said) = features("corine", "corine-fs", &[]);
+    assert_eq!(classes, 44);
+    assert!(!said.contains("integer codes"), "{said}");
+
+    assert_eq!(ingest("codes"), LayerKind::Values);
+    let (classes, said) = features("codes", "codes-fs", &[]);
+    assert_eq!(classes, 0);
+    assert!(
+        said.contains("layer 'band1' holds 44 integer codes"),
+        "{said}"
+    );
+    // The hint's operator, as the user would paste it, gives the indicators.
+    let op = said
+        .split_once("--op '")
+        .and_then(|(_, rest)| rest.split_once('\''))
+        .map(|(op, _)| op)
+        .unwrap_or_else(|| panic!("{said}"));
+    let (classes, said) = features("codes", "codes-hinted-fs", &[op]);
+    assert_eq!(classes, 44);
+    assert!(!said.contains("integer codes"), "{said}");
 }

@@ -252,35 +252,59 @@ fn elevation_and_imagery(layer: &str) -> Vec<Op> {
 }
 
 impl Bank {
-    /// One message per class layer of a dataset ([`super::DatasetLayers`]: land cover,
-    /// masks) that the bank reads as values only (fewer than
-    /// [`MIN_INDICATED_CLASSES`] classes): it says which operator adds an indicator,
-    /// a share and a distance per class, with the classes. Layers that `ops` already
-    /// gives a `classes` operator get none.
-    pub fn class_layer_hints(self, class_layers: &[(String, Vec<f32>)], ops: &[Op]) -> Vec<String> {
+    /// One message per layer of a dataset ([`super::DatasetLayers`]) that the bank
+    /// reads as values though it may hold classes, with the operator that reads it
+    /// as classes, its classes written out: class layers of fewer than
+    /// [`MIN_INDICATED_CLASSES`] classes (masks, slope classes), and layers of more
+    /// than [`crate::grid::MAX_CLASSES`] integer codes that no map declares classes (a
+    /// land cover that lost its colour table). Layers that `ops` already reads as
+    /// classes get none.
+    pub fn class_layer_hints(self, dataset: &super::DatasetLayers, ops: &[Op]) -> Vec<String> {
         let covered = |name: &str| {
-            ops.iter()
-                .any(|op| matches!(op, Op::Classes { layer, .. } if layer == name))
+            ops.iter().any(|op| {
+                matches!(op, Op::Classes { layer, .. } | Op::OneHot { layer, .. } if layer == name)
+            })
         };
-        class_layers
+        let list = |classes: &[f32]| {
+            classes
+                .iter()
+                .map(super::format_number)
+                .collect::<Vec<_>>()
+                .join(",")
+        };
+        let few = dataset
+            .classes
             .iter()
             .filter(|(_, classes)| classes.len() < MIN_INDICATED_CLASSES)
             .filter(|(name, _)| !covered(name))
             .map(|(name, classes)| {
-                let list = classes
-                    .iter()
-                    .map(super::format_number)
-                    .collect::<Vec<_>>()
-                    .join(",");
                 format!(
                     "layer '{name}' holds {} integer classes; the bank '{}' reads them as \
                      values. For an indicator, share and distance per class add --op \
-                     '{{\"op\":\"classes\",\"layer\":\"{name}\",\"classes\":[{list}],\"shares\":[4]}}'",
+                     '{{\"op\":\"classes\",\"layer\":\"{name}\",\"classes\":[{}],\"shares\":[4]}}'",
                     classes.len(),
-                    self.name()
+                    self.name(),
+                    list(classes)
                 )
-            })
-            .collect()
+            });
+        let many = dataset
+            .undeclared_codes
+            .iter()
+            .filter(|(name, _)| !covered(name))
+            .map(|(name, codes)| {
+                format!(
+                    "layer '{name}' holds {} integer codes; the bank '{}' reads them as \
+                     values (a layer is read as classes past {} codes only where its \
+                     file declares them, as a palette GeoTIFF's colour table does). If \
+                     they are classes (a land cover), add --op \
+                     '{{\"op\":\"one_hot\",\"layer\":\"{name}\",\"classes\":[{}]}}'",
+                    codes.len(),
+                    self.name(),
+                    crate::grid::MAX_CLASSES,
+                    list(codes)
+                )
+            });
+        few.chain(many).collect()
     }
 
     fn name(self) -> &'static str {
@@ -408,8 +432,8 @@ mod tests {
         a.layers[1].values.iter_mut().for_each(|v| *v += 0.5);
         let mut b = a.clone();
         b.layers[0].values[0] = 80.0;
-        let classes = DatasetLayers::of(&[a, b]).classes;
-        let hints = Bank::Auto.class_layer_hints(&classes, &[]);
+        let dataset = DatasetLayers::of(&[a, b]);
+        let hints = Bank::Auto.class_layer_hints(&dataset, &[]);
         assert_eq!(hints.len(), 1, "{hints:?}");
         assert!(
             hints[0].contains("layer 'landcover' holds 3 integer classes"),
@@ -425,7 +449,35 @@ mod tests {
         let op: Op = serde_json::from_str(json).unwrap();
         assert!(matches!(op, Op::Classes { .. }), "{op:?}");
         // Once a spec has it, no hint.
-        assert!(Bank::Auto.class_layer_hints(&classes, &[op]).is_empty());
+        assert!(Bank::Auto.class_layer_hints(&dataset, &[op]).is_empty());
+    }
+
+    #[test]
+    fn many_codes_are_classes_where_declared_and_a_hint_where_not() {
+        let codes: Vec<f32> = (1..=40).map(|c| c as f32).collect();
+        let undeclared = class_map(&codes);
+        let dataset = DatasetLayers::of(std::slice::from_ref(&undeclared));
+        assert!(dataset.classes.iter().all(|(name, _)| name != "landcover"));
+        assert_eq!(
+            dataset.undeclared_codes,
+            vec![("landcover".to_string(), codes.clone())]
+        );
+        let hints = Bank::Auto.class_layer_hints(&dataset, &[]);
+        assert_eq!(hints.len(), 1, "{hints:?}");
+        assert!(hints[0].contains("holds 40 integer codes"), "{}", hints[0]);
+        let mut declared = undeclared.clone();
+        declared.layers[0] = declared.layers[0].clone().declared_classes();
+        let dataset = DatasetLayers::of(std::slice::from_ref(&declared));
+        assert!(dataset.undeclared_codes.is_empty());
+        assert!(Bank::Auto.class_layer_hints(&dataset, &[]).is_empty());
+        let ops = Bank::Auto.ops(&declared, &dataset.classes);
+        assert!(ops.iter().any(
+            |op| matches!(op, Op::OneHot { layer, classes } if layer == "landcover" && *classes == codes)
+        ));
+        // One map declaring the layer is not enough: every map must say the same.
+        let dataset = DatasetLayers::of(&[declared, undeclared]);
+        assert!(dataset.classes.iter().all(|(name, _)| name != "landcover"));
+        assert!(dataset.undeclared_codes.is_empty());
     }
 
     /// A map whose first layer holds `classes` in turn, cell by cell, and whose
@@ -488,11 +540,7 @@ mod tests {
             assert_eq!(*v, if i % 4 == 3 { 1.0 } else { 0.0 }, "cell {i}");
         }
         // The bank reads these classes itself: no hint.
-        assert!(
-            Bank::Auto
-                .class_layer_hints(&dataset.classes, &[])
-                .is_empty()
-        );
+        assert!(Bank::Auto.class_layer_hints(&dataset, &[]).is_empty());
         // A spec's own class operator on the layer replaces the bank's indicators.
         let mut own = spec.clone();
         own.ops.push(Op::Classes {

@@ -16,7 +16,9 @@ pub use kernels::{
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::grid::{FeatureStack, Map};
+use crate::grid::{
+    FeatureStack, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, distinct_integers,
+};
 
 /// What to compute; stored with every stack it made.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -744,6 +746,10 @@ pub struct DatasetLayers {
     /// The layers that hold classes ([`Layer::classes`]) on every map that has them,
     /// by name, with the classes of all those maps in ascending order.
     pub classes: Vec<(String, Vec<f32>)>,
+    /// Layers of more than [`MAX_CLASSES`] and at most [`MAX_DECLARED_CLASSES`]
+    /// integer codes that no map declares classes, with their codes: read as values,
+    /// though they may be a land cover whose colour table was lost (a hint says so).
+    pub undeclared_codes: Vec<(String, Vec<f32>)>,
 }
 
 impl DatasetLayers {
@@ -766,16 +772,38 @@ impl DatasetLayers {
                 _ => *entry = None,
             }
         }
-        let classes = classes
+        let mut codes: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
+        for layer in maps.iter().flat_map(|m| &m.layers) {
+            let entry = codes
+                .entry(layer.name.as_str())
+                .or_insert_with(|| Some(Vec::new()));
+            let these = (layer.kind == LayerKind::Values)
+                .then(|| distinct_integers(&layer.values, MAX_DECLARED_CLASSES))
+                .flatten();
+            match (entry.as_mut(), these) {
+                (Some(all), Some(these)) => all.extend(these),
+                _ => *entry = None,
+            }
+        }
+        let sorted = |map: std::collections::BTreeMap<&str, Option<Vec<f32>>>| {
+            map.into_iter()
+                .filter_map(|(name, values)| {
+                    let mut values = values?;
+                    values.sort_by(f32::total_cmp);
+                    values.dedup();
+                    Some((name.to_string(), values))
+                })
+                .collect::<Vec<_>>()
+        };
+        let undeclared_codes = sorted(codes)
             .into_iter()
-            .filter_map(|(name, classes)| {
-                let mut classes = classes?;
-                classes.sort_by(f32::total_cmp);
-                classes.dedup();
-                Some((name.to_string(), classes))
-            })
+            .filter(|(_, codes)| (MAX_CLASSES + 1..=MAX_DECLARED_CLASSES).contains(&codes.len()))
             .collect();
-        DatasetLayers { nodata, classes }
+        DatasetLayers {
+            nodata,
+            classes: sorted(classes),
+            undeclared_codes,
+        }
     }
 }
 

@@ -57,19 +57,19 @@ impl Layer {
             LayerKind::Values => MAX_CLASSES,
             LayerKind::Classes => MAX_DECLARED_CLASSES,
         };
-        integer_classes(&self.values, most)
+        distinct_integers(&self.values, most)
     }
 }
 
 /// The classes of a layer whose values look like classes: from 2 to [`MAX_CLASSES`]
 /// distinct integers, in ascending order; `None` for any other.
 pub fn classes_of(values: &[f32]) -> Option<Vec<f32>> {
-    integer_classes(values, MAX_CLASSES)
+    distinct_integers(values, MAX_CLASSES)
 }
 
 /// The distinct non-NaN values in ascending order, if they are from 2 to `most`
 /// integers.
-fn integer_classes(values: &[f32], most: usize) -> Option<Vec<f32>> {
+pub fn distinct_integers(values: &[f32], most: usize) -> Option<Vec<f32>> {
     let mut classes: Vec<f32> = Vec::new();
     for &v in values.iter().filter(|v| !v.is_nan()) {
         if classes.contains(&v) {

@@ -20,6 +20,7 @@ pub use geodesy::{Projection, metres_per_degree};
 
 pub use map::{
     Layer, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, check_map_name, classes_of,
+    distinct_integers,
 };
 pub use path::{CellPath, PathError, is_connected8, rasterize};
 pub use points::locate;

@@ -92,7 +92,7 @@ impl StageParams for FeaturesParams {
         let maps = first_error_in_order(map_files.par_iter().map(|p| read_map(p)).collect())?;
         let dataset_layers = DatasetLayers::of(&maps);
         if let Some(bank) = spec.bank {
-            for hint in bank.class_layer_hints(&dataset_layers.classes, &spec.ops) {
+            for hint in bank.class_layer_hints(&dataset_layers, &spec.ops) {
                 tracing::warn!("{hint}");
             }
         }
