@@ -647,7 +647,8 @@ fn a_land_cover_layer_gets_the_same_class_indicators_on_every_map() {
 /// A land cover as CORINE ships it, written by rasterio: 44 codes under a colour table.
 /// The colour table declares them classes, so the bank indicates every one, past the 32
 /// codes after which an undeclared integer layer is read as values. The same codes
-/// without the table get none, and a hint with the operator that reads them as classes.
+/// without the table get none, and a hint with the operator that reads them as classes;
+/// with GDAL's sidecar naming the classes, the indicators again.
 #[test]
 fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
     use imitate::grid::LayerKind;
@@ -713,4 +714,13 @@ fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
     let (classes, said) = features("codes", "codes-hinted-fs", &[op]);
     assert_eq!(classes, 44);
     assert!(!said.contains("integer codes"), "{said}");
+
+    // GDAL's sidecar declares them too where its attribute table names each class, not
+    // where it only counts the values (as ArcGIS's table of any integer raster does).
+    assert_eq!(ingest("labelled"), LayerKind::Classes);
+    assert_eq!(features("labelled", "labelled-fs", &[]).0, 44);
+    assert_eq!(ingest("counted"), LayerKind::Values);
+    // The sidecar is an input: without it the dataset is stale and made again.
+    std::fs::remove_file(dir.path().join("labelled.tif.aux.xml")).unwrap();
+    assert_eq!(ingest("labelled"), LayerKind::Values);
 }

@@ -31,10 +31,13 @@ mod grey;
 mod lerc;
 mod mask;
 mod metadata;
+mod pam;
 mod projection;
 mod samples;
 mod unpack;
 mod webp;
+
+pub use pam::sidecar;
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
 const GT_MODEL_TYPE: u16 = 1024;
@@ -127,6 +130,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     // A palette image's values are the codes of its colours' classes (land cover):
     // its layers are declared classes.
     let palette = grey::relabel_grey(&mut bytes);
+    // So do the bands GDAL's sidecar gives a colour table, category names or a table
+    // of class names.
+    let declared_bands = pam::declared_class_bands(path);
     if palette {
         tracing::debug!(
             "{}: a palette image: its layers hold the class codes",
@@ -440,7 +446,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                     .for_each(|v| *v = f32::NAN);
             }
             let layer = Layer::new(layer_names[band].clone(), layer);
-            if palette {
+            if palette || declared_bands.contains(&band) {
                 layer.declared_classes()
             } else {
                 layer

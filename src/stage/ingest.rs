@@ -23,8 +23,9 @@ use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, 
 
 pub const KIND: &str = "ingest";
 /// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
-/// metres per axis, more compressions, band units and descriptions). 4: palette
-/// GeoTIFFs' layers stored as declared classes.
+/// metres per axis, more compressions, band units and descriptions). 4: layers of
+/// palette GeoTIFFs, and of bands GDAL's sidecar declares classes, stored as declared
+/// classes.
 const VERSION: u32 = 4;
 
 fn default_split() -> Split {
@@ -263,6 +264,14 @@ impl StageParams for IngestParams {
 
     fn deps(&self) -> Vec<PathBuf> {
         let mut deps = self.maps.clone();
+        // A GeoTIFF's GDAL sidecar can declare its bands classes: adding, changing or
+        // removing one makes the maps stale.
+        deps.extend(
+            self.maps
+                .iter()
+                .map(|map| crate::io::geotiff::sidecar(map))
+                .filter(|sidecar| sidecar.is_file()),
+        );
         deps.extend(self.demonstrations.clone());
         deps.extend(self.logs.iter().cloned());
         deps.extend(self.lerobot.iter().cloned());

@@ -2,8 +2,14 @@
 (uint8 with a colour table, codes 1 to 44 in patches, 48 where there is no data, 100 m
 cells in LAEA Europe, EPSG:3035) and OUT/codes.tif (the same values, no colour table), with
 OUT/demonstrations.parquet (three straight episodes across the raster, no map column, as
-pyarrow writes a table). Prints one JSON line per file."""
+pyarrow writes a table). Then the same codes with GDAL's own sidecar (`.aux.xml`, written
+by GDAL through its C API, from the library inside rasterio's wheel): OUT/labelled.tif with
+a raster attribute table of values, counts and CORINE's class labels, and OUT/counted.tif
+with values and counts alone, as ArcGIS builds for any integer raster. Prints one JSON
+line per file."""
 
+import ctypes
+import glob
 import json
 import os
 import sys
@@ -34,7 +40,8 @@ profile = dict(driver="GTiff", width=width, height=height, count=1, dtype="uint8
                crs="EPSG:3035", transform=from_origin(west, north, cell, cell), nodata=48,
                compress="lzw")
 colours = {i: (int(37 * i) % 256, int(91 * i) % 256, int(53 * i) % 256, 255) for i in range(256)}
-for name, palette in [("corine", True), ("codes", False)]:
+for name, palette in [("corine", True), ("codes", False), ("labelled", False),
+                      ("counted", False)]:
     path = os.path.join(out, name + ".tif")
     with rasterio.open(path, "w", photometric="palette" if palette else "minisblack",
                        **profile) as dst:
@@ -54,3 +61,46 @@ for e, row in enumerate([30, 60, 90]):
 path = os.path.join(out, "demonstrations.parquet")
 pq.write_table(pa.table({"episode": episode, "t": t, "x": x, "y": y}), path)
 print(json.dumps({"file": path}))
+
+
+# GDAL's C API from the library rasterio's wheel carries (rasterio has no call for
+# raster attribute tables).
+gdal = ctypes.CDLL(glob.glob(os.path.join(os.path.dirname(rasterio.__file__), "..",
+                                          "rasterio.libs", "libgdal*.so*"))[0])
+P = ctypes.c_void_p
+for function, restype, argtypes in [
+        ("GDALOpen", P, [ctypes.c_char_p, ctypes.c_int]),
+        ("GDALGetRasterBand", P, [P, ctypes.c_int]),
+        ("GDALCreateRasterAttributeTable", P, []),
+        ("GDALRATCreateColumn", ctypes.c_int, [P, ctypes.c_char_p, ctypes.c_int, ctypes.c_int]),
+        ("GDALRATSetRowCount", None, [P, ctypes.c_int]),
+        ("GDALRATSetValueAsInt", None, [P, ctypes.c_int, ctypes.c_int, ctypes.c_int]),
+        ("GDALRATSetValueAsString", None, [P, ctypes.c_int, ctypes.c_int, ctypes.c_char_p]),
+        ("GDALSetDefaultRAT", ctypes.c_int, [P, P]),
+        ("GDALDestroyRasterAttributeTable", None, [P]),
+        ("GDALClose", ctypes.c_int, [P])]:
+    getattr(gdal, function).restype = restype
+    getattr(gdal, function).argtypes = argtypes
+GFT_INTEGER, GFT_STRING = 0, 2
+GFU_GENERIC, GFU_PIXEL_COUNT, GFU_NAME, GFU_MIN_MAX = 0, 1, 2, 5
+counts = np.bincount(land_cover.ravel(), minlength=45)
+for name, labels in [("labelled", True), ("counted", False)]:
+    path = os.path.join(out, name + ".tif")
+    dataset = gdal.GDALOpen(path.encode(), 1)  # GA_Update
+    band = gdal.GDALGetRasterBand(dataset, 1)
+    table = gdal.GDALCreateRasterAttributeTable()
+    gdal.GDALRATCreateColumn(table, b"Value", GFT_INTEGER, GFU_MIN_MAX)
+    gdal.GDALRATCreateColumn(table, b"Count", GFT_INTEGER, GFU_PIXEL_COUNT)
+    if labels:
+        gdal.GDALRATCreateColumn(table, b"LABEL3", GFT_STRING, GFU_NAME)
+    gdal.GDALRATSetRowCount(table, 44)
+    for row in range(44):
+        gdal.GDALRATSetValueAsInt(table, row, 0, row + 1)
+        gdal.GDALRATSetValueAsInt(table, row, 1, int(counts[row + 1]))
+        if labels:
+            gdal.GDALRATSetValueAsString(table, row, 2, f"CLC class {row + 1}".encode())
+    assert gdal.GDALSetDefaultRAT(band, table) == 0
+    gdal.GDALDestroyRasterAttributeTable(table)
+    gdal.GDALClose(dataset)
+    assert os.path.exists(path + ".aux.xml"), path
+    print(json.dumps({"file": path + ".aux.xml"}))
