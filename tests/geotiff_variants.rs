@@ -71,6 +71,7 @@ fn every_gdal_variant_reads_to_the_same_grid() {
         if source == "bad"
             || source == "units"
             || source == "kinds"
+            || source == "sidecars"
             || name.ends_with("--none")
             || name.ends_with("--float-pred3")
         {
@@ -640,4 +641,49 @@ fn damaged_variants_are_errors_not_panics() {
         }
     }
     assert!(reads > 300, "{reads}");
+}
+
+/// TIFFs georeferenced outside themselves, as GDAL writes them: a baseline TIFF's CRS and
+/// geotransform in its `.aux.xml` read as the GeoTIFF tags would be (UTM metres, world
+/// degrees), and a world file alone gives the grid with no CRS (frame `map`).
+#[test]
+fn baseline_tiffs_are_georeferenced_by_their_sidecars() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(files) = write_variants(dir.path()) else {
+        return;
+    };
+    let read = |name: &str| read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+    let sidecars = files.iter().filter(|f| f["source"] == "sidecars").count();
+    assert_eq!(sidecars, 6);
+    for source in ["spot", "world"] {
+        let reference = read(&format!("{source}--reference"));
+        for variant in ["baseline-pam", "baseline-tfw"] {
+            let name = format!("{source}--{variant}");
+            let map = read(&name);
+            let (a, b) = (&map.geo, &reference.geo);
+            assert_eq!(
+                (a.width, a.height, a.cell_size(), a.origin),
+                (b.width, b.height, b.cell_size(), b.origin),
+                "{name}"
+            );
+            if variant == "baseline-pam" {
+                assert_eq!((&a.frame, a.degrees), (&b.frame, b.degrees), "{name}");
+                assert_eq!(a.cell_metres(), b.cell_metres(), "{name}");
+            } else {
+                assert_eq!(a.frame, "map", "{name}: a world file has no CRS");
+            }
+            assert!(same_values(&map, &reference), "{name}: values differ");
+        }
+    }
+    assert!(read("world--baseline-pam").geo.degrees);
+    assert_eq!(read("spot--baseline-pam").geo.frame, "EPSG:26716");
+    // Without its sidecars the TIFF has no georeference, and says where it looked.
+    std::fs::remove_file(dir.path().join("spot--baseline-pam.tif.aux.xml")).unwrap();
+    let err = read_geotiff(&dir.path().join("spot--baseline-pam.tif"), "m")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("no georeference") && err.contains("world file"),
+        "{err}"
+    );
 }

@@ -37,7 +37,7 @@ mod samples;
 mod unpack;
 mod webp;
 
-pub use pam::sidecar;
+pub use pam::{sidecar, sidecars};
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
 const GT_MODEL_TYPE: u16 = 1024;
@@ -232,6 +232,23 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         .find_tag_unsigned_vec::<u16>(Tag::GeoKeyDirectoryTag)
         .map_err(tiff_error)?
         .unwrap_or_default();
+    // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform): the
+    // TIFF's own, else its sidecars' (with their CRS where the TIFF has none).
+    let (keys, [a, b, c, d, e, f]) = match geotransform(&mut decoder).map_err(problem)? {
+        Some(transform) => (keys, transform),
+        None => match pam::georeference(path).map_err(problem)? {
+            Some(outside) if keys.is_empty() => (outside.keys, outside.transform),
+            Some(outside) => (keys, outside.transform),
+            None => {
+                return Err(problem(
+                    "no georeference: neither ModelTransformationTag nor ModelPixelScaleTag \
+                     with ModelTiepointTag, nor a GDAL sidecar (.aux.xml) or world file \
+                     (.tfw) beside it"
+                        .into(),
+                ));
+            }
+        },
+    };
     let key = |id: u16| {
         keys.get(4..)
             .unwrap_or_default()
@@ -247,8 +264,6 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     let units = crs_units(&key).map_err(problem)?;
     let heights = height_scale(&key).map_err(problem)?;
 
-    // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform).
-    let [a, b, c, d, e, f] = geotransform(&mut decoder).map_err(problem)?;
     // Rotation terms below a billionth of a cell are the writer's float noise (a
     // ModelTransformation computed in floating point): over a million rows they shift
     // the raster by a thousandth of a cell.
@@ -530,9 +545,10 @@ fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, Str
     }
 }
 
+/// The TIFF's own geotransform; `None` where it has no georeference tags at all.
 fn geotransform<R: std::io::Read + std::io::Seek>(
     decoder: &mut Decoder<R>,
-) -> std::result::Result<[f64; 6], String> {
+) -> std::result::Result<Option<[f64; 6]>, String> {
     let tag = |decoder: &mut Decoder<R>, tag: Tag| {
         decoder
             .find_tag(tag)
@@ -544,7 +560,7 @@ fn geotransform<R: std::io::Read + std::io::Seek>(
         if m.len() < 8 {
             return Err("ModelTransformationTag has fewer than 8 values".into());
         }
-        return Ok([m[0], m[1], m[3], m[4], m[5], m[7]]);
+        return Ok(Some([m[0], m[1], m[3], m[4], m[5], m[7]]));
     }
     let scale = tag(decoder, Tag::ModelPixelScaleTag)?;
     let tie = tag(decoder, Tag::ModelTiepointTag)?;
@@ -552,18 +568,15 @@ fn geotransform<R: std::io::Read + std::io::Seek>(
         (Some(s), Some(t)) if s.len() >= 2 && t.len() >= 6 => {
             // Tiepoint (i, j) ↔ (x, y); pixel scale y is positive for north-up rasters.
             let (i, j, x, y) = (t[0], t[1], t[3], t[4]);
-            Ok([s[0], 0.0, x - i * s[0], 0.0, -s[1], y + j * s[1]])
+            Ok(Some([s[0], 0.0, x - i * s[0], 0.0, -s[1], y + j * s[1]]))
         }
         (None, Some(t)) if t.len() >= 12 => Err(format!(
             "no georeference but {} ground control points (ModelTiepointTag): the raster \
              is not on a grid yet; warp it onto one (gdalwarp)",
             t.len() / 6
         )),
-        _ => Err(
-            "no georeference: neither ModelTransformationTag nor ModelPixelScaleTag with \
-             ModelTiepointTag"
-                .into(),
-        ),
+        (None, None) => Ok(None),
+        _ => Err("no georeference: ModelPixelScaleTag and ModelTiepointTag are incomplete".into()),
     }
 }
 

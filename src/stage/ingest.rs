@@ -264,13 +264,12 @@ impl StageParams for IngestParams {
 
     fn deps(&self) -> Vec<PathBuf> {
         let mut deps = self.maps.clone();
-        // A GeoTIFF's GDAL sidecar can declare its bands classes: adding, changing or
-        // removing one makes the maps stale.
+        // A GeoTIFF's sidecars can georeference it or declare its bands classes:
+        // adding, changing or removing one makes the maps stale.
         deps.extend(
             self.maps
                 .iter()
-                .map(|map| crate::io::geotiff::sidecar(map))
-                .filter(|sidecar| sidecar.is_file()),
+                .flat_map(|map| crate::io::geotiff::sidecars(map)),
         );
         deps.extend(self.demonstrations.clone());
         deps.extend(self.logs.iter().cloned());

@@ -394,3 +394,20 @@ survey[-50:, :] = 0
 with_gdal_reading("kinds--rgba-alpha", kinds, np.concatenate([photo, survey[None]]),
                   photometric="rgb", ALPHA="YES", compress="deflate",
                   tiled=True, blockxsize=256, blockysize=256)
+
+# Georeferenced outside the TIFF, as GDAL writes a baseline TIFF (`PROFILE=BASELINE`:
+# no GeoTIFF tags; the CRS and geotransform in its `.aux.xml`), and with a world file
+# alone (`TFW=YES`, the `.aux.xml` taken away: a scanned map's or an old tool's TIFF).
+for source, file in [("spot", "osgeo_spot_chicago_utm.tif"), ("world", "rasterio_world.byte.tif")]:
+    with rasterio.open(os.path.join(src_dir, file)) as src:
+        data = src.read()
+        profile = dict(src.profile, driver="GTiff")
+    for key in ("compress", "predictor", "tiled", "blockxsize", "blockysize", "interleave",
+                "photometric"):
+        profile.pop(key, None)
+    write(f"{source}--reference", "sidecars", profile, data)
+    write(f"{source}--baseline-pam", "sidecars", profile, data, PROFILE="BASELINE")
+    name = f"{source}--baseline-tfw"
+    write(name, "sidecars", profile, data, PROFILE="BASELINE", TFW="YES")
+    os.remove(os.path.join(out, name + ".tif.aux.xml"))
+    assert os.path.exists(os.path.join(out, name + ".tfw"))

@@ -1,6 +1,12 @@
-//! GDAL's PAM sidecar (`<file>.aux.xml`): what GDAL keeps of a GeoTIFF that the TIFF
-//! itself cannot hold. Read here for one thing: which bands it declares classes, as
-//! land covers converted by `gdal_translate` or classified in QGIS carry them:
+//! GDAL's sidecars: what GDAL keeps of a GeoTIFF beside it.
+//!
+//! Where the TIFF has no georeference of its own (GDAL's `PROFILE=BASELINE`, or a TIFF
+//! as scanners and older tools write it), GDAL takes it from the PAM sidecar
+//! (`<file>.aux.xml`: `<SRS>` and `<GeoTransform>`) or from a world file (`.tfw`,
+//! `.tifw`, `.wld`: six numbers, the cell size and the centre of the top-left cell).
+//!
+//! The PAM sidecar also says which bands hold classes, as land covers converted by
+//! `gdal_translate` or classified in QGIS carry them:
 //! - a colour table (`<ColorTable>`) on a band that is not a palette image;
 //! - category names (`<CategoryNames>`);
 //! - a raster attribute table (`<GDALRasterAttributeTable>`) with a name or a colour
@@ -13,11 +19,235 @@ use std::path::{Path, PathBuf};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::reader::Reader;
 
-/// The sidecar GDAL reads beside `path`.
-pub fn sidecar(path: &Path) -> PathBuf {
+/// `path` with `suffix` added to its name.
+fn beside(path: &Path, suffix: &str) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
-    name.push(".aux.xml");
+    name.push(suffix);
     PathBuf::from(name)
+}
+
+/// The PAM sidecar GDAL reads beside `path`.
+pub fn sidecar(path: &Path) -> PathBuf {
+    beside(path, ".aux.xml")
+}
+
+/// The world files GDAL looks for beside `path`, in its order: `x.tfw`, `x.tifw`,
+/// `x.wld` (for `x.tif`), and `x.tif.tfw`.
+fn world_files(path: &Path) -> Vec<PathBuf> {
+    let mut files: Vec<PathBuf> = ["tfw", "tifw", "wld"]
+        .iter()
+        .map(|ext| path.with_extension(ext))
+        .collect();
+    files.push(beside(path, ".tfw"));
+    files
+}
+
+/// Every sidecar of `path` that exists: what reading it may depend on.
+pub fn sidecars(path: &Path) -> Vec<PathBuf> {
+    let mut files = vec![sidecar(path)];
+    files.extend(world_files(path));
+    files.retain(|f| f.is_file());
+    files.dedup();
+    files
+}
+
+/// A georeference from outside the TIFF: GDAL's geotransform, and the CRS as the
+/// GeoKeys GDAL would have written for it (none where no sidecar gives one).
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct Georeference {
+    pub transform: [f64; 6],
+    pub keys: Vec<u16>,
+}
+
+/// The georeference of a TIFF that has none inside: the PAM sidecar's, else a world
+/// file's (with the PAM sidecar's CRS where it has one). `Ok(None)` where there is no
+/// sidecar; an error names the sidecar and what is wrong with it.
+pub(super) fn georeference(path: &Path) -> Result<Option<Georeference>, String> {
+    let pam = sidecar(path);
+    let (mut transform, mut keys) = (None, Vec::new());
+    if let Ok(xml) = std::fs::read_to_string(&pam) {
+        let (srs, pam_transform) = dataset_georeference(&xml)
+            .map_err(|e| format!("{}: its XML is malformed: {e}", pam.display()))?;
+        transform = pam_transform;
+        if let Some(wkt) = srs {
+            keys = geokeys_of_wkt(&wkt).ok_or_else(|| {
+                format!(
+                    "{}: its CRS names no EPSG code (an AUTHORITY or ID): give the \
+                     raster its GeoTIFF tags (gdal_translate -a_srs EPSG:<code>)",
+                    pam.display()
+                )
+            })?;
+        }
+    }
+    if transform.is_none()
+        && let Some(world) = world_files(path).into_iter().find(|f| f.is_file())
+    {
+        let text = std::fs::read_to_string(&world)
+            .map_err(|e| format!("{}: cannot be read: {e}", world.display()))?;
+        transform = Some(world_file(&text).map_err(|e| format!("{}: {e}", world.display()))?);
+    }
+    Ok(transform.map(|transform| Georeference { transform, keys }))
+}
+
+/// GDAL's geotransform [x0, dx, rx, y0, ry, dy] as ours: x = a·col + b·row + c,
+/// y = d·col + e·row + f.
+fn from_gdal([x0, dx, rx, y0, ry, dy]: [f64; 6]) -> [f64; 6] {
+    [dx, rx, x0, ry, dy, y0]
+}
+
+/// A world file's six numbers (A, D, B, E, C, F: the cell's x size, the rotation terms,
+/// its y size, and the centre of the top-left cell) as our geotransform, whose origin
+/// is that cell's corner.
+fn world_file(text: &str) -> Result<[f64; 6], String> {
+    let numbers: Vec<f64> = text
+        .split_whitespace()
+        .map(|t| {
+            t.parse::<f64>()
+                .map_err(|_| format!("'{t}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    let [a, d, b, e, c, f] = numbers[..] else {
+        return Err(format!(
+            "a world file holds six numbers, this one {}",
+            numbers.len()
+        ));
+    };
+    Ok([a, b, c - a / 2.0 - b / 2.0, d, e, f - d / 2.0 - e / 2.0])
+}
+
+/// The dataset's `<SRS>` (WKT) and `<GeoTransform>` in a PAM document.
+fn dataset_georeference(xml: &str) -> Result<(Option<String>, Option<[f64; 6]>), String> {
+    let mut reader = Reader::from_str(xml);
+    let (mut srs, mut transform) = (None, None);
+    let mut depth = 0usize;
+    let mut element = Vec::new();
+    let mut text = String::new();
+    loop {
+        match reader.read_event().map_err(|e| e.to_string())? {
+            Event::Eof => break,
+            Event::Start(tag) => {
+                depth += 1;
+                element = tag.name().as_ref().to_vec();
+                text.clear();
+            }
+            Event::Text(t) => text.push_str(&t.decode().map_err(|e| e.to_string())?),
+            Event::GeneralRef(reference) => {
+                let name = reference.decode().map_err(|e| e.to_string())?;
+                match quick_xml::escape::resolve_xml_entity(&name) {
+                    Some(resolved) => text.push_str(resolved),
+                    None => text.push_str(&format!("&{name};")),
+                }
+            }
+            Event::End(_) => {
+                // Children of <PAMDataset> only: bands have no georeference.
+                if depth == 2 {
+                    match element.as_slice() {
+                        b"SRS" => srs = Some(text.trim().to_string()),
+                        b"GeoTransform" => {
+                            let numbers: Vec<f64> = text
+                                .split(',')
+                                .map(|t| t.trim().parse::<f64>())
+                                .collect::<Result<_, _>>()
+                                .map_err(|_| format!("<GeoTransform> '{}'", text.trim()))?;
+                            let six: [f64; 6] = numbers.try_into().map_err(|_| {
+                                format!("<GeoTransform> '{}' is not six numbers", text.trim())
+                            })?;
+                            transform = Some(from_gdal(six));
+                        }
+                        _ => {}
+                    }
+                }
+                depth = depth.saturating_sub(1);
+                element.clear();
+                text.clear();
+            }
+            _ => {}
+        }
+    }
+    Ok((srs.filter(|s| !s.is_empty()), transform))
+}
+
+/// The GeoKeys (a GeoKeyDirectory) GDAL would write for a CRS given as WKT 1 or 2 with
+/// its EPSG code at the top (`AUTHORITY["EPSG","32633"]`, `ID["EPSG",32633]`): the model
+/// type, the code, and for a projected CRS its linear unit's code where WKT 1 gives one.
+fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
+    let wkt = wkt.trim();
+    let root = wkt.split('[').next()?.trim().to_ascii_uppercase();
+    let geographic = matches!(root.as_str(), "GEOGCS" | "GEOGCRS" | "GEOGRAPHICCRS");
+    let projected = matches!(root.as_str(), "PROJCS" | "PROJCRS" | "PROJECTEDCRS");
+    if !geographic && !projected {
+        return None;
+    }
+    let top = top_level(wkt);
+    let code = |items: &[(String, String)]| {
+        items
+            .iter()
+            .filter(|(keyword, _)| keyword == "AUTHORITY" || keyword == "ID")
+            .filter_map(|(_, body)| epsg_code(body))
+            .next_back()
+    };
+    let code = code(&top)?;
+    let mut keys: Vec<[u16; 4]> = vec![[1024, 0, 1, if geographic { 2 } else { 1 }]];
+    keys.push([if geographic { 2048 } else { 3072 }, 0, 1, code]);
+    if projected
+        && let Some(unit) = top
+            .iter()
+            .filter(|(keyword, _)| keyword == "UNIT")
+            .filter_map(|(_, body)| {
+                top_level(&format!("U[{body}]"))
+                    .iter()
+                    .filter(|(k, _)| k == "AUTHORITY")
+                    .find_map(|(_, b)| epsg_code(b))
+            })
+            .next_back()
+    {
+        keys.push([3076, 0, 1, unit]);
+    }
+    let mut directory = vec![1, 1, 0, keys.len() as u16];
+    directory.extend(keys.into_iter().flatten());
+    Some(directory)
+}
+
+/// The elements directly inside a WKT node's brackets: (KEYWORD, the text between its
+/// brackets).
+fn top_level(wkt: &str) -> Vec<(String, String)> {
+    let mut items = Vec::new();
+    let (mut depth, mut quoted) = (0usize, false);
+    let (mut keyword, mut start) = (String::new(), 0usize);
+    let mut token = String::new();
+    for (i, ch) in wkt.char_indices() {
+        match ch {
+            '"' => quoted = !quoted,
+            _ if quoted => {}
+            '[' | '(' => {
+                depth += 1;
+                if depth == 2 {
+                    keyword = token.trim().to_ascii_uppercase();
+                    start = i + 1;
+                }
+                token.clear();
+            }
+            ']' | ')' => {
+                if depth == 2 {
+                    items.push((keyword.clone(), wkt[start..i].to_string()));
+                }
+                depth = depth.saturating_sub(1);
+                token.clear();
+            }
+            ',' => token.clear(),
+            _ => token.push(ch),
+        }
+    }
+    items
+}
+
+/// The code of an authority's body (`"EPSG","32633"` or `"EPSG",32633`), if EPSG's.
+fn epsg_code(body: &str) -> Option<u16> {
+    let mut parts = body.split(',').map(|p| p.trim().trim_matches('"'));
+    if !parts.next()?.eq_ignore_ascii_case("EPSG") {
+        return None;
+    }
+    parts.next()?.parse::<u16>().ok()
 }
 
 /// The bands (numbered from 0) that the sidecar of `path` declares classes; none where
@@ -167,6 +397,45 @@ mod tests {
         assert!(class_bands(&pam("")).unwrap().is_empty());
         // A usage "2" outside a table (statistics' text) declares nothing.
         assert!(class_bands(&pam("<Usage>2</Usage>\n")).unwrap().is_empty());
+    }
+
+    #[test]
+    fn world_files_and_wkt_give_the_grid_and_the_geokeys() {
+        // The centre of the top-left cell, as a world file gives it, is half a cell in.
+        let grid = world_file("30\n0\n0\n-30\n500015\n4999985\n").unwrap();
+        assert_eq!(grid, [30.0, 0.0, 500000.0, 0.0, -30.0, 5000000.0]);
+        assert!(
+            world_file("30 0 0 -30 500015")
+                .unwrap_err()
+                .contains("six numbers")
+        );
+        assert!(world_file("30 0 0 -30 x 1").unwrap_err().contains("'x'"));
+        let utm = r#"PROJCS["WGS 84 / UTM zone 33N",GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563,AUTHORITY["EPSG","7030"]],AUTHORITY["EPSG","6326"]],AUTHORITY["EPSG","4326"]],PROJECTION["Transverse_Mercator"],UNIT["metre",1,AUTHORITY["EPSG","9001"]],AXIS["Easting",EAST],AUTHORITY["EPSG","32633"]]"#;
+        assert_eq!(
+            geokeys_of_wkt(utm).unwrap(),
+            [
+                1, 1, 0, 3, 1024, 0, 1, 1, 3072, 0, 1, 32633, 3076, 0, 1, 9001
+            ]
+        );
+        let wgs84 = r#"GEOGCRS["WGS 84",DATUM["World Geodetic System 1984",ELLIPSOID["WGS 84",6378137,298.257223563]],CS[ellipsoidal,2],ID["EPSG",4326]]"#;
+        assert_eq!(
+            geokeys_of_wkt(wgs84).unwrap(),
+            [1, 1, 0, 2, 1024, 0, 1, 2, 2048, 0, 1, 4326]
+        );
+        // A CRS without its code at the top, or no CRS at all: no keys.
+        assert_eq!(
+            geokeys_of_wkt(r#"PROJCS["custom",GEOGCS["x",AUTHORITY["EPSG","4326"]]]"#),
+            None
+        );
+        assert_eq!(geokeys_of_wkt("LOCAL_CS[\"x\"]"), None);
+        let xml = "<PAMDataset><SRS>GEOGCS[&quot;x&quot;,AUTHORITY[&quot;EPSG&quot;,&quot;4326&quot;]]</SRS>\
+                   <GeoTransform> 10, 0.5, 0, 50, 0, -0.5</GeoTransform></PAMDataset>";
+        let (srs, transform) = dataset_georeference(xml).unwrap();
+        assert_eq!(
+            srs.as_deref(),
+            Some(r#"GEOGCS["x",AUTHORITY["EPSG","4326"]]"#)
+        );
+        assert_eq!(transform, Some([0.5, 0.0, 10.0, 0.0, -0.5, 50.0]));
     }
 
     #[test]
