@@ -453,7 +453,7 @@ mod tests {
     }
 
     #[test]
-    fn many_codes_are_classes_where_declared_and_a_hint_where_not() {
+    fn many_codes_are_classes_where_any_map_declares_them_and_a_hint_where_none_does() {
         let codes: Vec<f32> = (1..=40).map(|c| c as f32).collect();
         let undeclared = class_map(&codes);
         let dataset = DatasetLayers::of(std::slice::from_ref(&undeclared));
@@ -474,9 +474,14 @@ mod tests {
         assert!(ops.iter().any(
             |op| matches!(op, Op::OneHot { layer, classes } if layer == "landcover" && *classes == codes)
         ));
-        // One map declaring the layer is not enough: every map must say the same.
-        let dataset = DatasetLayers::of(&[declared, undeclared]);
-        assert!(dataset.classes.iter().all(|(name, _)| name != "landcover"));
+        // One map declaring the layer declares it for the dataset: a tile whose colour
+        // table was dropped holds the same land cover.
+        let dataset = DatasetLayers::of(&[undeclared, declared]);
+        assert!(
+            dataset
+                .classes
+                .contains(&("landcover".to_string(), codes.clone()))
+        );
         assert!(dataset.undeclared_codes.is_empty());
     }
 

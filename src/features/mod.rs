@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::grid::{
-    FeatureStack, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, distinct_integers,
+    FeatureStack, Layer, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, distinct_integers,
 };
 
 /// What to compute; stored with every stack it made.
@@ -743,8 +743,10 @@ pub struct DatasetLayers {
     /// The layers that hold no-data (NaN) cells in any map: each gets its
     /// `<layer>/nodata` indicator on every map.
     pub nodata: Vec<String>,
-    /// The layers that hold classes ([`Layer::classes`]) on every map that has them,
-    /// by name, with the classes of all those maps in ascending order.
+    /// The layers that hold classes on every map that has them, by name, with the
+    /// classes of all those maps in ascending order: 2 to [`MAX_DECLARED_CLASSES`]
+    /// integer codes where any map declares the layer classes, else 2 to
+    /// [`MAX_CLASSES`] ([`Layer::classes`]).
     pub classes: Vec<(String, Vec<f32>)>,
     /// Layers of more than [`MAX_CLASSES`] and at most [`MAX_DECLARED_CLASSES`]
     /// integer codes that no map declares classes, with their codes: read as values,
@@ -762,49 +764,63 @@ impl DatasetLayers {
             .collect();
         nodata.sort();
         nodata.dedup();
-        let mut classes: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
-        for layer in maps.iter().flat_map(|m| &m.layers) {
-            let entry = classes
-                .entry(layer.name.as_str())
-                .or_insert_with(|| Some(Vec::new()));
-            match (entry.as_mut(), layer.classes()) {
-                (Some(all), Some(these)) => all.extend(these),
-                _ => *entry = None,
-            }
-        }
-        let mut codes: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
-        for layer in maps.iter().flat_map(|m| &m.layers) {
-            let entry = codes
-                .entry(layer.name.as_str())
-                .or_insert_with(|| Some(Vec::new()));
-            let these = (layer.kind == LayerKind::Values)
-                .then(|| distinct_integers(&layer.values, MAX_DECLARED_CLASSES))
-                .flatten();
-            match (entry.as_mut(), these) {
-                (Some(all), Some(these)) => all.extend(these),
-                _ => *entry = None,
-            }
-        }
-        let sorted = |map: std::collections::BTreeMap<&str, Option<Vec<f32>>>| {
-            map.into_iter()
-                .filter_map(|(name, values)| {
-                    let mut values = values?;
-                    values.sort_by(f32::total_cmp);
-                    values.dedup();
-                    Some((name.to_string(), values))
-                })
-                .collect::<Vec<_>>()
-        };
-        let undeclared_codes = sorted(codes)
-            .into_iter()
-            .filter(|(_, codes)| (MAX_CLASSES + 1..=MAX_DECLARED_CLASSES).contains(&codes.len()))
+        // A layer that one map declares classes is classes on every map (a tile whose
+        // colour table a tool dropped still holds the same land cover).
+        let declared: std::collections::BTreeSet<&str> = maps
+            .iter()
+            .flat_map(|m| &m.layers)
+            .filter(|l| l.kind == LayerKind::Classes)
+            .map(|l| l.name.as_str())
             .collect();
+        let classes = gathered(maps, |layer| {
+            let most = if declared.contains(layer.name.as_str()) {
+                MAX_DECLARED_CLASSES
+            } else {
+                MAX_CLASSES
+            };
+            distinct_integers(&layer.values, most)
+        });
+        let undeclared_codes = gathered(maps, |layer| {
+            (!declared.contains(layer.name.as_str()))
+                .then(|| distinct_integers(&layer.values, MAX_DECLARED_CLASSES))
+                .flatten()
+        })
+        .into_iter()
+        .filter(|(_, codes)| (MAX_CLASSES + 1..=MAX_DECLARED_CLASSES).contains(&codes.len()))
+        .collect();
         DatasetLayers {
             nodata,
-            classes: sorted(classes),
+            classes,
             undeclared_codes,
         }
     }
+}
+
+/// Per layer name, in order, the union of the values `of_layer` finds on every map that
+/// has the layer, ascending; a name is left out where it finds none on some map.
+fn gathered(
+    maps: &[Map],
+    of_layer: impl Fn(&Layer) -> Option<Vec<f32>>,
+) -> Vec<(String, Vec<f32>)> {
+    let mut union: std::collections::BTreeMap<&str, Option<Vec<f32>>> = Default::default();
+    for layer in maps.iter().flat_map(|m| &m.layers) {
+        let entry = union
+            .entry(layer.name.as_str())
+            .or_insert_with(|| Some(Vec::new()));
+        match (entry.as_mut(), of_layer(layer)) {
+            (Some(all), Some(these)) => all.extend(these),
+            _ => *entry = None,
+        }
+    }
+    union
+        .into_iter()
+        .filter_map(|(name, values)| {
+            let mut values = values?;
+            values.sort_by(f32::total_cmp);
+            values.dedup();
+            Some((name.to_string(), values))
+        })
+        .collect()
 }
 
 /// [`compute`] for one map of a dataset: a `<layer>/nodata` indicator for each of the
