@@ -444,6 +444,8 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
             spot.to_str().unwrap(),
             "--teacher",
             "threshold",
+            "--teacher",
+            "texture",
             "--method",
             "learch-tree",
             "--cells",
@@ -459,14 +461,16 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["schema"], "imitate.bench-terrain/2");
     let results = report["results"].as_array().unwrap();
-    let by = |method: &str| {
+    let by = |method: &str, teacher: &str| {
         results
             .iter()
-            .find(|r| r["method"] == method)
-            .unwrap_or_else(|| panic!("{method} in {results:?}"))
+            .find(|r| {
+                r["method"] == method
+                    && r["terrain"] == format!("osgeo_spot_chicago_utm/{teacher}").as_str()
+            })
+            .unwrap_or_else(|| panic!("{method} on {teacher} in {results:?}"))
     };
-    let (uniform, tree) = (by("uniform"), by("learch-tree"));
-    assert_eq!(tree["terrain"], "osgeo_spot_chicago_utm/threshold");
+    let (uniform, tree) = (by("uniform", "threshold"), by("learch-tree", "threshold"));
     assert_eq!(tree["held_out"], 4);
     assert_eq!(tree["rounds"], 8, "--rounds overrides the method's default");
     // The same figures on the training paths, to tell overfitting from underfitting.
@@ -478,6 +482,9 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     );
     // Even a short run learns more than planning on a uniform cost.
     let ratio = |r: &serde_json::Value| r["mean_cost_ratio"].as_f64().unwrap();
+    assert!(ratio(tree) < ratio(uniform), "{tree} vs {uniform}");
+    // The texture teacher (rough ground over a window drawn from the seed) too.
+    let (uniform, tree) = (by("uniform", "texture"), by("learch-tree", "texture"));
     assert!(ratio(tree) < ratio(uniform), "{tree} vs {uniform}");
     let bad = imitate(
         dir.path(),

@@ -15,7 +15,7 @@ use serde::Serialize;
 use super::ioc_methods::{MethodResult, Terrain, measure, methods, results_table, teacher_paths};
 use crate::cli::emit;
 use crate::error::{Error, Result};
-use crate::features::{Bank, FeatureSpec, compute, gaussian_blur, gradient};
+use crate::features::{Bank, FeatureSpec, compute, gaussian_blur, gradient, local_std};
 use crate::grid::{GeoRef, Grid, Layer, Map};
 use crate::io::geotiff::read_geotiff;
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
@@ -52,6 +52,17 @@ pub enum Teacher {
     /// (a class layer's classes where every band is one, else the brightness's deciles
     /// as classes), as a planner's cost table per land-cover class is.
     Classes,
+    /// Texture, as a ground robot pays for rough ground: the brightness's local
+    /// standard deviation (an elevation's, on a DEM) over a window of 5 to 21 cells
+    /// drawn from the seed (`5 + 2 (seed mod 9)`), free up to its median and rising
+    /// linearly to 9 times the cheapest at its 90th percentile. The window is the
+    /// teacher's, not the bank's: the bank's spreads are over fixed windows.
+    Texture,
+}
+
+/// The texture teacher's window, in cells: odd, 5 to 21, drawn from the seed.
+pub fn texture_window(seed: u64) -> usize {
+    5 + 2 * (seed % 9) as usize
 }
 
 /// What the learners are given to learn from.
@@ -72,7 +83,7 @@ pub struct TerrainArgs {
     /// GeoTIFF rasters (every band a layer).
     #[arg(required = true, value_name = "RASTER")]
     pub rasters: Vec<PathBuf>,
-    /// Teachers to run (repeat the flag); default: every one.
+    /// Teachers to run (repeat the flag); default: every one but `classes`.
     #[arg(long = "teacher", value_enum)]
     pub teachers: Vec<Teacher>,
     /// Methods to run (repeat the flag): learch-ridge, learch-tree, learch-alternate,
@@ -244,7 +255,7 @@ fn cells_to(z: &[f32], target: impl Fn(f32) -> bool, w: usize, h: usize) -> Vec<
 }
 
 /// The teacher's cost per cell: ≥ 1 on data cells, 12 on cells without data.
-fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
+fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
     let (w, h) = (map.geo.width as usize, map.geo.height as usize);
     let z = brightness(map);
     let (q15, q50, q60, q70, q75, q90) = (
@@ -257,6 +268,15 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
     );
     let iqr = (q75 - quantile(&z, 0.25)).max(f32::EPSILON);
     let data = |v: f32, cost: f32| if v.is_nan() { 12.0 } else { cost };
+    // Free up to the median of `x`, rising linearly to 9 at its 90th percentile.
+    let ramp = |x: &[f32]| -> Vec<f32> {
+        let (x50, x90) = (quantile(x, 0.5), quantile(x, 0.9));
+        let span = (x90 - x50).max(f32::EPSILON);
+        x.iter()
+            .zip(&z)
+            .map(|(&r, &v)| data(v, 1.0 + 8.0 * ((r - x50) / span).clamp(0.0, 1.0)))
+            .collect()
+    };
     match teacher {
         Teacher::Threshold => z
             .iter()
@@ -289,13 +309,7 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                     .map(|(&v, &m)| if v + m == 0.0 { 0.0 } else { (v - m) / (v + m) })
                     .collect()
             };
-            let (r50, r90) = (quantile(&ratio, 0.5), quantile(&ratio, 0.9));
-            let span = (r90 - r50).max(f32::EPSILON);
-            ratio
-                .iter()
-                .zip(&z)
-                .map(|(&r, &v)| data(v, 1.0 + 8.0 * ((r - r50) / span).clamp(0.0, 1.0)))
-                .collect()
+            ramp(&ratio)
         }
         Teacher::Margin => {
             let distance = cells_to(&z, |v| v > q90, w, h);
@@ -338,6 +352,15 @@ fn teacher_cost(map: &Map, teacher: Teacher) -> Vec<f32> {
                 .map(|(&v, &d)| data(v, 1.0 + 6.0 * f32::from(d <= 3.0)))
                 .collect()
         }
+        Teacher::Texture => {
+            let filled: Vec<f32> = z
+                .iter()
+                .map(|&v| if v.is_nan() { q50 } else { v })
+                .collect();
+            let mut spread = vec![0.0; z.len()];
+            local_std(&filled, w, h, texture_window(seed), &mut spread);
+            ramp(&spread)
+        }
         Teacher::Classes => {
             let codes = class_codes(map, &z);
             codes
@@ -378,7 +401,7 @@ fn class_codes(map: &Map, z: &[f32]) -> Vec<usize> {
 /// cells at least half the map apart, a quarter held out.
 fn terrain(map: &Map, teacher: Teacher, args: &TerrainArgs) -> Result<Terrain> {
     let geo = map.geo.clone();
-    let truth = Grid::from_vec(geo.clone(), teacher_cost(map, teacher));
+    let truth = Grid::from_vec(geo.clone(), teacher_cost(map, teacher, args.seed));
     let spec = FeatureSpec {
         layers: None,
         ops: Vec::new(),
@@ -419,6 +442,7 @@ fn teacher_name(teacher: Teacher) -> &'static str {
         Teacher::Slope => "slope",
         Teacher::Shore => "shore",
         Teacher::Classes => "classes",
+        Teacher::Texture => "texture",
     }
 }
 
@@ -504,6 +528,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             Teacher::Obstacle,
             Teacher::Slope,
             Teacher::Shore,
+            Teacher::Texture,
         ]
     } else {
         args.teachers.clone()
@@ -625,7 +650,7 @@ mod tests {
             *v = (i.saturating_sub(50) as f32).powi(2);
         }
         map.layers[0].values[0] = f32::NAN;
-        let cost = teacher_cost(&map, Teacher::Slope);
+        let cost = teacher_cost(&map, Teacher::Slope, 7);
         assert_eq!(cost[0], 12.0);
         assert!(cost[1..49].iter().all(|&c| c == 1.0), "{cost:?}");
         assert!(cost[50..99].windows(2).all(|w| w[0] <= w[1]), "{cost:?}");
@@ -639,7 +664,7 @@ mod tests {
         // without data 12, as in every teacher.
         let mut map = strip(100, 1);
         map.layers[0].values[0] = f32::NAN;
-        let cost = teacher_cost(&map, Teacher::Obstacle);
+        let cost = teacher_cost(&map, Teacher::Obstacle, 7);
         assert_eq!(cost[0], 12.0);
         assert_eq!(cost[10], 1.0);
         assert_eq!(cost[60], 3.0);
@@ -653,7 +678,7 @@ mod tests {
         // Brightness 0..100 along a strip: the darkest decile is its first ten cells,
         // so cells up to three beyond it cost 7 and the rest 1.
         let map = strip(100, 1);
-        let cost = teacher_cost(&map, Teacher::Shore);
+        let cost = teacher_cost(&map, Teacher::Shore, 7);
         let dark = (0..100)
             .filter(|&i| map.layers[0].values[i] < quantile(&map.layers[0].values, 0.1))
             .count();
@@ -670,7 +695,7 @@ mod tests {
             *v = 10.0 * (1 + i / 25) as f32;
         }
         map.layers[0].values[0] = f32::NAN;
-        let cost = teacher_cost(&map, Teacher::Classes);
+        let cost = teacher_cost(&map, Teacher::Classes, 7);
         assert_eq!(cost[0], 12.0);
         let per_class: Vec<f32> = (0..4).map(|k| cost[k * 25 + 1]).collect();
         for k in 0..4 {
@@ -685,9 +710,42 @@ mod tests {
         assert!(!per_class.windows(2).all(|w| w[0] >= w[1]), "{per_class:?}");
         // Brightness that is no class layer: its deciles are the classes.
         let continuous = strip(100, 1);
-        let mut distinct = teacher_cost(&continuous, Teacher::Classes);
+        let mut distinct = teacher_cost(&continuous, Teacher::Classes, 7);
         distinct.sort_by(f32::total_cmp);
         distinct.dedup();
         assert_eq!(distinct.len(), 10, "{distinct:?}");
+    }
+
+    #[test]
+    fn the_texture_teacher_is_dear_where_the_ground_is_rough_over_its_window() {
+        // 60 × 40 cells, smooth in the west half and a checkerboard in the east: the
+        // spread over the seed's window is 0 where the window is all smooth (cost 1),
+        // largest where it is all checkerboard (cost 9), and rises across the seam.
+        let mut map = strip(60, 40);
+        for (i, v) in map.layers[0].values.iter_mut().enumerate() {
+            let (x, y) = (i % 60, i / 60);
+            *v = if x < 30 {
+                5.0
+            } else {
+                10.0 * ((x + y) % 2) as f32
+            };
+        }
+        map.layers[0].values[0] = f32::NAN;
+        for seed in [7, 11] {
+            let window = texture_window(seed);
+            assert!(window % 2 == 1 && (5..=21).contains(&window), "{window}");
+            let cost = teacher_cost(&map, Teacher::Texture, seed);
+            assert_eq!(cost[0], 12.0);
+            let seam: Vec<f32> = (29 - window / 2..=30 + window / 2)
+                .map(|x| cost[20 * 60 + x])
+                .collect();
+            assert_eq!(seam[0], 1.0, "seed {seed}: {seam:?}");
+            assert_eq!(*seam.last().unwrap(), 9.0, "seed {seed}: {seam:?}");
+            assert!(
+                seam.windows(2).all(|w| w[0] <= w[1]),
+                "seed {seed}: {seam:?}"
+            );
+        }
+        assert_ne!(texture_window(7), texture_window(11));
     }
 }

@@ -18,10 +18,10 @@ pub enum Bank {
     /// (texture), relief, contrast with the neighbourhood at the blurs' scales,
     /// quantile indicators and the distances to the brightest and the darkest decile;
     /// normalised differences of every pair of bands and the brightness (with its
-    /// gradient, its quantile indicators and the distances to its brightest and
-    /// darkest decile), when there are several.
+    /// gradient, its roughness over windows of 3 to 31 cells, its quantile indicators
+    /// and the distances to its brightest and darkest decile), when there are several.
     Imagery,
-    /// Elevation: slope and aspect in degrees, roughness at several scales, relief
+    /// Elevation: slope and aspect in degrees, roughness over windows of 3 to 31 cells, relief
     /// (cell minus its neighbourhood: hollows and ridges) at several scales, curvature
     /// (Laplacian), a blur and quantile indicators.
     Elevation,
@@ -75,6 +75,13 @@ const DISTANCE_CAP_CELLS: f64 = 8.0;
 /// The scales (σ in cells) of each band's blurs, and of its contrast with its
 /// neighbourhood.
 const IMAGERY_CELLS: [f64; 3] = [1.0, 3.0, 8.0];
+
+/// The windows (cells) of the roughness of elevation, of a map's only band and of the
+/// brightness of multi-band imagery: rough ground over a window of any width from 3
+/// to 31 cells is within a step of one of them. Spreads over a few fixed windows do
+/// not state a spread over another, nor can the trees build one from them
+/// (BENCHMARKS.md, "A texture teacher").
+const TEXTURE_WINDOWS: [usize; 7] = [3, 5, 7, 11, 15, 21, 31];
 
 fn imagery(layers: &[&str]) -> Vec<Op> {
     let mut ops = Vec::new();
@@ -139,6 +146,7 @@ fn imagery(layers: &[&str]) -> Vec<Op> {
             distance_below: Some(DARKEST),
             distance_max_cells: Some(DISTANCE_CAP_CELLS),
             gradient: true,
+            roughness: TEXTURE_WINDOWS.to_vec(),
         });
     }
     ops
@@ -159,7 +167,7 @@ fn elevation(layers: &[&str]) -> Vec<Op> {
         });
         ops.push(Op::Roughness {
             layer: layer.clone(),
-            windows: vec![3, 7, 15],
+            windows: TEXTURE_WINDOWS.to_vec(),
         });
         ops.push(Op::Relief {
             layer: layer.clone(),
@@ -235,19 +243,25 @@ fn indicated(class_layers: &[(String, Vec<f32>)]) -> impl Iterator<Item = &(Stri
 /// `auto` gives a DEM. Measured on real DEMs, the elevation bank alone plans worse
 /// (BENCHMARKS.md): it has no distance to the highest ground.
 fn elevation_and_imagery(layer: &str) -> Vec<Op> {
-    let mut ops = imagery(&[layer]);
+    let mut ops: Vec<Op> = imagery(&[layer])
+        .into_iter()
+        .filter(|op| {
+            !matches!(
+                op,
+                Op::Gradient { .. } | Op::Roughness { .. } | Op::Relief { .. }
+            )
+        })
+        .collect();
     ops.extend(elevation(&[layer]).into_iter().filter(|op| {
         matches!(
             op,
-            Op::Slope { .. } | Op::Aspect { .. } | Op::Laplacian { .. }
-        ) || matches!(op, Op::Roughness { windows, .. } if windows.len() == 3)
-            || matches!(op, Op::Relief { cells, .. } if cells.len() == 3)
+            Op::Slope { .. }
+                | Op::Aspect { .. }
+                | Op::Laplacian { .. }
+                | Op::Roughness { .. }
+                | Op::Relief { .. }
+        )
     }));
-    ops.retain(|op| {
-        !matches!(op, Op::Gradient { .. })
-            && !matches!(op, Op::Roughness { windows, .. } if windows.len() == 2)
-            && !matches!(op, Op::Relief { cells, .. } if cells.len() == 1)
-    });
     ops
 }
 
@@ -373,6 +387,8 @@ mod tests {
             "nd(band2,band3)",
             "brightness",
             "brightness/gradient",
+            "brightness/roughness_5c",
+            "brightness/roughness_31c",
             "brightness/above_q25",
             "brightness/distance_to_above_q90_m",
             "brightness/distance_to_below_q10_m",
@@ -381,6 +397,8 @@ mod tests {
             assert!(n.iter().any(|x| x == expected), "{expected} in {n:?}");
         }
         assert!(!n.iter().any(|x| x.contains("slope")));
+        // Each band's own texture at two windows; the brightness's at every one.
+        assert!(!n.iter().any(|x| x == "band1/roughness_5c"), "{n:?}");
     }
 
     #[test]
@@ -393,7 +411,8 @@ mod tests {
         for expected in [
             "band1/slope_deg",
             "band1/aspect_deg",
-            "band1/roughness_15c",
+            "band1/roughness_5c",
+            "band1/roughness_31c",
             "band1/relief_16c",
             "band1/blur_8c",
             "band1/contrast_3c",

@@ -111,6 +111,10 @@ pub enum Op {
         /// in every band at once, which no band's own gradient states.
         #[serde(default, skip_serializing_if = "std::ops::Not::not")]
         gradient: bool,
+        /// Also the mean's local standard deviation over square windows of this many
+        /// cells (odd; `brightness/roughness_<w>c`): texture in every band at once.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        roughness: Vec<usize>,
     },
     /// The layer minus its Gaussian blur at each σ in cells: above (ridges, bright
     /// spots) or below (hollows, dark spots) its neighbourhood.
@@ -401,11 +405,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
             Op::Roughness { layer: l, windows } => {
                 let i = layer(l, &mut used)?;
                 for &w in windows {
-                    if w % 2 == 0 || w == 0 {
-                        return Err(format!(
-                            "roughness of '{l}': window {w} must be an odd number of cells"
-                        ));
-                    }
+                    check_window(l, w)?;
                     push(
                         format!("{l}/roughness_{w}c"),
                         Plane::Roughness(i, w),
@@ -518,6 +518,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 distance_below,
                 distance_max_cells,
                 gradient,
+                roughness,
             } => {
                 if layers.is_empty() {
                     return Err("brightness: name at least one layer".into());
@@ -537,7 +538,10 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     (Side::Above, *distance_above),
                     (Side::Below, *distance_below),
                 ];
-                if quantiles.is_empty() && distances.iter().all(|(_, q)| q.is_none()) && !*gradient
+                if quantiles.is_empty()
+                    && distances.iter().all(|(_, q)| q.is_none())
+                    && !*gradient
+                    && roughness.is_empty()
                 {
                     continue;
                 }
@@ -550,6 +554,15 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     push(
                         "brightness/gradient".into(),
                         Plane::Gradient(source, false),
+                        &mut names,
+                        &mut planes,
+                    )?;
+                }
+                for &w in roughness {
+                    check_window("brightness", w)?;
+                    push(
+                        format!("brightness/roughness_{w}c"),
+                        Plane::Roughness(source, w),
                         &mut names,
                         &mut planes,
                     )?;
@@ -732,6 +745,16 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
 
 /// Builds the feature stack of one map; the error names what is missing or invalid.
 /// A map on its own is its own dataset ([`DatasetLayers::of`]).
+/// A roughness window must be an odd number of cells, so that it centres on its cell.
+fn check_window(layer: &str, window: usize) -> Result<(), String> {
+    if window.is_multiple_of(2) {
+        return Err(format!(
+            "roughness of '{layer}': window {window} must be an odd number of cells"
+        ));
+    }
+    Ok(())
+}
+
 pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
     compute_in_dataset(map, spec, &DatasetLayers::of(std::slice::from_ref(map)))
 }
@@ -1205,6 +1228,7 @@ mod tests {
             distance_below: Some(0.1),
             distance_max_cells,
             gradient: false,
+            roughness: vec![],
         };
         let ramp = |cap: f32| -> Vec<f32> { (0..12).map(|x| (2.0 * x as f32).min(cap)).collect() };
         // Uncapped, the distance runs to 22 m; 3 cells of the longer (2 m) side stop
@@ -1244,6 +1268,7 @@ mod tests {
             distance_below,
             distance_max_cells: None,
             gradient: false,
+            roughness: vec![],
         };
         let both = op(Some(0.5), Some(1.0));
         let stack = compute(&map(), &spec(Some(vec![]), vec![both])).unwrap();
@@ -1274,6 +1299,7 @@ mod tests {
             distance_below: Some(1.5),
             distance_max_cells: None,
             gradient: false,
+            roughness: vec![],
         };
         let err = compute(&map(), &spec(Some(vec![]), vec![bad])).unwrap_err();
         assert!(err.contains("quantile 1.5"), "{err}");
@@ -1290,6 +1316,7 @@ mod tests {
             distance_below: None,
             distance_max_cells: None,
             gradient: true,
+            roughness: vec![],
         };
         let stack = compute(&map(), &spec(Some(vec![]), vec![op.clone()])).unwrap();
         assert_eq!(stack.names, ["brightness", "brightness/gradient", "bias"]);
@@ -1300,6 +1327,33 @@ mod tests {
         m.layers[1].values[1] = f32::NAN;
         let stack = compute(&m, &spec(Some(vec![]), vec![op])).unwrap();
         assert_eq!(stack.plane(1), [0.0, 0.0]);
+    }
+
+    #[test]
+    fn brightness_roughness_is_the_means_local_spread() {
+        let op = |roughness: Vec<usize>| Op::Brightness {
+            layers: vec!["a".into(), "b".into()],
+            quantiles: vec![],
+            distance_above: None,
+            distance_below: None,
+            distance_max_cells: None,
+            gradient: false,
+            roughness,
+        };
+        let stack = compute(&map(), &spec(Some(vec![]), vec![op(vec![3])])).unwrap();
+        assert_eq!(
+            stack.names,
+            ["brightness", "brightness/roughness_3c", "bias"]
+        );
+        let mut expected = [0.0; 2];
+        local_std(stack.plane(0), 2, 1, 3, &mut expected);
+        assert_eq!(stack.plane(1), expected);
+        assert!(expected.iter().all(|&v| v > 0.0), "{expected:?}");
+        let err = compute(&map(), &spec(Some(vec![]), vec![op(vec![4])])).unwrap_err();
+        assert!(
+            err.contains("'brightness'") && err.contains("window 4"),
+            "{err}"
+        );
     }
 
     #[test]
@@ -1368,6 +1422,7 @@ mod tests {
                 distance_below: None,
                 distance_max_cells: None,
                 gradient: false,
+                roughness: vec![],
             }
         );
         assert_eq!(
@@ -1379,6 +1434,7 @@ mod tests {
                 distance_below: None,
                 distance_max_cells: None,
                 gradient: false,
+                roughness: vec![],
             }
         );
     }

@@ -17,8 +17,9 @@ pub const KIND: &str = "features";
 /// brightness indicators, distances and contrasts, and both banks for elevation
 /// layers under `auto`. 5: the imagery bank's gradients (every band's and the
 /// brightness's); derivatives step around cells with no data. 8: the banks' per-class
-/// indicators on layers of many classes.
-const VERSION: u32 = 8;
+/// indicators on layers of many classes. 9: the roughness of elevation, of a map's
+/// only band and of the brightness over windows of 3 to 31 cells.
+const VERSION: u32 = 9;
 
 fn default_bias() -> bool {
     true
