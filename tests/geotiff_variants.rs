@@ -72,6 +72,7 @@ fn every_gdal_variant_reads_to_the_same_grid() {
             || source == "units"
             || source == "kinds"
             || source == "sidecars"
+            || source == "pam-first"
             || name.ends_with("--none")
             || name.ends_with("--float-pred3")
         {
@@ -641,6 +642,44 @@ fn damaged_variants_are_errors_not_panics() {
         }
     }
     assert!(reads > 300, "{reads}");
+}
+
+/// GDAL's order of georeferences: the PAM sidecar's geotransform and CRS before the
+/// TIFF's own tags, and a CRS in US survey feet given as WKT 2 (its unit in its axes)
+/// measured in feet, each read to where GDAL (rasterio) puts the raster.
+#[test]
+fn sidecars_georeference_before_the_tiff_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(files) = write_variants(dir.path()) else {
+        return;
+    };
+    let pam_first: Vec<_> = files
+        .iter()
+        .filter(|f| f["source"] == "pam-first")
+        .collect();
+    assert_eq!(pam_first.len(), 2);
+    for file in pam_first {
+        let name = file["name"].as_str().unwrap();
+        let map = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+        let gdal = &file["gdal"];
+        let t: Vec<f64> = serde_json::from_value(gdal["transform"].clone()).unwrap();
+        let metres = gdal["metres_per_unit"].as_f64().unwrap();
+        let [a, c, e, f] = [t[0], t[2], t[4], t[5]];
+        let west = c * metres;
+        let south = (f + e * f64::from(map.geo.height)) * metres;
+        let [x, y] = map.geo.cell_size();
+        let close = |p: f64, q: f64| (p - q).abs() <= 1e-6 * q.abs().max(1.0);
+        assert!(
+            close(map.geo.origin[0], west) && close(map.geo.origin[1], south),
+            "{name}: origin {:?}, GDAL's {west} {south}",
+            map.geo.origin
+        );
+        assert!(
+            close(x, a * metres) && close(y, e.abs() * metres),
+            "{name}: {x} × {y}"
+        );
+        assert_eq!(map.geo.frame, format!("EPSG:{}", gdal["epsg"]), "{name}");
+    }
 }
 
 /// TIFFs georeferenced outside themselves, as GDAL writes them: a baseline TIFF's CRS and

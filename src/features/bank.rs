@@ -6,7 +6,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::{Op, Side};
-use crate::grid::Map;
+use crate::grid::{MAX_DECLARED_CLASSES, Map};
 
 /// Which bank (`imitate features --bank`, or `bank:` in a spec). Every bank adds an
 /// indicator per class on the dataset's class layers of 4 to 32 integer codes (land
@@ -271,8 +271,9 @@ impl Bank {
     /// as classes, its classes written out: class layers of fewer than
     /// [`MIN_INDICATED_CLASSES`] classes (masks, slope classes), and layers of more
     /// than [`crate::grid::MAX_CLASSES`] integer codes that no map declares classes (a
-    /// land cover that lost its colour table). Layers that `ops` already reads as
-    /// classes get none.
+    /// land cover that lost its colour table), and layers declared classes that hold
+    /// too many codes to read as classes. Layers that `ops` already reads as classes get
+    /// none.
     pub fn class_layer_hints(self, dataset: &super::DatasetLayers, ops: &[Op]) -> Vec<String> {
         let covered = |name: &str| {
             ops.iter().any(|op| {
@@ -318,7 +319,25 @@ impl Bank {
                     list(codes)
                 )
             });
-        few.chain(many).collect()
+        let declared = dataset
+            .declared_as_values
+            .iter()
+            .filter(|(name, _)| !covered(name))
+            .map(|(name, codes)| {
+                let held = match codes {
+                    Some(n) => format!("{n} codes, more than the {MAX_DECLARED_CLASSES} read as classes"),
+                    None => "values that are not integer codes".to_string(),
+                };
+                format!(
+                    "layer '{name}' is declared classes by its file (a colour table, category \
+                     names or an attribute table) but holds {held}; the bank '{}' reads it as \
+                     values, which ranks the classes by their codes. Reclassify it into at \
+                     most {MAX_DECLARED_CLASSES} classes, or add an indicator for each class \
+                     that matters: --op '{{\"op\":\"one_hot\",\"layer\":\"{name}\",\"classes\":[<codes>]}}'",
+                    self.name(),
+                )
+            });
+        few.chain(many).chain(declared).collect()
     }
 
     fn name(self) -> &'static str {
@@ -493,6 +512,22 @@ mod tests {
         assert!(ops.iter().any(
             |op| matches!(op, Op::OneHot { layer, classes } if layer == "landcover" && *classes == codes)
         ));
+        // Declared, but with more codes than are read as classes: values, with a hint.
+        let fine: Vec<f32> = (1..=70).map(|c| c as f32).collect();
+        let mut too_many = class_map(&fine);
+        too_many.layers[0] = too_many.layers[0].clone().declared_classes();
+        let dataset = DatasetLayers::of(std::slice::from_ref(&too_many));
+        assert_eq!(
+            dataset.declared_as_values,
+            [("landcover".to_string(), Some(70))]
+        );
+        let hints = Bank::Auto.class_layer_hints(&dataset, &[]);
+        assert_eq!(hints.len(), 1, "{hints:?}");
+        assert!(
+            hints[0].contains("declared classes") && hints[0].contains("holds 70 codes"),
+            "{}",
+            hints[0]
+        );
         // One map declaring the layer declares it for the dataset: a tile whose colour
         // table was dropped holds the same land cover.
         let dataset = DatasetLayers::of(&[undeclared, declared]);

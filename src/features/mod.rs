@@ -775,6 +775,11 @@ pub struct DatasetLayers {
     /// integer codes that no map declares classes, with their codes: read as values,
     /// though they may be a land cover whose colour table was lost (a hint says so).
     pub undeclared_codes: Vec<(String, Vec<f32>)>,
+    /// Layers that a map declares classes but that hold more than
+    /// [`MAX_DECLARED_CLASSES`] codes (`Some` with how many) or values that are not
+    /// integers (`None`): read as values, with a hint (a finely divided vegetation map
+    /// such as LANDFIRE's has hundreds).
+    pub declared_as_values: Vec<(String, Option<usize>)>,
 }
 
 impl DatasetLayers {
@@ -811,10 +816,29 @@ impl DatasetLayers {
         .into_iter()
         .filter(|(_, codes)| (MAX_CLASSES + 1..=MAX_DECLARED_CLASSES).contains(&codes.len()))
         .collect();
+        let declared_as_values = declared
+            .iter()
+            .filter(|name| !classes.iter().any(|(c, _)| c == *name))
+            .map(|&name| {
+                let values = maps
+                    .iter()
+                    .filter_map(|m| m.layer(name))
+                    .flat_map(|l| &l.values)
+                    .filter(|v| !v.is_nan());
+                let mut codes = std::collections::BTreeSet::new();
+                let mut integers = true;
+                for v in values {
+                    integers &= v.fract() == 0.0;
+                    codes.insert(v.to_bits());
+                }
+                (name.to_string(), integers.then_some(codes.len()))
+            })
+            .collect();
         DatasetLayers {
             nodata,
             classes,
             undeclared_codes,
+            declared_as_values,
         }
     }
 }

@@ -232,13 +232,33 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         .find_tag_unsigned_vec::<u16>(Tag::GeoKeyDirectoryTag)
         .map_err(tiff_error)?
         .unwrap_or_default();
-    // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform): the
-    // TIFF's own, else its sidecars' (with their CRS where the TIFF has none).
-    let (keys, [a, b, c, d, e, f]) = match geotransform(&mut decoder).map_err(problem)? {
-        Some(transform) => (keys, transform),
-        None => match pam::georeference(path).map_err(problem)? {
-            Some(outside) if keys.is_empty() => (outside.keys, outside.transform),
-            Some(outside) => (keys, outside.transform),
+    // World x = a·col + b·row + c, y = d·col + e·row + f (GDAL's geotransform), from
+    // where GDAL takes it: the PAM sidecar, the TIFF's own tags, a world file; the CRS
+    // from the sidecar, else the TIFF. A sidecar GDAL could not use either is passed
+    // over where the TIFF has its own.
+    let own_transform = geotransform(&mut decoder).map_err(problem)?;
+    let pam = match pam::georeference(path) {
+        Ok(pam) => pam,
+        Err(e) if own_transform.is_some() => {
+            tracing::warn!("{e}; the TIFF's own georeference is used");
+            pam::PamGeoreference::default()
+        }
+        Err(e) => return Err(problem(e)),
+    };
+    let keys = match pam.keys {
+        Some(Ok(pam_keys)) => pam_keys,
+        Some(Err(e)) if !keys.is_empty() => {
+            tracing::warn!("{e}; the TIFF's own CRS (GeoKeys) is used");
+            keys
+        }
+        Some(Err(e)) => return Err(problem(e)),
+        None => keys,
+    };
+    let (transform, from_tags) = match (pam.transform, own_transform) {
+        (Some(transform), _) => (transform, false),
+        (None, Some(transform)) => (transform, true),
+        (None, None) => match pam::world_file_transform(path).map_err(problem)? {
+            Some(transform) => (transform, false),
             None => {
                 return Err(problem(
                     "no georeference: neither ModelTransformationTag nor ModelPixelScaleTag \
@@ -249,6 +269,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             }
         },
     };
+    let [a, b, c, d, e, f] = transform;
     let key = |id: u16| {
         keys.get(4..)
             .unwrap_or_default()
@@ -256,7 +277,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             .find(|k| k[0] == id && k[1] == 0)
             .map(|k| k[3])
     };
-    let point = key(GT_RASTER_TYPE) == Some(PIXEL_IS_POINT);
+    // PixelIsPoint moves the TIFF's own tiepoints; a sidecar's transform is GDAL's,
+    // from cell corners already.
+    let point = from_tags && key(GT_RASTER_TYPE) == Some(PIXEL_IS_POINT);
     let frame = key(PROJECTED_CRS)
         .or(key(GEOGRAPHIC_CRS))
         .filter(|&code| code != 0 && code != USER_DEFINED)

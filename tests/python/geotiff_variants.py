@@ -411,3 +411,38 @@ for source, file in [("spot", "osgeo_spot_chicago_utm.tif"), ("world", "rasterio
     write(name, "sidecars", profile, data, PROFILE="BASELINE", TFW="YES")
     os.remove(os.path.join(out, name + ".tif.aux.xml"))
     assert os.path.exists(os.path.join(out, name + ".tfw"))
+
+# The sidecar before the TIFF's own georeference, as GDAL reads them (its
+# GDAL_GEOREF_SOURCES: PAM, then the GeoTIFF tags, then a world file): a georeferenced
+# TIFF whose `.aux.xml` moves it (GDAL writes one there when it may not change the TIFF),
+# and a baseline TIFF whose `.aux.xml` gives a CRS in US survey feet as PROJ's WKT 2, the
+# unit in its axes. What GDAL reads of each is printed beside it.
+from rasterio.crs import CRS  # noqa: E402
+
+with rasterio.open(os.path.join(src_dir, "osgeo_spot_chicago_utm.tif")) as src:
+    data = src.read()
+    profile = dict(src.profile, driver="GTiff")
+    t = src.transform
+for key in ("compress", "predictor", "tiled", "blockxsize", "blockysize", "interleave",
+            "photometric"):
+    profile.pop(key, None)
+moved = [t.c + 1000.0, t.a, t.b, t.f - 500.0, t.d, t.e]
+for name, extra, srs in [
+    ("spot--pam-moves-it", {}, None),
+    ("spot--pam-wkt2-feet", {"PROFILE": "BASELINE"},
+     CRS.from_epsg(2263).to_wkt(version="WKT2_2019")),
+]:
+    path = os.path.join(out, name + ".tif")
+    with rasterio.open(path, "w", **dict(profile, **extra)) as dst:
+        dst.write(data)
+    pam = "<PAMDataset>\n"
+    if srs is not None:
+        pam += "  <SRS>" + srs.replace("&", "&amp;").replace('"', "&quot;") + "</SRS>\n"
+    pam += "  <GeoTransform>" + ", ".join(repr(v) for v in moved) + "</GeoTransform>\n"
+    pam += "</PAMDataset>\n"
+    with open(path + ".aux.xml", "w") as f:
+        f.write(pam)
+    with rasterio.open(path) as src:
+        gdal = {"transform": list(src.transform)[:6], "epsg": src.crs.to_epsg(),
+                "metres_per_unit": src.crs.linear_units_factor[1]}
+    print(json.dumps({"name": name, "source": "pam-first", "lossless": True, "gdal": gdal}))

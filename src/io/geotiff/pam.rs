@@ -1,9 +1,11 @@
 //! GDAL's sidecars: what GDAL keeps of a GeoTIFF beside it.
 //!
-//! Where the TIFF has no georeference of its own (GDAL's `PROFILE=BASELINE`, or a TIFF
-//! as scanners and older tools write it), GDAL takes it from the PAM sidecar
-//! (`<file>.aux.xml`: `<SRS>` and `<GeoTransform>`) or from a world file (`.tfw`,
-//! `.tifw`, `.wld`: six numbers, the cell size and the centre of the top-left cell).
+//! GDAL takes the georeference from the PAM sidecar (`<file>.aux.xml`: `<SRS>` and
+//! `<GeoTransform>`, each in preference to the TIFF's own: GDAL writes them there when
+//! it may not change the TIFF itself), then from the GeoTIFF tags, then
+//! from a world file (`.tfw`, `.tifw`, `.wld`: six numbers, the cell size and the centre
+//! of the top-left cell), which TIFFs with no georeference of their own have (GDAL's
+//! `PROFILE=BASELINE`, scanners, older tools).
 //!
 //! The PAM sidecar also says which bands hold classes, as land covers converted by
 //! `gdal_translate` or classified in QGIS carry them:
@@ -51,42 +53,49 @@ pub fn sidecars(path: &Path) -> Vec<PathBuf> {
     files
 }
 
-/// A georeference from outside the TIFF: GDAL's geotransform, and the CRS as the
-/// GeoKeys GDAL would have written for it (none where no sidecar gives one).
-#[derive(Debug, Clone, PartialEq)]
-pub(super) struct Georeference {
-    pub transform: [f64; 6],
-    pub keys: Vec<u16>,
+/// What the PAM sidecar says of the dataset's georeference, which GDAL prefers to the
+/// TIFF's own (its `GDAL_GEOREF_SOURCES`: the sidecar, the GeoTIFF tags, a world file).
+#[derive(Debug, Default, Clone, PartialEq)]
+pub(super) struct PamGeoreference {
+    /// GDAL's geotransform as ours (x = a·col + b·row + c, y = d·col + e·row + f).
+    pub transform: Option<[f64; 6]>,
+    /// The CRS as the GeoKeys GDAL would have written for it; `Err` saying why where
+    /// the sidecar has a CRS we cannot measure (one with no EPSG code).
+    pub keys: Option<Result<Vec<u16>, String>>,
 }
 
-/// The georeference of a TIFF that has none inside: the PAM sidecar's, else a world
-/// file's (with the PAM sidecar's CRS where it has one). `Ok(None)` where there is no
-/// sidecar; an error names the sidecar and what is wrong with it.
-pub(super) fn georeference(path: &Path) -> Result<Option<Georeference>, String> {
+/// The georeference in the PAM sidecar of `path` (nothing where there is none); an
+/// error names the sidecar where its XML is malformed.
+pub(super) fn georeference(path: &Path) -> Result<PamGeoreference, String> {
     let pam = sidecar(path);
-    let (mut transform, mut keys) = (None, Vec::new());
-    if let Ok(xml) = std::fs::read_to_string(&pam) {
-        let (srs, pam_transform) = dataset_georeference(&xml)
-            .map_err(|e| format!("{}: its XML is malformed: {e}", pam.display()))?;
-        transform = pam_transform;
-        if let Some(wkt) = srs {
-            keys = geokeys_of_wkt(&wkt).ok_or_else(|| {
-                format!(
-                    "{}: its CRS names no EPSG code (an AUTHORITY or ID): give the \
-                     raster its GeoTIFF tags (gdal_translate -a_srs EPSG:<code>)",
-                    pam.display()
-                )
-            })?;
-        }
-    }
-    if transform.is_none()
-        && let Some(world) = world_files(path).into_iter().find(|f| f.is_file())
-    {
-        let text = std::fs::read_to_string(&world)
-            .map_err(|e| format!("{}: cannot be read: {e}", world.display()))?;
-        transform = Some(world_file(&text).map_err(|e| format!("{}: {e}", world.display()))?);
-    }
-    Ok(transform.map(|transform| Georeference { transform, keys }))
+    let Ok(xml) = std::fs::read_to_string(&pam) else {
+        return Ok(PamGeoreference::default());
+    };
+    let (srs, transform) = dataset_georeference(&xml)
+        .map_err(|e| format!("{}: its XML is malformed: {e}", pam.display()))?;
+    let keys = srs.map(|wkt| {
+        geokeys_of_wkt(&wkt).ok_or_else(|| {
+            format!(
+                "{}: its CRS names no EPSG code (an AUTHORITY or ID): give the raster its \
+                 GeoTIFF tags (gdal_translate -a_srs EPSG:<code>)",
+                pam.display()
+            )
+        })
+    });
+    Ok(PamGeoreference { transform, keys })
+}
+
+/// The geotransform of the first world file beside `path` (`None` where there is none),
+/// as ours; an error names the file and what is wrong with it.
+pub(super) fn world_file_transform(path: &Path) -> Result<Option<[f64; 6]>, String> {
+    let Some(world) = world_files(path).into_iter().find(|f| f.is_file()) else {
+        return Ok(None);
+    };
+    let text = std::fs::read_to_string(&world)
+        .map_err(|e| format!("{}: cannot be read: {e}", world.display()))?;
+    world_file(&text)
+        .map(Some)
+        .map_err(|e| format!("{}: {e}", world.display()))
 }
 
 /// GDAL's geotransform [x0, dx, rx, y0, ry, dy] as ours: x = a·col + b·row + c,
@@ -169,7 +178,7 @@ fn dataset_georeference(xml: &str) -> Result<(Option<String>, Option<[f64; 6]>),
 
 /// The GeoKeys (a GeoKeyDirectory) GDAL would write for a CRS given as WKT 1 or 2 with
 /// its EPSG code at the top (`AUTHORITY["EPSG","32633"]`, `ID["EPSG",32633]`): the model
-/// type, the code, and for a projected CRS its linear unit's code where WKT 1 gives one.
+/// type, the code, and for a projected CRS its linear unit ([`linear_unit_code`]).
 fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
     let wkt = wkt.trim();
     let root = wkt.split('[').next()?.trim().to_ascii_uppercase();
@@ -189,23 +198,60 @@ fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
     let code = code(&top)?;
     let mut keys: Vec<[u16; 4]> = vec![[1024, 0, 1, if geographic { 2 } else { 1 }]];
     keys.push([if geographic { 2048 } else { 3072 }, 0, 1, code]);
-    if projected
-        && let Some(unit) = top
-            .iter()
-            .filter(|(keyword, _)| keyword == "UNIT")
-            .filter_map(|(_, body)| {
-                top_level(&format!("U[{body}]"))
-                    .iter()
-                    .filter(|(k, _)| k == "AUTHORITY")
-                    .find_map(|(_, b)| epsg_code(b))
-            })
-            .next_back()
-    {
+    if projected && let Some(unit) = linear_unit_code(&top) {
         keys.push([3076, 0, 1, unit]);
     }
     let mut directory = vec![1, 1, 0, keys.len() as u16];
     directory.extend(keys.into_iter().flatten());
     Some(directory)
+}
+
+/// Metres per unit of the EPSG linear units a CRS's WKT may give by factor alone.
+const LINEAR_UNITS: [(u16, f64); 4] = [
+    (9001, 1.0),
+    (9002, 0.3048),
+    (9003, 1200.0 / 3937.0),
+    (9036, 1000.0),
+];
+
+/// The EPSG code of a projected CRS's linear unit, from the unit at its top level
+/// (WKT 1's `UNIT`, WKT 2's `LENGTHUNIT`) or in its axes (where PROJ's WKT 2 puts it,
+/// without a code): by its factor to metres, else by its own code, else user-defined
+/// (32767, which cannot be measured). `None` where the CRS gives no unit.
+fn linear_unit_code(top: &[(String, String)]) -> Option<u16> {
+    let is_unit = |keyword: &str| keyword == "UNIT" || keyword == "LENGTHUNIT";
+    let body = top
+        .iter()
+        .filter(|(keyword, _)| is_unit(keyword))
+        .map(|(_, body)| body.clone())
+        .next_back()
+        .or_else(|| {
+            top.iter()
+                .filter(|(keyword, _)| keyword == "AXIS")
+                .find_map(|(_, axis)| {
+                    top_level(&format!("AXIS[{axis}]"))
+                        .into_iter()
+                        .find(|(keyword, _)| is_unit(keyword))
+                        .map(|(_, body)| body)
+                })
+        })?;
+    let factor = body
+        .split(',')
+        .nth(1)
+        .and_then(|f| f.trim().parse::<f64>().ok());
+    let by_factor = factor.and_then(|factor| {
+        LINEAR_UNITS
+            .iter()
+            .find(|(_, metres)| (factor / metres - 1.0).abs() < 1e-9)
+            .map(|&(code, _)| code)
+    });
+    let by_code = || {
+        top_level(&format!("UNIT[{body}]"))
+            .iter()
+            .filter(|(keyword, _)| keyword == "AUTHORITY" || keyword == "ID")
+            .find_map(|(_, authority)| epsg_code(authority))
+    };
+    Some(by_factor.or_else(by_code).unwrap_or(32767))
 }
 
 /// The elements directly inside a WKT node's brackets: (KEYWORD, the text between its
@@ -436,6 +482,48 @@ mod tests {
             Some(r#"GEOGCS["x",AUTHORITY["EPSG","4326"]]"#)
         );
         assert_eq!(transform, Some([0.5, 0.0, 10.0, 0.0, -0.5, 50.0]));
+    }
+
+    #[test]
+    fn the_linear_unit_comes_from_its_factor_at_the_top_or_in_the_axes() {
+        let unit = |wkt: &str| {
+            let keys = geokeys_of_wkt(wkt).unwrap();
+            keys[4..]
+                .chunks_exact(4)
+                .find(|k| k[0] == 3076)
+                .map(|k| k[3])
+        };
+        // PROJ's WKT 2 (as GDAL writes a CRS WKT 1 cannot hold): the unit in each axis,
+        // with no code of its own.
+        let long_island = r#"PROJCRS["NAD83 / New York Long Island (ftUS)",BASEGEOGCRS["NAD83",DATUM["North American Datum 1983",ELLIPSOID["GRS 1980",6378137,298.257222101,LENGTHUNIT["metre",1]]],PRIMEM["Greenwich",0,ANGLEUNIT["degree",0.0174532925199433]],ID["EPSG",4269]],CONVERSION["SPCS83 New York Long Island zone (US survey foot)",METHOD["Lambert Conic Conformal (2SP)",ID["EPSG",9802]],PARAMETER["False easting",984250,LENGTHUNIT["US survey foot",0.304800609601219],ID["EPSG",8826]]],CS[Cartesian,2],AXIS["easting (X)",east,ORDER[1],LENGTHUNIT["US survey foot",0.304800609601219]],AXIS["northing (Y)",north,ORDER[2],LENGTHUNIT["US survey foot",0.304800609601219]],ID["EPSG",2263]]"#;
+        assert_eq!(unit(long_island), Some(9003));
+        let top = |u: &str| {
+            format!(
+                r#"PROJCS["x",GEOGCS["y",AUTHORITY["EPSG","4269"]],{u},AUTHORITY["EPSG","2263"]]"#
+            )
+        };
+        assert_eq!(
+            unit(&top(r#"UNIT["Foot_US",0.3048006096012192]"#)),
+            Some(9003)
+        );
+        assert_eq!(
+            unit(&top(r#"UNIT["foot",0.3048,AUTHORITY["EPSG","9002"]]"#)),
+            Some(9002)
+        );
+        assert_eq!(unit(&top(r#"LENGTHUNIT["metre",1]"#)), Some(9001));
+        // Clarke's foot is no unit we measure: its own code, else a user-defined one,
+        // which the reader refuses by name.
+        assert_eq!(
+            unit(&top(
+                r#"UNIT["Clarke's foot",0.3047972654,AUTHORITY["EPSG","9005"]]"#
+            )),
+            Some(9005)
+        );
+        assert_eq!(
+            unit(&top(r#"UNIT["Clarke's foot",0.3047972654]"#)),
+            Some(32767)
+        );
+        assert_eq!(unit(&top(r#"AXIS["E",EAST]"#)), None);
     }
 
     #[test]
