@@ -73,6 +73,7 @@ fn every_gdal_variant_reads_to_the_same_grid() {
             || source == "kinds"
             || source == "sidecars"
             || source == "pam-first"
+            || source == "pam-compound"
             || name.ends_with("--none")
             || name.ends_with("--float-pred3")
         {
@@ -680,6 +681,36 @@ fn sidecars_georeference_before_the_tiff_as_gdal_reads_them() {
         );
         assert_eq!(map.geo.frame, format!("EPSG:{}", gdal["epsg"]), "{name}");
     }
+}
+
+/// A DEM whose sidecar gives a compound CRS (GDAL's COMPD_CS for EPSG:2263+6360): cells
+/// and heights in US survey feet, read in metres.
+#[test]
+fn a_sidecars_compound_crs_gives_cells_and_heights_in_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(files) = write_variants(dir.path()) else {
+        return;
+    };
+    let file = files
+        .iter()
+        .find(|f| f["source"] == "pam-compound")
+        .unwrap();
+    let map = read_geotiff(&dir.path().join("dem--pam-compound-feet.tif"), "m").unwrap();
+    let gdal = &file["gdal"];
+    let foot = gdal["metres_per_unit"].as_f64().unwrap();
+    assert!((foot - 1200.0 / 3937.0).abs() < 1e-12, "{foot}");
+    let [x, y] = map.geo.cell_size();
+    assert!(
+        (x - 10.0 * foot).abs() < 1e-9 && (y - 10.0 * foot).abs() < 1e-9,
+        "{x} × {y}"
+    );
+    assert_eq!(map.geo.frame, "EPSG:2263");
+    let first = gdal["first_value"].as_f64().unwrap();
+    let read = f64::from(map.layers[0].values[0]);
+    assert!(
+        (read - first * foot).abs() < 1e-3,
+        "the first height {read} m, GDAL's {first} ft"
+    );
 }
 
 /// TIFFs georeferenced outside themselves, as GDAL writes them: a baseline TIFF's CRS and

@@ -446,3 +446,18 @@ for name, extra, srs in [
         gdal = {"transform": list(src.transform)[:6], "epsg": src.crs.to_epsg(),
                 "metres_per_unit": src.crs.linear_units_factor[1]}
     print(json.dumps({"name": name, "source": "pam-first", "lossless": True, "gdal": gdal}))
+
+# A DEM in a compound CRS, as GDAL writes a baseline TIFF's: the sidecar's COMPD_CS of a
+# State Plane CRS in US survey feet and NAVD88 heights in US survey feet (EPSG:2263+6360).
+heights = (data[:1].astype("float32") * 3.0 + 100.0)
+dem = dict(profile, count=1, dtype="float32", nodata=None, crs="EPSG:2263+6360",
+           transform=Affine(10.0, 0.0, 1000000.0, 0.0, -10.0, 200000.0), PROFILE="BASELINE")
+path = os.path.join(out, "dem--pam-compound-feet.tif")
+with rasterio.open(path, "w", **dem) as dst:
+    dst.write(heights)
+with rasterio.open(path) as src:
+    gdal = {"transform": list(src.transform)[:6], "metres_per_unit": src.crs.linear_units_factor[1],
+            "first_value": float(src.read(1)[0, 0])}
+assert "COMPD_CS" in open(path + ".aux.xml").read()
+print(json.dumps({"name": "dem--pam-compound-feet", "source": "pam-compound", "lossless": True,
+                  "gdal": gdal}))

@@ -182,6 +182,9 @@ fn dataset_georeference(xml: &str) -> Result<(Option<String>, Option<[f64; 6]>),
 fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
     let wkt = wkt.trim();
     let root = wkt.split('[').next()?.trim().to_ascii_uppercase();
+    if matches!(root.as_str(), "COMPD_CS" | "COMPOUNDCRS") {
+        return geokeys_of_compound(wkt);
+    }
     let geographic = matches!(root.as_str(), "GEOGCS" | "GEOGCRS" | "GEOGRAPHICCRS");
     let projected = matches!(root.as_str(), "PROJCS" | "PROJCRS" | "PROJECTEDCRS");
     if !geographic && !projected {
@@ -203,6 +206,41 @@ fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
     }
     let mut directory = vec![1, 1, 0, keys.len() as u16];
     directory.extend(keys.into_iter().flatten());
+    Some(directory)
+}
+
+/// The GeoKeys of a compound CRS (GDAL's for a DEM with a vertical datum,
+/// `EPSG:2263+6360`): its horizontal CRS's, and its vertical CRS's code and unit
+/// (VerticalCSType, VerticalUnits), which give the heights' unit.
+fn geokeys_of_compound(wkt: &str) -> Option<Vec<u16>> {
+    let top = top_level(wkt);
+    let horizontal = top.iter().find(|(keyword, _)| {
+        matches!(
+            keyword.as_str(),
+            "PROJCS" | "PROJCRS" | "PROJECTEDCRS" | "GEOGCS" | "GEOGCRS" | "GEOGRAPHICCRS"
+        )
+    })?;
+    let mut directory = geokeys_of_wkt(&format!("{}[{}]", horizontal.0, horizontal.1))?;
+    if let Some((_, vertical)) = top
+        .iter()
+        .find(|(keyword, _)| matches!(keyword.as_str(), "VERT_CS" | "VERTCRS" | "VERTICALCRS"))
+    {
+        let items = top_level(&format!("VERT_CS[{vertical}]"));
+        let mut keys = Vec::new();
+        if let Some(code) = items
+            .iter()
+            .filter(|(keyword, _)| keyword == "AUTHORITY" || keyword == "ID")
+            .filter_map(|(_, body)| epsg_code(body))
+            .next_back()
+        {
+            keys.push([4096, 0, 1, code]);
+        }
+        if let Some(unit) = linear_unit_code(&items) {
+            keys.push([4099, 0, 1, unit]);
+        }
+        directory[3] += keys.len() as u16;
+        directory.extend(keys.into_iter().flatten());
+    }
     Some(directory)
 }
 
@@ -524,6 +562,24 @@ mod tests {
             Some(32767)
         );
         assert_eq!(unit(&top(r#"AXIS["E",EAST]"#)), None);
+    }
+
+    #[test]
+    fn a_compound_crs_gives_its_horizontal_keys_and_its_heights_unit() {
+        // As GDAL writes EPSG:2263+6360 into a sidecar (shortened).
+        let wkt1 = r#"COMPD_CS["NAD83 / New York Long Island (ftUS) + NAVD88 height (ftUS)",PROJCS["NAD83 / New York Long Island (ftUS)",GEOGCS["NAD83",AUTHORITY["EPSG","4269"]],PROJECTION["Lambert_Conformal_Conic_2SP"],UNIT["US survey foot",0.304800609601219,AUTHORITY["EPSG","9003"]],AXIS["Easting",EAST],AUTHORITY["EPSG","2263"]],VERT_CS["NAVD88 height (ftUS)",VERT_DATUM["North American Vertical Datum 1988",2005,AUTHORITY["EPSG","5103"]],UNIT["US survey foot",0.304800609601219,AUTHORITY["EPSG","9003"]],AXIS["Gravity-related height",UP],AUTHORITY["EPSG","6360"]]]"#;
+        let expected = [
+            1, 1, 0, 5, 1024, 0, 1, 1, 3072, 0, 1, 2263, 3076, 0, 1, 9003, 4096, 0, 1, 6360, 4099,
+            0, 1, 9003,
+        ];
+        assert_eq!(geokeys_of_wkt(wkt1).unwrap(), expected);
+        let wkt2 = r#"COMPOUNDCRS["x",PROJCRS["NAD83 / New York Long Island (ftUS)",BASEGEOGCRS["NAD83",ID["EPSG",4269]],CS[Cartesian,2],AXIS["easting (X)",east,ORDER[1],LENGTHUNIT["US survey foot",0.304800609601219]],ID["EPSG",2263]],VERTCRS["NAVD88 height (ftUS)",VDATUM["North American Vertical Datum 1988"],CS[vertical,1],AXIS["gravity-related height (H)",up,LENGTHUNIT["US survey foot",0.304800609601219]],ID["EPSG",6360]]]"#;
+        assert_eq!(geokeys_of_wkt(wkt2).unwrap(), expected);
+        // With no horizontal CRS it names no code a raster can be measured by.
+        assert_eq!(
+            geokeys_of_wkt(r#"COMPD_CS["x",VERT_CS["h",AUTHORITY["EPSG","5703"]]]"#),
+            None
+        );
     }
 
     #[test]
