@@ -74,6 +74,8 @@ fn every_gdal_variant_reads_to_the_same_grid() {
             || source == "sidecars"
             || source == "pam-first"
             || source == "pam-compound"
+            || source == "code-alone"
+            || source == "pam-esri"
             || name.ends_with("--none")
             || name.ends_with("--float-pred3")
         {
@@ -132,7 +134,9 @@ fn projected_units_in_feet_become_metres() {
     let spot = read_geotiff(&dir.path().join("spot--none.tif"), "m").unwrap();
     assert_eq!(feet.geo.frame, "EPSG:2263");
     let foot = 1200.0 / 3937.0;
-    let ([fx, fy], [sx, sy]) = (feet.geo.cell_metres(), spot.geo.cell_metres());
+    // The frame's metres: the SPOT image's grid is far north of the New York State
+    // Plane's zone, where its ground scale (in `cell_metres`) is far from 1.
+    let ([fx, fy], [sx, sy]) = (feet.geo.cell_size(), spot.geo.cell_size());
     assert!((fx - sx * foot).abs() < 1e-9 && (fy - sy * foot).abs() < 1e-9);
     assert!((feet.geo.origin[0] - spot.geo.origin[0] * foot).abs() < 1e-6);
 }
@@ -711,6 +715,89 @@ fn a_sidecars_compound_crs_gives_cells_and_heights_in_metres() {
         (read - first * foot).abs() < 1e-3,
         "the first height {read} m, GDAL's {first} ft"
     );
+}
+
+/// Sidecars that give the CRS in ESRI's WKT with no EPSG code (ArcGIS's `.aux.xml`):
+/// the UTM zone is known by its name, and every one reads to the cells (in ground
+/// metres) and origin of the same grid with the CRS's EPSG code in its GeoKeys.
+#[test]
+fn sidecars_in_esri_wkt_read_as_their_crs_by_code() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(files) = write_variants(dir.path()) else {
+        return;
+    };
+    let read = |name: &str| read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+    let esri: Vec<_> = files.iter().filter(|f| f["source"] == "pam-esri").collect();
+    assert_eq!(esri.len(), 3);
+    for file in esri {
+        let name = file["name"].as_str().unwrap();
+        let map = read(name);
+        let reference = read(&format!(
+            "spot--esri-{}-reference",
+            name.rsplit('-').next().unwrap()
+        ));
+        let gdal = &file["gdal"];
+        let per_unit = gdal["metres_per_unit"].as_f64().unwrap();
+        let transform: Vec<f64> = serde_json::from_value(gdal["transform"].clone()).unwrap();
+        let [x, y] = map.geo.cell_size();
+        assert!(
+            (x - transform[0] * per_unit).abs() < 1e-9
+                && (y + transform[4] * per_unit).abs() < 1e-9,
+            "{name}: {x} × {y} against GDAL's {transform:?} at {per_unit} m per unit"
+        );
+        let (ours, theirs) = (map.geo.cell_metres(), reference.geo.cell_metres());
+        assert!(
+            (ours[0] / theirs[0] - 1.0).abs() < 1e-9 && (ours[1] / theirs[1] - 1.0).abs() < 1e-9,
+            "{name}: {ours:?} against {theirs:?} by EPSG code"
+        );
+        assert!(
+            (map.geo.origin[0] - reference.geo.origin[0]).abs() < 1e-6,
+            "{name}"
+        );
+        assert!(
+            (map.geo.origin[1] - reference.geo.origin[1]).abs() < 1e-6,
+            "{name}"
+        );
+        if name.ends_with("albers") {
+            // Far north of the cone's parallels: measured on the ground, not as grid metres.
+            assert!(
+                (ours[1] / y - 1.0).abs() > 0.01,
+                "{name}: {ours:?} from {y}"
+            );
+        }
+        let frame = if name.ends_with("utm") {
+            "EPSG:32616"
+        } else {
+            "map"
+        };
+        assert_eq!(map.geo.frame, frame, "{name}");
+    }
+}
+
+/// A projected CRS named by its EPSG code alone (no ProjLinearUnits key) is read in the
+/// code's unit, as GDAL reads it: a State Plane grid's US survey feet become metres.
+#[test]
+fn a_crs_named_by_its_code_alone_is_read_in_its_unit() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(files) = write_variants(dir.path()) else {
+        return;
+    };
+    let file = files.iter().find(|f| f["source"] == "code-alone").unwrap();
+    let gdal = &file["gdal"];
+    let foot = gdal["metres_per_unit"].as_f64().unwrap();
+    assert!(
+        (foot - 1200.0 / 3937.0).abs() < 1e-12,
+        "GDAL reads {foot} m per unit"
+    );
+    assert_eq!(gdal["epsg"].as_u64(), Some(2263));
+    let map = read_geotiff(&dir.path().join("units--code-alone-us-feet.tif"), "m").unwrap();
+    assert_eq!(map.geo.frame, "EPSG:2263");
+    let [x, y] = map.geo.cell_metres();
+    assert!(
+        (x - 10.0 * foot).abs() < 1e-9 && (y - 10.0 * foot).abs() < 1e-9,
+        "{x} × {y}"
+    );
+    assert!((map.geo.origin[0] - 1_000_000.0 * foot).abs() < 1e-6);
 }
 
 /// TIFFs georeferenced outside themselves, as GDAL writes them: a baseline TIFF's CRS and

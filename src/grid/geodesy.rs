@@ -70,8 +70,10 @@ fn latitude_of_t(t: f64) -> f64 {
     phi
 }
 
-/// How far from 1 a Transverse Mercator's scale is read as 1.
-const TRUE_SCALE_TOLERANCE: f64 = 1e-3;
+/// How far from 1 a projection's scale is read as 1: a grid metre within 0.1 % of a
+/// ground metre (UTM inside its zone, a State Plane grid) is read as one, as gdalinfo's
+/// cell size is.
+pub const TRUE_SCALE_TOLERANCE: f64 = 1e-3;
 
 /// A conformal projection on WGS 84 whose point scale the reader corrects for.
 enum Conformal {
@@ -97,7 +99,9 @@ enum Conformal {
     TransverseMercator { k0: f64, false_easting: f64 },
 }
 
-enum PolarScale {
+/// How a polar stereographic projection is scaled: true on a latitude (degrees), or
+/// by k0 at the pole.
+pub(super) enum PolarScale {
     TrueLatitude(f64),
     AtPole(f64),
 }
@@ -254,12 +258,38 @@ enum Kind {
 }
 
 impl Projection {
-    /// The projection of `EPSG:<code>`, where it is one of these.
+    /// The projection of `EPSG:<code>`, where it is one of these: listed by hand (with
+    /// codes newer than the registry), else from the EPSG registry's parameters.
     pub fn of_epsg(code: u16) -> Option<Projection> {
+        Projection::of_epsg_listed(code)
+            .or_else(|| super::epsg::epsg_crs(code).and_then(|crs| crs.projection()))
+    }
+
+    /// The projections listed here by their EPSG code.
+    pub(super) fn of_epsg_listed(code: u16) -> Option<Projection> {
         Conformal::of(code)
             .map(Kind::Conformal)
             .or_else(|| EqualArea::of_epsg(code).map(Kind::EqualArea))
             .map(Projection)
+    }
+
+    /// Polar stereographic on WGS 84 about either pole, from its false origin (metres).
+    pub(super) fn polar_stereographic(scale: PolarScale, false_origin: [f64; 2]) -> Projection {
+        Projection(Kind::Conformal(Conformal::PolarStereographic {
+            scale,
+            false_origin,
+        }))
+    }
+
+    /// Polar stereographic on WGS 84 true to scale on a latitude (degrees from the
+    /// equator, either hemisphere), from its false origin (metres).
+    pub fn polar_stereographic_true_at(latitude: f64, false_origin: [f64; 2]) -> Projection {
+        Projection::polar_stereographic(PolarScale::TrueLatitude(latitude), false_origin)
+    }
+
+    /// Mercator on WGS 84, true to scale on the equator (EPSG:3395).
+    pub(super) fn world_mercator() -> Projection {
+        Projection(Kind::Conformal(Conformal::WorldMercator))
     }
 
     /// An equal-area projection the GeoKeys define by its parameters.

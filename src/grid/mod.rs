@@ -8,6 +8,7 @@
 //! ([`GeoRef::cell_metres`]), so cells need not be square.
 
 mod demo;
+mod epsg;
 mod equal_area;
 mod geodesy;
 mod map;
@@ -15,8 +16,9 @@ mod path;
 mod points;
 
 pub use demo::{Demonstration, Pose};
+pub use epsg::{EpsgCrs, epsg_crs};
 pub use equal_area::{Ellipsoid, EqualArea};
-pub use geodesy::{Projection, metres_per_degree};
+pub use geodesy::{Projection, TRUE_SCALE_TOLERANCE, metres_per_degree};
 
 pub use map::{
     Layer, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, check_map_name, classes_of,

@@ -245,14 +245,14 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         }
         Err(e) => return Err(problem(e)),
     };
-    let keys = match pam.keys {
-        Some(Ok(pam_keys)) => pam_keys,
+    let (keys, pam_citation) = match pam.keys {
+        Some(Ok(pam_keys)) => (pam_keys, Some(pam.citation)),
         Some(Err(e)) if !keys.is_empty() => {
             tracing::warn!("{e}; the TIFF's own CRS (GeoKeys) is used");
-            keys
+            (keys, None)
         }
         Some(Err(e)) => return Err(problem(e)),
-        None => keys,
+        None => (keys, None),
     };
     let (transform, from_tags) = match (pam.transform, own_transform) {
         (Some(transform), _) => (transform, false),
@@ -344,11 +344,15 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             .find(|k| k[0] == id && k[1] == GEO_DOUBLE_PARAMS && k[2] >= 1)
             .and_then(|k| doubles.get(usize::from(k[3])).copied())
     };
-    let ascii = decoder
-        .find_tag(Tag::GeoAsciiParamsTag)
-        .map_err(tiff_error)?
-        .and_then(|v| v.into_string().ok())
-        .unwrap_or_default();
+    // The sidecar's keys point into its citation, never into the TIFF's parameters.
+    let ascii = match pam_citation {
+        Some(citation) => citation,
+        None => decoder
+            .find_tag(Tag::GeoAsciiParamsTag)
+            .map_err(tiff_error)?
+            .and_then(|v| v.into_string().ok())
+            .unwrap_or_default(),
+    };
     let geo_keys = projection::GeoKeys {
         short: &key,
         double: &double,
@@ -550,8 +554,13 @@ fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, Str
         };
     }
     match key(PROJ_LINEAR_UNITS) {
+        // The CRS named by its EPSG code alone: its unit is the registry's (GDAL reads a
+        // State Plane code in US survey feet so); metres for codes it does not hold.
         None => Ok(Units {
-            scale: 1.0,
+            scale: key(PROJECTED_CRS)
+                .and_then(crate::grid::epsg_crs)
+                .and_then(|crs| crs.metres_per_unit())
+                .unwrap_or(1.0),
             degrees: false,
         }),
         Some(code) => metres_per_linear_unit(code)
@@ -622,6 +631,12 @@ fn epsg_keys(geo: &GeoRef) -> Vec<[u16; 4]> {
             PROJECTED_CRS
         };
         keys.push([crs, 0, 1, code]);
+        // Our coordinates are metres: say so where the code's own unit is another
+        // (a State Plane code in US survey feet), or readers take them in that unit.
+        let own_unit = crate::grid::epsg_crs(code).and_then(|crs| crs.metres_per_unit());
+        if !geo.degrees && own_unit.is_some_and(|unit| unit != 1.0) {
+            keys.push([PROJ_LINEAR_UNITS, 0, 1, 9001]);
+        }
     }
     keys
 }
@@ -809,6 +824,18 @@ mod tests {
     fn crs_units_are_metres_feet_or_degrees_and_nothing_else() {
         let projected_feet = crs_units(&keys(&[(1024, 1), (3072, 2263), (3076, 9003)])).unwrap();
         assert!((projected_feet.scale - 0.3048006).abs() < 1e-6 && !projected_feet.degrees);
+        // Without ProjLinearUnits, the EPSG code's own unit; metres for a user-defined
+        // CRS or a code the registry does not hold.
+        let code_alone = crs_units(&keys(&[(1024, 1), (3072, 2263)])).unwrap();
+        assert!((code_alone.scale - 0.3048006).abs() < 1e-6);
+        assert_eq!(
+            crs_units(&keys(&[(1024, 1), (3072, 32633)])).unwrap().scale,
+            1.0
+        );
+        assert_eq!(
+            crs_units(&keys(&[(1024, 1), (3072, 32767)])).unwrap().scale,
+            1.0
+        );
         assert!(
             crs_units(&keys(&[(1024, 2), (2048, 4326)]))
                 .unwrap()
@@ -855,6 +882,19 @@ mod tests {
         let path = dir.path().join("c.tif");
         write_geotiff(&path, &geo, &values).unwrap();
         assert_eq!(written_georeference(&path, &geo), geo);
+        // A frame whose EPSG code is in feet is written in metres and says so.
+        let feet = GeoRef {
+            frame: "EPSG:2263".into(),
+            origin: [300_000.0, 1000.0],
+            ..geo.clone()
+        };
+        let feet_path = dir.path().join("feet.tif");
+        write_geotiff(&feet_path, &feet, &values).unwrap();
+        let back = read_geotiff(&feet_path, "c").unwrap().geo;
+        assert_eq!(
+            (back.cell_size(), back.origin),
+            (feet.cell_size(), feet.origin)
+        );
         let map = read_geotiff(&path, "c").unwrap();
         let back = &map.layers[0].values;
         assert_eq!(&back[..2], &values[..2]);

@@ -447,6 +447,30 @@ for name, extra, srs in [
                 "metres_per_unit": src.crs.linear_units_factor[1]}
     print(json.dumps({"name": name, "source": "pam-first", "lossless": True, "gdal": gdal}))
 
+# Baseline TIFFs whose `.aux.xml` gives the CRS in ESRI's WKT, with no EPSG code, as
+# ArcGIS writes it: a UTM zone (known by ESRI's name), a State Plane grid in US survey
+# feet and Conus Albers (known by their parameters). Beside each, the same grid as a
+# GeoTIFF with the CRS's EPSG code in its GeoKeys, and what GDAL reads of the sidecar.
+for name, code in [("utm", 32616), ("feet", 2263), ("albers", 5070)]:
+    path = os.path.join(out, f"spot--pam-esri-{name}.tif")
+    with rasterio.open(path, "w", **dict(profile, PROFILE="BASELINE")) as dst:
+        dst.write(data)
+    esri = CRS.from_epsg(code).to_wkt(version="WKT1_ESRI")
+    assert "AUTHORITY" not in esri
+    with open(path + ".aux.xml", "w") as f:
+        f.write("<PAMDataset>\n  <SRS>" + esri.replace("&", "&amp;").replace('"', "&quot;")
+                + "</SRS>\n  <GeoTransform>" + ", ".join(repr(v) for v in moved)
+                + "</GeoTransform>\n</PAMDataset>\n")
+    reference = dict(profile, crs=CRS.from_epsg(code), transform=Affine.from_gdal(*moved))
+    with rasterio.open(os.path.join(out, f"spot--esri-{name}-reference.tif"), "w",
+                       **reference) as dst:
+        dst.write(data)
+    with rasterio.open(path) as src:
+        gdal = {"transform": list(src.transform)[:6],
+                "metres_per_unit": src.crs.linear_units_factor[1]}
+    print(json.dumps({"name": f"spot--pam-esri-{name}", "source": "pam-esri", "lossless": True,
+                      "gdal": gdal, "epsg": code}))
+
 # A DEM in a compound CRS, as GDAL writes a baseline TIFF's: the sidecar's COMPD_CS of a
 # State Plane CRS in US survey feet and NAVD88 heights in US survey feet (EPSG:2263+6360).
 heights = (data[:1].astype("float32") * 3.0 + 100.0)
@@ -460,4 +484,37 @@ with rasterio.open(path) as src:
             "first_value": float(src.read(1)[0, 0])}
 assert "COMPD_CS" in open(path + ".aux.xml").read()
 print(json.dumps({"name": "dem--pam-compound-feet", "source": "pam-compound", "lossless": True,
+                  "gdal": gdal}))
+
+# A State Plane grid in US survey feet named by its EPSG code alone: GDAL's file with its
+# ProjLinearUnits key taken out of the GeoKeyDirectory (as writers that set only
+# ProjectedCSTypeGeoKey leave it). GDAL looks the unit up by the code and reads feet.
+import struct
+
+plane_feet = dict(profile, count=1, dtype="uint8", nodata=None, crs="EPSG:2263",
+                  transform=Affine(10.0, 0.0, 1000000.0, 0.0, -10.0, 200000.0))
+path = os.path.join(out, "units--code-alone-us-feet.tif")
+with rasterio.open(path, "w", **plane_feet) as dst:
+    dst.write(data[:1])
+with open(path, "r+b") as f:
+    tiff = bytearray(f.read())
+    assert tiff[:4] == b"II*\x00", "GDAL writes a little-endian classic TIFF here"
+    ifd = struct.unpack_from("<I", tiff, 4)[0]
+    for i in range(struct.unpack_from("<H", tiff, ifd)[0]):
+        entry = ifd + 2 + 12 * i
+        tag, kind, count, offset = struct.unpack_from("<HHII", tiff, entry)
+        if tag == 34735:
+            keys = list(struct.unpack_from(f"<{count}H", tiff, offset))
+            entries = [keys[j:j + 4] for j in range(4, count, 4)]
+            kept = [k for k in entries if k[0] != 3076]
+            assert len(kept) == len(entries) - 1, "GDAL wrote ProjLinearUnits"
+            shorter = keys[:3] + [len(kept)] + [v for k in kept for v in k]
+            struct.pack_into(f"<{len(shorter)}H", tiff, offset, *shorter)
+            struct.pack_into("<I", tiff, entry + 4, len(shorter))
+    f.seek(0)
+    f.write(tiff)
+with rasterio.open(path) as src:
+    gdal = {"transform": list(src.transform)[:6], "epsg": src.crs.to_epsg(),
+            "metres_per_unit": src.crs.linear_units_factor[1]}
+print(json.dumps({"name": "units--code-alone-us-feet", "source": "code-alone", "lossless": True,
                   "gdal": gdal}))

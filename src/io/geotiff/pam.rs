@@ -60,8 +60,11 @@ pub(super) struct PamGeoreference {
     /// GDAL's geotransform as ours (x = a·col + b·row + c, y = d·col + e·row + f).
     pub transform: Option<[f64; 6]>,
     /// The CRS as the GeoKeys GDAL would have written for it; `Err` saying why where
-    /// the sidecar has a CRS we cannot measure (one with no EPSG code).
+    /// the sidecar has a CRS we cannot read.
     pub keys: Option<Result<Vec<u16>, String>>,
+    /// The GeoAsciiParams those keys point into: for a CRS with no EPSG code, its WKT
+    /// as an ESRI PE string (GTCitationGeoKey), whose parameters give the projection.
+    pub citation: String,
 }
 
 /// The georeference in the PAM sidecar of `path` (nothing where there is none); an
@@ -73,16 +76,26 @@ pub(super) fn georeference(path: &Path) -> Result<PamGeoreference, String> {
     };
     let (srs, transform) = dataset_georeference(&xml)
         .map_err(|e| format!("{}: its XML is malformed: {e}", pam.display()))?;
+    let mut citation = String::new();
     let keys = srs.map(|wkt| {
-        geokeys_of_wkt(&wkt).ok_or_else(|| {
+        if let Some(keys) = geokeys_of_wkt(&wkt) {
+            return Ok(keys);
+        }
+        let (keys, ascii) = user_defined_geokeys(&wkt).ok_or_else(|| {
             format!(
-                "{}: its CRS names no EPSG code (an AUTHORITY or ID): give the raster its \
-                 GeoTIFF tags (gdal_translate -a_srs EPSG:<code>)",
+                "{}: its CRS is neither a projected nor a geographic CRS in WKT: give the \
+                 raster its GeoTIFF tags (gdal_translate -a_srs EPSG:<code>)",
                 pam.display()
             )
-        })
+        })?;
+        citation = ascii;
+        Ok(keys)
     });
-    Ok(PamGeoreference { transform, keys })
+    Ok(PamGeoreference {
+        transform,
+        keys,
+        citation,
+    })
 }
 
 /// The geotransform of the first world file beside `path` (`None` where there is none),
@@ -198,7 +211,7 @@ fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
             .filter_map(|(_, body)| epsg_code(body))
             .next_back()
     };
-    let code = code(&top)?;
+    let code = code(&top).or_else(|| esri_name_code(&crs_name(wkt)?))?;
     let mut keys: Vec<[u16; 4]> = vec![[1024, 0, 1, if geographic { 2 } else { 1 }]];
     keys.push([if geographic { 2048 } else { 3072 }, 0, 1, code]);
     if projected && let Some(unit) = linear_unit_code(&top) {
@@ -207,6 +220,82 @@ fn geokeys_of_wkt(wkt: &str) -> Option<Vec<u16>> {
     let mut directory = vec![1, 1, 0, keys.len() as u16];
     directory.extend(keys.into_iter().flatten());
     Some(directory)
+}
+
+/// The name a WKT CRS gives itself (its first quoted string).
+fn crs_name(wkt: &str) -> Option<String> {
+    let start = wkt.find('"')? + 1;
+    let length = wkt[start..].find('"')?;
+    Some(wkt[start..start + length].to_string())
+}
+
+/// The EPSG code of the CRSs ArcGIS names without one in its WKT (ESRI's names of UTM
+/// zones on WGS 84, NAD83, NAD27 and ETRS89, their geographic CRSs, and Web Mercator).
+fn esri_name_code(name: &str) -> Option<u16> {
+    let fixed = match name {
+        "GCS_WGS_1984" => Some(4326),
+        "GCS_North_American_1983" => Some(4269),
+        "GCS_North_American_1927" => Some(4267),
+        "GCS_ETRS_1989" => Some(4258),
+        "WGS_1984_Web_Mercator_Auxiliary_Sphere" | "WGS_1984_Web_Mercator" => Some(3857),
+        _ => None,
+    };
+    if fixed.is_some() {
+        return fixed;
+    }
+    let (datum, zone) = name.split_once("_UTM_Zone_")?;
+    let (number, hemisphere) = zone.split_at(zone.len().checked_sub(1)?);
+    let number: u16 = number.parse().ok()?;
+    let (base, zones) = match (datum, hemisphere) {
+        ("WGS_1984", "N") => (32600, 1..=60),
+        ("WGS_1984", "S") => (32700, 1..=60),
+        ("NAD_1983", "N") => (26900, 1..=23),
+        ("NAD_1927", "N") => (26700, 1..=22),
+        ("ETRS_1989", "N") => (25800, 28..=38),
+        _ => return None,
+    };
+    zones.contains(&number).then_some(base + number)
+}
+
+/// The GeoKeys GDAL writes for a WKT 1 CRS with no EPSG code (ArcGIS's sidecars hold
+/// such ESRI WKT): user-defined (32767), its unit, and a citation (GTCitationGeoKey)
+/// holding the WKT as an ESRI PE string, returned beside the keys as the
+/// GeoAsciiParams they point into; the reader takes the projection's parameters from
+/// it. `None` for what is neither a projected nor a geographic CRS.
+fn user_defined_geokeys(wkt: &str) -> Option<(Vec<u16>, String)> {
+    let wkt = wkt.trim();
+    let root = wkt.split('[').next()?.trim().to_ascii_uppercase();
+    let geographic = root == "GEOGCS";
+    if !geographic && root != "PROJCS" {
+        return None;
+    }
+    let top = top_level(wkt);
+    let citation = format!("ESRI PE String = {wkt}|");
+    let length = u16::try_from(citation.len()).ok()?;
+    let mut keys: Vec<[u16; 4]> = vec![
+        [1024, 0, 1, if geographic { 2 } else { 1 }],
+        [1026, 34737, length, 0],
+    ];
+    if geographic {
+        let factor = top
+            .iter()
+            .find(|(keyword, _)| keyword == "UNIT")
+            .and_then(|(_, body)| body.split(',').nth(1)?.trim().parse::<f64>().ok());
+        let angular = match factor {
+            Some(f) if (f / 1f64.to_radians() - 1.0).abs() < 1e-9 => 9102,
+            Some(f) if (f - 1.0).abs() < 1e-12 => 9101,
+            _ => 32767,
+        };
+        keys.extend([[2048, 0, 1, 32767], [2054, 0, 1, angular]]);
+    } else {
+        keys.push([3072, 0, 1, 32767]);
+        if let Some(unit) = linear_unit_code(&top) {
+            keys.push([3076, 0, 1, unit]);
+        }
+    }
+    let mut directory = vec![1, 1, 0, keys.len() as u16];
+    directory.extend(keys.into_iter().flatten());
+    Some((directory, citation))
 }
 
 /// The GeoKeys of a compound CRS (GDAL's for a DEM with a vertical datum,
@@ -506,12 +595,13 @@ mod tests {
             geokeys_of_wkt(wgs84).unwrap(),
             [1, 1, 0, 2, 1024, 0, 1, 2, 2048, 0, 1, 4326]
         );
-        // A CRS without its code at the top, or no CRS at all: no keys.
+        // A CRS without its code at the top, or no CRS at all: no EPSG keys.
         assert_eq!(
             geokeys_of_wkt(r#"PROJCS["custom",GEOGCS["x",AUTHORITY["EPSG","4326"]]]"#),
             None
         );
         assert_eq!(geokeys_of_wkt("LOCAL_CS[\"x\"]"), None);
+        assert_eq!(user_defined_geokeys("LOCAL_CS[\"x\"]"), None);
         let xml = "<PAMDataset><SRS>GEOGCS[&quot;x&quot;,AUTHORITY[&quot;EPSG&quot;,&quot;4326&quot;]]</SRS>\
                    <GeoTransform> 10, 0.5, 0, 50, 0, -0.5</GeoTransform></PAMDataset>";
         let (srs, transform) = dataset_georeference(xml).unwrap();
@@ -520,6 +610,40 @@ mod tests {
             Some(r#"GEOGCS["x",AUTHORITY["EPSG","4326"]]"#)
         );
         assert_eq!(transform, Some([0.5, 0.0, 10.0, 0.0, -0.5, 50.0]));
+    }
+
+    #[test]
+    fn esri_wkt_without_a_code_gives_the_code_of_its_name_or_user_defined_keys() {
+        // ArcGIS's names of a UTM zone and of a geographic CRS: their EPSG codes.
+        let utm = r#"PROJCS["WGS_1984_UTM_Zone_16N",GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Transverse_Mercator"],PARAMETER["False_Easting",500000.0],PARAMETER["Central_Meridian",-87.0],PARAMETER["Scale_Factor",0.9996],UNIT["Meter",1.0]]"#;
+        assert_eq!(
+            geokeys_of_wkt(utm).unwrap(),
+            [
+                1, 1, 0, 3, 1024, 0, 1, 1, 3072, 0, 1, 32616, 3076, 0, 1, 9001
+            ]
+        );
+        assert_eq!(esri_name_code("NAD_1983_UTM_Zone_10N"), Some(26910));
+        assert_eq!(esri_name_code("WGS_1984_UTM_Zone_60S"), Some(32760));
+        assert_eq!(esri_name_code("ETRS_1989_UTM_Zone_33N"), Some(25833));
+        assert_eq!(esri_name_code("NAD_1983_UTM_Zone_61N"), None);
+        assert_eq!(esri_name_code("GCS_WGS_1984"), Some(4326));
+        // A State Plane grid in US survey feet by ESRI's name alone: user-defined keys,
+        // its unit, and the WKT as the citation they point into.
+        let feet = r#"PROJCS["NAD_1983_StatePlane_New_York_Long_Island_FIPS_3104_Feet",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Lambert_Conformal_Conic"],PARAMETER["False_Easting",984250.0],UNIT["US survey foot",0.304800609601219]]"#;
+        assert_eq!(geokeys_of_wkt(feet), None);
+        let (keys, citation) = user_defined_geokeys(feet).unwrap();
+        let length = citation.len() as u16;
+        assert_eq!(
+            keys,
+            [
+                1, 1, 0, 4, 1024, 0, 1, 1, 1026, 34737, length, 0, 3072, 0, 1, 32767, 3076, 0, 1,
+                9003
+            ]
+        );
+        assert!(citation.starts_with("ESRI PE String = PROJCS[") && citation.ends_with("]|"));
+        let degrees = r#"GEOGCS["GCS_Custom",DATUM["D_x",SPHEROID["x",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
+        let (keys, _) = user_defined_geokeys(degrees).unwrap();
+        assert_eq!(&keys[12..], [2048, 0, 1, 32767, 2054, 0, 1, 9102]);
     }
 
     #[test]

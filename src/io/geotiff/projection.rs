@@ -1,12 +1,13 @@
 //! The projection a GeoTIFF's GeoKeys name, where its metre is not a ground metre
-//! (`grid::Projection`): by EPSG code, or a Lambert conformal conic, Albers or LAEA
-//! projection the keys define by its parameters (GDAL writes those for ESRI's codes,
-//! such as 102003 and 102004, and PROJ strings), and the ground metres per projected
-//! metre it has at the raster's centre.
+//! (`grid::Projection`): by EPSG code, a Lambert conformal conic, Transverse Mercator,
+//! Albers, LAEA or world projection the keys define by their parameters (GDAL writes
+//! those for ESRI's codes, such as 102003 and 102004, and PROJ strings), or one a WKT
+//! citation gives (an ESRI PE string, a sidecar's CRS with no code), and the ground
+//! metres per projected metre it has at the raster's centre.
 
 use std::path::Path;
 
-use crate::grid::{Ellipsoid, EqualArea, GeoRef, GroundScale, Projection};
+use crate::grid::{Ellipsoid, EqualArea, GeoRef, GroundScale, Projection, TRUE_SCALE_TOLERANCE};
 
 const PROJECTED_CRS: u16 = 3072;
 const GEOGRAPHIC_CRS: u16 = 2048;
@@ -71,7 +72,10 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
     let either = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
     let ellipsoid = ellipsoid_of(keys);
     let Some(transformation) = (keys.short)(COORDINATE_TRANSFORMATION) else {
-        return mollweide_of_citation(keys.citations, ellipsoid, metres_per_unit);
+        let given = (keys.double)(SEMI_MAJOR_AXIS)
+            .is_some()
+            .then_some(ellipsoid);
+        return of_wkt_citation(keys.citations, given, metres_per_unit);
     };
     let central_meridian = either(degrees(CENTER_LONGITUDE), degrees(NATURAL_ORIGIN_LONGITUDE));
     let false_easting_northing = [
@@ -162,35 +166,118 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
     Some(Projection::equal_area(equal_area))
 }
 
-/// Mollweide, where the citations hold an ESRI PE string of it (GDAL writes ESRI:54009
-/// and `+proj=moll` so, with no GeoTIFF code for the projection): its central meridian
-/// and false origin from the string's parameters, in the CRS's units.
-fn mollweide_of_citation(
+/// The projection of a WKT 1 CRS in the citations, ESRI's or OGC's: GDAL writes an
+/// ESRI PE string for projections GeoTIFF has no code for (Mollweide, ESRI:54009), and
+/// sidecars (ArcGIS's `.aux.xml`) hold CRSs with no EPSG code. Its PROJECTION and
+/// PARAMETERs (names in either dialect, any case), false eastings and northings in the
+/// CRS's units, on its SPHEROID where the keys give no ellipsoid.
+fn of_wkt_citation(
     citations: &str,
-    ellipsoid: Ellipsoid,
+    ellipsoid: Option<Ellipsoid>,
     metres_per_unit: f64,
 ) -> Option<Projection> {
-    if !citations.contains("PROJECTION[\"Mollweide\"]") {
-        return None;
-    }
-    let parameter = |name: &str| -> f64 {
-        let key = format!("PARAMETER[\"{name}\",");
-        citations
-            .find(&key)
-            .and_then(|at| {
-                let rest = &citations[at + key.len()..];
-                rest[..rest.find(']')?].trim().parse().ok()
-            })
-            .unwrap_or(0.0)
+    let normal = |name: &str| {
+        name.trim()
+            .trim_matches('"')
+            .to_ascii_lowercase()
+            .replace(' ', "_")
     };
-    Some(Projection::equal_area(EqualArea::Mollweide {
-        radius: ellipsoid.a,
-        central_meridian: parameter("Central_Meridian"),
-        false_easting_northing: [
-            parameter("False_Easting") * metres_per_unit,
-            parameter("False_Northing") * metres_per_unit,
-        ],
-    }))
+    // Each `KEYWORD["name",numbers...]` of the string, in order.
+    let elements = |keyword: &str| -> Vec<(String, Vec<f64>)> {
+        let key = format!("{keyword}[");
+        citations
+            .match_indices(&key)
+            .filter_map(|(at, _)| {
+                let rest = &citations[at + key.len()..];
+                let body = &rest[..rest.find(']')?];
+                let mut fields = body.split(',');
+                let name = normal(fields.next()?);
+                Some((name, fields.filter_map(|v| v.trim().parse().ok()).collect()))
+            })
+            .collect()
+    };
+    let (projection, _) = elements("PROJECTION").into_iter().next()?;
+    let parameters = elements("PARAMETER");
+    let parameter = |names: &[&str]| {
+        parameters
+            .iter()
+            .find(|(name, values)| names.contains(&name.as_str()) && !values.is_empty())
+            .map(|(_, values)| values[0])
+    };
+    let ellipsoid = ellipsoid.unwrap_or_else(|| match elements("SPHEROID").first() {
+        Some((_, axes)) if axes.len() >= 2 && axes[0] > 0.0 => {
+            Ellipsoid::from_inverse_flattening(axes[0], axes[1])
+        }
+        _ => Ellipsoid::WGS84,
+    });
+    let false_origin = [
+        parameter(&["false_easting"]).unwrap_or(0.0) * metres_per_unit,
+        parameter(&["false_northing"]).unwrap_or(0.0) * metres_per_unit,
+    ];
+    let central_meridian = parameter(&["central_meridian", "longitude_of_center"]).unwrap_or(0.0);
+    let origin_latitude = parameter(&["latitude_of_origin", "latitude_of_center"]).unwrap_or(0.0);
+    let first_parallel = parameter(&["standard_parallel_1"]);
+    let parallels = first_parallel.map(|p| [p, parameter(&["standard_parallel_2"]).unwrap_or(p)]);
+    let scale = parameter(&["scale_factor"]).unwrap_or(1.0);
+    let equal_area = match projection.as_str() {
+        "transverse_mercator" | "gauss_kruger" => {
+            return Some(Projection::transverse_mercator(scale, false_origin[0]));
+        }
+        "lambert_conformal_conic"
+        | "lambert_conformal_conic_1sp"
+        | "lambert_conformal_conic_2sp" => {
+            return Some(Projection::lambert_conformal(
+                parallels.unwrap_or([origin_latitude; 2]),
+                scale,
+                origin_latitude,
+                false_origin,
+            ));
+        }
+        "stereographic_north_pole" | "stereographic_south_pole" => {
+            return Some(Projection::polar_stereographic_true_at(
+                first_parallel?.abs(),
+                false_origin,
+            ));
+        }
+        "mollweide" => EqualArea::Mollweide {
+            radius: ellipsoid.a,
+            central_meridian,
+            false_easting_northing: false_origin,
+        },
+        "albers" | "albers_conic_equal_area" => EqualArea::Albers {
+            ellipsoid,
+            standard_parallels: parallels?,
+            origin: [origin_latitude, central_meridian],
+            false_easting_northing: false_origin,
+        },
+        "lambert_azimuthal_equal_area" => EqualArea::Azimuthal {
+            ellipsoid,
+            centre: [origin_latitude, central_meridian],
+            false_easting_northing: false_origin,
+        },
+        "sinusoidal" => EqualArea::Sinusoidal {
+            ellipsoid,
+            central_meridian,
+            false_easting_northing: false_origin,
+        },
+        "cylindrical_equal_area" | "behrmann" => EqualArea::Cylindrical {
+            ellipsoid,
+            standard_parallel: first_parallel.unwrap_or(if projection == "behrmann" {
+                30.0
+            } else {
+                0.0
+            }),
+            central_meridian,
+            false_easting_northing: false_origin,
+        },
+        "equal_earth" => EqualArea::EqualEarth {
+            ellipsoid,
+            central_meridian,
+            false_easting_northing: false_origin,
+        },
+        _ => return None,
+    };
+    Some(Projection::equal_area(equal_area))
 }
 
 /// The ellipsoid the keys give (its axes, or NAD27's geographic CRS); WGS 84 otherwise
@@ -227,8 +314,12 @@ pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: 
         // Outside the projection's domain: leave the frame's metres as they are.
         return;
     }
-    if [sx, sy] == [1.0, 1.0] {
-        // True to scale (UTM inside its zone): the frame's metres are ground metres.
+    if [sx, sy]
+        .iter()
+        .all(|s| (s - 1.0).abs() <= TRUE_SCALE_TOLERANCE)
+    {
+        // True to scale within 0.1 % (UTM inside its zone, a State Plane grid): the
+        // frame's metres are read as ground metres.
         return;
     }
     geo.ground_scale = Some(if (sx - sy).abs() <= 1e-12 * sx {
@@ -300,7 +391,7 @@ mod tests {
                   PROJECTION[\"Mollweide\"],PARAMETER[\"False_Easting\",1000.0],\
                   PARAMETER[\"False_Northing\",0.0],PARAMETER[\"Central_Meridian\",-90.0],\
                   UNIT[\"Meter\",1.0]]|";
-        let Some(projection) = mollweide_of_citation(pe, Ellipsoid::WGS84, 1.0) else {
+        let Some(projection) = of_wkt_citation(pe, None, 1.0) else {
             panic!("Mollweide in {pe}");
         };
         // At the equator on its central meridian (the false easting away) Mollweide's
@@ -312,7 +403,43 @@ mod tests {
             "{sx} {sy}"
         );
         assert!(skew.abs() < 1e-9);
-        assert!(mollweide_of_citation("WGS 84 / UTM zone 33N|", Ellipsoid::WGS84, 1.0).is_none());
+        assert!(of_wkt_citation("WGS 84 / UTM zone 33N|", None, 1.0).is_none());
+    }
+
+    #[test]
+    fn wkt_projections_are_read_in_either_dialect() {
+        let scales = |projection: Projection| projection.axis_scales(1.0e6, 1.5e6).0;
+        // Conus Albers in ESRI's WKT and in OGC's (GDAL's for a CRS with no code):
+        // EPSG:5070's scales.
+        let conus = scales(Projection::of_epsg(5070).unwrap());
+        let esri = r#"PROJCS["NAD_1983_Contiguous_USA_Albers",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Albers"],PARAMETER["False_Easting",0.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-96.0],PARAMETER["Standard_Parallel_1",29.5],PARAMETER["Standard_Parallel_2",45.5],PARAMETER["Latitude_Of_Origin",23.0],UNIT["Meter",1.0]]"#;
+        let ogc = r#"PROJCS["unnamed",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Albers_Conic_Equal_Area"],PARAMETER["latitude_of_center",23],PARAMETER["longitude_of_center",-96],PARAMETER["standard_parallel_1",29.5],PARAMETER["standard_parallel_2",45.5],PARAMETER["false_easting",0],PARAMETER["false_northing",0],UNIT["metre",1]]"#;
+        for wkt in [esri, ogc] {
+            let ours = scales(of_wkt_citation(wkt, None, 1.0).unwrap());
+            assert!(
+                (ours[0] - conus[0]).abs() < 1e-9 && (ours[1] - conus[1]).abs() < 1e-9,
+                "{ours:?} against {conus:?}"
+            );
+        }
+        // NSIDC's polar grid by ESRI's projection name: EPSG:3413's scales.
+        let polar = r#"PROJCS["x",GEOGCS["GCS_WGS_1984"],PROJECTION["Stereographic_North_Pole"],PARAMETER["False_Easting",0.0],PARAMETER["Central_Meridian",-45.0],PARAMETER["Standard_Parallel_1",70.0],UNIT["Meter",1.0]]"#;
+        let ([ours, _], _) = of_wkt_citation(polar, None, 1.0)
+            .unwrap()
+            .axis_scales(0.0, -2.0e6);
+        let epsg = Projection::of_epsg(3413)
+            .unwrap()
+            .axis_scales(0.0, -2.0e6)
+            .0[0];
+        assert!((ours - epsg).abs() < 1e-12, "{ours} against {epsg}");
+        // A projection not measured (oblique Mercator) gives none.
+        assert!(
+            of_wkt_citation(
+                r#"PROJCS["x",PROJECTION["Hotine_Oblique_Mercator"]]"#,
+                None,
+                1.0
+            )
+            .is_none()
+        );
     }
 
     #[test]
