@@ -534,7 +534,7 @@ fn rasters_as_data_comes_read_as_gdal_reads_them() {
         }
         checked.push(name.to_string());
     }
-    assert_eq!(checked.len(), 19, "{checked:?}");
+    assert_eq!(checked.len(), 27, "{checked:?}");
     // The land-cover palette reads as its class codes, the 1-bit mask as 0 and 1, and
     // the internal mask takes a third of the image and a block away.
     let codes = read("kinds--palette").unwrap();

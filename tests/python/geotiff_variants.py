@@ -351,6 +351,20 @@ for compress in ("lzw", "deflate"):
 with_gdal_reading("kinds--half-lzw-predictor3", kinds,
                   ((grey.astype("float32") - 128.0) / 7.0)[None], nbits=16,
                   compress="lzw", predictor=3)
+# Every sample type GDAL writes, under the predictor that suits it (DEMs come as int16
+# and float64, counts as 32- and 64-bit integers, GDAL 3.7's Int8), in either byte order.
+signed = grey.astype("int64") - 128
+for dtype, predictor, extra in [("int8", 2, {}), ("int16", 2, {"ENDIANNESS": "BIG"}),
+                                ("uint32", 2, {}), ("int32", 2, {"ENDIANNESS": "BIG"}),
+                                ("int64", 2, {}), ("uint64", 2, {}),
+                                ("float64", 3, {}), ("float64", 3, {"ENDIANNESS": "BIG"})]:
+    scale = {"int8": 1, "int16": 97, "uint32": 65537, "int32": -65537, "int64": 3,
+             "uint64": 5, "float64": 0.001}[dtype]
+    values = (grey.astype("int64") * scale if dtype.startswith("u") else signed * scale)
+    suffix = "-bigendian" if extra else ""
+    with_gdal_reading(f"kinds--{dtype}-deflate-predictor{predictor}{suffix}", kinds,
+                      values.astype(dtype)[None], compress="deflate", predictor=predictor,
+                      **extra)
 voids = grey[None].astype("float32")
 voids[0, : voids.shape[1] // 2, : voids.shape[2] // 2] = -9999.0
 for compress in ("none", "deflate"):
