@@ -102,6 +102,20 @@ fn metres_per_linear_unit(code: u16) -> Option<f64> {
     }
 }
 
+/// Degrees per angular unit, for the EPSG unit codes geographic rasters use: radians,
+/// degrees (and EPSG's supplier-defined degree), arc-minutes and -seconds, and grads
+/// (France's NTF Paris, EPSG:4807).
+pub(super) fn degrees_per_angular_unit(code: u16) -> Option<f64> {
+    match code {
+        ANGULAR_RADIAN => Some(180.0 / std::f64::consts::PI),
+        ANGULAR_DEGREE | 9122 => Some(1.0),
+        9103 => Some(1.0 / 60.0),
+        9104 => Some(1.0 / 3600.0),
+        9105 => Some(0.9),
+        _ => None,
+    }
+}
+
 /// Names of the TIFF compression codes GDAL writes, for error messages.
 fn compression_name(code: u16) -> &'static str {
     match code {
@@ -538,18 +552,15 @@ fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, Str
         }
     };
     if geographic {
-        return match key(GEOG_ANGULAR_UNITS) {
-            None | Some(ANGULAR_DEGREE) => Ok(Units {
-                scale: 1.0,
+        return match key(GEOG_ANGULAR_UNITS).map_or(Some(1.0), degrees_per_angular_unit) {
+            Some(scale) => Ok(Units {
+                scale,
                 degrees: true,
             }),
-            Some(ANGULAR_RADIAN) => Ok(Units {
-                scale: 180.0 / std::f64::consts::PI,
-                degrees: true,
-            }),
-            Some(code) => Err(format!(
-                "the geographic CRS's angular unit {code} (GeoKey GeogAngularUnits) cannot \
-                 be measured in metres; reproject it (gdalwarp -t_srs EPSG:4326)"
+            None => Err(format!(
+                "the geographic CRS's angular unit {} (GeoKey GeogAngularUnits) cannot \
+                 be measured in metres; reproject it (gdalwarp -t_srs EPSG:4326)",
+                key(GEOG_ANGULAR_UNITS).unwrap_or_default()
             )),
         };
     }
@@ -842,6 +853,11 @@ mod tests {
                 .degrees
         );
         assert!(crs_units(&keys(&[])).unwrap().scale == 1.0);
+        // NTF (Paris) in grads: 0.9° each.
+        let grads = crs_units(&keys(&[(1024, 2), (2048, 4807), (2054, 9105)])).unwrap();
+        assert!(grads.degrees && grads.scale == 0.9);
+        let odd = crs_units(&keys(&[(1024, 2), (2054, 9107)])).err().unwrap();
+        assert!(odd.contains("9107"), "{odd}");
         let geocentric = crs_units(&keys(&[(1024, 3)])).err().unwrap();
         assert!(geocentric.contains("geocentric"), "{geocentric}");
         let odd = crs_units(&keys(&[(1024, 1), (3076, 9005)])).err().unwrap();
@@ -849,8 +865,8 @@ mod tests {
             odd.contains("ProjLinearUnits") && odd.contains("9005"),
             "{odd}"
         );
-        let grads = crs_units(&keys(&[(1024, 2), (2054, 9105)])).err().unwrap();
-        assert!(grads.contains("GeogAngularUnits"), "{grads}");
+        let odd = crs_units(&keys(&[(1024, 2), (2054, 9110)])).err().unwrap();
+        assert!(odd.contains("GeogAngularUnits"), "{odd}");
     }
 
     /// The georeference of the GeoTIFF `write_geotiff` wrote at `path` from `geo`: its

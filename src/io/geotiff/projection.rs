@@ -40,6 +40,7 @@ const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
 const ALBERS_EQUAL_AREA: u16 = 11;
 const SINUSOIDAL: u16 = 24;
 const CYLINDRICAL_EQUAL_AREA: u16 = 28;
+#[cfg(test)]
 const ANGULAR_RADIAN: u16 = 9101;
 const NAD27: u16 = 4267;
 
@@ -59,15 +60,11 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
         return Some(projection);
     }
     let double = keys.double;
-    let degrees = |id: u16| {
-        double(id).map(|v| {
-            if (keys.short)(GEOG_ANGULAR_UNITS) == Some(ANGULAR_RADIAN) {
-                v.to_degrees()
-            } else {
-                v
-            }
-        })
-    };
+    // Angles in the geographic CRS's unit (radians, grads), in degrees.
+    let per_unit = (keys.short)(GEOG_ANGULAR_UNITS)
+        .and_then(super::degrees_per_angular_unit)
+        .unwrap_or(1.0);
+    let degrees = |id: u16| double(id).map(|v| v * per_unit);
     let metres = |id: u16| double(id).map(|v| v * metres_per_unit);
     let either = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
     let ellipsoid = ellipsoid_of(keys);
@@ -484,6 +481,19 @@ mod tests {
             (ours.0[0] - epsg.0[0]).abs() < 1e-10 && (ours.0[1] - epsg.0[1]).abs() < 1e-10,
             "{ours:?} against {epsg:?}"
         );
+        // And in grads (0.9° each), as France's NTF (Paris) grids give theirs.
+        let grads = projection(
+            &[(COORDINATE_TRANSFORMATION, 11), (GEOG_ANGULAR_UNITS, 9105)],
+            &[
+                (STANDARD_PARALLEL_1, 29.5 / 0.9),
+                (STANDARD_PARALLEL_2, 45.5 / 0.9),
+                (FALSE_ORIGIN_LATITUDE, 23.0 / 0.9),
+                (FALSE_ORIGIN_LONGITUDE, -96.0 / 0.9),
+            ],
+            1.0,
+        );
+        let in_grads = grads.axis_scales(1.0e6, 1.5e6);
+        assert!((in_grads.0[0] - epsg.0[0]).abs() < 1e-10, "{in_grads:?}");
         // Transverse Mercator (CT 1) with its false easting in feet: 1000 km east of
         // its meridian a projected metre spans 0.9882 ground metres.
         let tm = projection(
