@@ -244,14 +244,14 @@ fn esri_name_code(name: &str) -> Option<u16> {
         return fixed;
     }
     let (datum, zone) = name.split_once("_UTM_Zone_")?;
-    let (number, hemisphere) = zone.split_at(zone.len().checked_sub(1)?);
-    let number: u16 = number.parse().ok()?;
+    let hemisphere = zone.chars().last()?;
+    let number: u16 = zone[..zone.len() - hemisphere.len_utf8()].parse().ok()?;
     let (base, zones) = match (datum, hemisphere) {
-        ("WGS_1984", "N") => (32600, 1..=60),
-        ("WGS_1984", "S") => (32700, 1..=60),
-        ("NAD_1983", "N") => (26900, 1..=23),
-        ("NAD_1927", "N") => (26700, 1..=22),
-        ("ETRS_1989", "N") => (25800, 28..=38),
+        ("WGS_1984", 'N') => (32600, 1..=60),
+        ("WGS_1984", 'S') => (32700, 1..=60),
+        ("NAD_1983", 'N') => (26900, 1..=23),
+        ("NAD_1927", 'N') => (26700, 1..=22),
+        ("ETRS_1989", 'N') => (25800, 28..=38),
         _ => return None,
     };
     zones.contains(&number).then_some(base + number)
@@ -626,6 +626,8 @@ mod tests {
         assert_eq!(esri_name_code("WGS_1984_UTM_Zone_60S"), Some(32760));
         assert_eq!(esri_name_code("ETRS_1989_UTM_Zone_33N"), Some(25833));
         assert_eq!(esri_name_code("NAD_1983_UTM_Zone_61N"), None);
+        assert_eq!(esri_name_code("WGS_1984_UTM_Zone_1é"), None);
+        assert_eq!(esri_name_code("WGS_1984_UTM_Zone_"), None);
         assert_eq!(esri_name_code("GCS_WGS_1984"), Some(4326));
         // A State Plane grid in US survey feet by ESRI's name alone: user-defined keys,
         // its unit, and the WKT as the citation they point into.
@@ -644,6 +646,25 @@ mod tests {
         let degrees = r#"GEOGCS["GCS_Custom",DATUM["D_x",SPHEROID["x",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
         let (keys, _) = user_defined_geokeys(degrees).unwrap();
         assert_eq!(&keys[12..], [2048, 0, 1, 32767, 2054, 0, 1, 9102]);
+    }
+
+    proptest::proptest! {
+        /// Any text as a sidecar's SRS, and any cut of a real ESRI WKT, gives keys or
+        /// none, and a projection or none: never a panic.
+        #[test]
+        fn any_srs_text_is_read_without_panicking(
+            text in ".{0,200}",
+            cut in 0usize..400,
+        ) {
+            let esri = r#"PROJCS["WGS_1984_UTM_Zone_16N",GEOGCS["GCS_WGS_1984",DATUM["D_WGS_1984",SPHEROID["WGS_1984",6378137.0,298.257223563]],UNIT["Degree",0.0174532925199433]],PROJECTION["Albers"],PARAMETER["Standard_Parallel_1",29.5],UNIT["Meter",1.0]]"#;
+            let cut = &esri[..cut.min(esri.len())];
+            for wkt in [text.as_str(), cut] {
+                let _ = geokeys_of_wkt(wkt);
+                if let Some((_, citation)) = user_defined_geokeys(wkt) {
+                    let _ = super::super::projection::of_wkt_citation(&citation, None, 1.0);
+                }
+            }
+        }
     }
 
     #[test]

@@ -168,7 +168,7 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
 /// sidecars (ArcGIS's `.aux.xml`) hold CRSs with no EPSG code. Its PROJECTION and
 /// PARAMETERs (names in either dialect, any case), false eastings and northings in the
 /// CRS's units, on its SPHEROID where the keys give no ellipsoid.
-fn of_wkt_citation(
+pub(super) fn of_wkt_citation(
     citations: &str,
     ellipsoid: Option<Ellipsoid>,
     metres_per_unit: f64,
