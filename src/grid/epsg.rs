@@ -272,4 +272,26 @@ mod tests {
         // Web Mercator is measured apart, never as World Mercator.
         assert!(Projection::of_epsg(3857).is_none());
     }
+
+    #[test]
+    fn every_projection_of_the_registry_is_near_true_scale_at_its_origin() {
+        // Thousands of codes (State Plane, national and polar grids): at the false
+        // origin each is within a factor 2 of true scale and square, but cones whose
+        // origin is a pole (their apex, where the scale is unbounded).
+        let mut measured = 0;
+        for code in 1..=u16::MAX {
+            let Some(crs) = epsg_crs(code) else { continue };
+            let Some(projection) = crs.projection() else {
+                continue;
+            };
+            measured += 1;
+            let apex = crs.projection_name() == "lcc"
+                && crs.number("lat_0").is_some_and(|l| l.abs() == 90.0);
+            let origin = [crs.number("x_0"), crs.number("y_0")].map(|v| v.unwrap_or(0.0));
+            let ([sx, sy], skew) = projection.axis_scales(origin[0], origin[1]);
+            let sane = [sx, sy].iter().all(|s| (0.5..2.0).contains(s)) && skew.abs() < 0.01;
+            assert!(sane || apex, "EPSG:{code}: {sx} × {sy}, skew {skew}");
+        }
+        assert!(measured > 5000, "{measured}");
+    }
 }
