@@ -500,35 +500,74 @@ assert "COMPD_CS" in open(path + ".aux.xml").read()
 print(json.dumps({"name": "dem--pam-compound-feet", "source": "pam-compound", "lossless": True,
                   "gdal": gdal}))
 
-# A State Plane grid in US survey feet named by its EPSG code alone: GDAL's file with its
-# ProjLinearUnits key taken out of the GeoKeyDirectory (as writers that set only
-# ProjectedCSTypeGeoKey leave it). GDAL looks the unit up by the code and reads feet.
 import struct
 
-plane_feet = dict(profile, count=1, dtype="uint8", nodata=None, crs="EPSG:2263",
-                  transform=Affine(10.0, 0.0, 1000000.0, 0.0, -10.0, 200000.0))
-path = os.path.join(out, "units--code-alone-us-feet.tif")
-with rasterio.open(path, "w", **plane_feet) as dst:
-    dst.write(data[:1])
-with open(path, "r+b") as f:
-    tiff = bytearray(f.read())
-    assert tiff[:4] == b"II*\x00", "GDAL writes a little-endian classic TIFF here"
-    ifd = struct.unpack_from("<I", tiff, 4)[0]
-    for i in range(struct.unpack_from("<H", tiff, ifd)[0]):
-        entry = ifd + 2 + 12 * i
-        tag, kind, count, offset = struct.unpack_from("<HHII", tiff, entry)
-        if tag == 34735:
-            keys = list(struct.unpack_from(f"<{count}H", tiff, offset))
-            entries = [keys[j:j + 4] for j in range(4, count, 4)]
-            kept = [k for k in entries if k[0] != 3076]
-            assert len(kept) == len(entries) - 1, "GDAL wrote ProjLinearUnits"
-            shorter = keys[:3] + [len(kept)] + [v for k in kept for v in k]
-            struct.pack_into(f"<{len(shorter)}H", tiff, offset, *shorter)
-            struct.pack_into("<I", tiff, entry + 4, len(shorter))
-    f.seek(0)
-    f.write(tiff)
-with rasterio.open(path) as src:
-    gdal = {"transform": list(src.transform)[:6], "epsg": src.crs.to_epsg(),
-            "metres_per_unit": src.crs.linear_units_factor[1]}
-print(json.dumps({"name": "units--code-alone-us-feet", "source": "code-alone", "lossless": True,
-                  "gdal": gdal}))
+
+def drop_geokey(path, key_id):
+    """Removes one GeoKey from a little-endian classic TIFF's GeoKeyDirectory."""
+    with open(path, "r+b") as f:
+        tiff = bytearray(f.read())
+        assert tiff[:4] == b"II*\x00"
+        ifd = struct.unpack_from("<I", tiff, 4)[0]
+        for i in range(struct.unpack_from("<H", tiff, ifd)[0]):
+            entry = ifd + 2 + 12 * i
+            tag, kind, count, offset = struct.unpack_from("<HHII", tiff, entry)
+            if tag == 34735:
+                keys = list(struct.unpack_from(f"<{count}H", tiff, offset))
+                entries = [keys[j:j + 4] for j in range(4, count, 4)]
+                kept = [k for k in entries if k[0] != key_id]
+                assert len(kept) == len(entries) - 1
+                shorter = keys[:3] + [len(kept)] + [v for k in kept for v in k]
+                struct.pack_into(f"<{len(shorter)}H", tiff, offset, *shorter)
+                struct.pack_into("<I", tiff, entry + 4, len(shorter))
+        f.seek(0)
+        f.write(tiff)
+
+
+# Grids by EPSG codes the reader knows only from the EPSG registry (State Plane grids in
+# US and international feet, polar stereographic grids on Hughes 1980, national Lambert
+# and Transverse Mercator grids), each centred on a place within its area, its
+# ProjLinearUnits key taken out (so that the code alone gives its unit), beside the
+# ground metres per projected unit along x and y that GDAL's transformations give there
+# (a small step each way, measured on the ellipsoid).
+import math
+
+from rasterio.warp import transform as warp_transform
+
+
+def ground_metres(lon, lat, dlon, dlat):
+    """Metres on WGS 84 of a small step (degrees) at (lon, lat)."""
+    a, e2 = 6378137.0, 6.69437999014e-3
+    phi = math.radians(lat)
+    w = 1.0 - e2 * math.sin(phi) ** 2
+    east = a / math.sqrt(w) * math.cos(phi) * math.radians(dlon)
+    north = a * (1.0 - e2) / w ** 1.5 * math.radians(dlat)
+    return math.hypot(east, north)
+
+
+for code, lon, lat in [(2263, -73.8, 40.7), (2227, -121.5, 37.5), (3435, -88.0, 41.8),
+                       (2868, -111.9, 33.4), (3411, -45.0, 62.0), (3412, 0.0, -62.0),
+                       (2180, 19.0, 52.0), (32198, -70.0, 62.0), (3111, 145.0, -37.0),
+                       (6372, -102.0, 23.0), (2039, 35.0, 31.5), (3400, -115.0, 55.0)]:
+    crs = CRS.from_epsg(code)
+    (x,), (y,) = warp_transform("EPSG:4326", crs, [lon], [lat])
+    size = 100.0
+    grid = dict(driver="GTiff", width=10, height=10, count=1, dtype="uint8", crs=crs,
+                transform=Affine(size, 0.0, x - 5 * size, 0.0, -size, y + 5 * size))
+    path = os.path.join(out, f"registry--{code}.tif")
+    with rasterio.open(path, "w", **grid) as dst:
+        dst.write(np.arange(100, dtype="uint8").reshape(1, 10, 10))
+    drop_geokey(path, 3076)
+    with rasterio.open(path) as src:
+        per_unit = src.crs.linear_units_factor[1]
+        assert src.crs.to_epsg() == code
+    step = 10.0
+    lons, lats = warp_transform(crs, "EPSG:4326", [x - step, x + step, x, x],
+                                [y, y, y - step, y + step])
+    along = [ground_metres((lons[i] + lons[i + 1]) / 2, (lats[i] + lats[i + 1]) / 2,
+                           lons[i + 1] - lons[i], lats[i + 1] - lats[i]) / (2 * step)
+             for i in (0, 2)]
+    print(json.dumps({"name": f"registry--{code}", "source": "registry", "lossless": True,
+                      "gdal": {"metres_per_unit": per_unit, "cell_units": size,
+                               "south_west_units": [x - 5 * size, y - 5 * size],
+                               "ground_metres_per_unit": along}}))
