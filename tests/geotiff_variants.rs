@@ -762,24 +762,25 @@ fn grids_known_from_the_registry_read_in_its_units_and_ground_metres() {
     }
 }
 
-/// Sidecars that give the CRS in ESRI's WKT with no EPSG code (ArcGIS's `.aux.xml`):
+/// Sidecars that give the CRS with no EPSG code, in ESRI's WKT (ArcGIS's `.aux.xml`) or
+/// in WKT 2 by its parameters alone:
 /// the UTM zone is known by its name, and every one reads to the cells (in ground
 /// metres) and origin of the same grid with the CRS's EPSG code in its GeoKeys.
 #[test]
-fn sidecars_in_esri_wkt_read_as_their_crs_by_code() {
+fn sidecars_with_no_epsg_code_read_as_their_crs_by_code() {
     let dir = tempfile::tempdir().unwrap();
     let Some(files) = write_variants(dir.path()) else {
         return;
     };
     let read = |name: &str| read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
     let esri: Vec<_> = files.iter().filter(|f| f["source"] == "pam-esri").collect();
-    assert_eq!(esri.len(), 3);
+    assert_eq!(esri.len(), 4);
     for file in esri {
         let name = file["name"].as_str().unwrap();
         let map = read(name);
         let reference = read(&format!(
             "spot--esri-{}-reference",
-            name.rsplit('-').next().unwrap()
+            name.trim_start_matches("spot--pam-esri-")
         ));
         let gdal = &file["gdal"];
         let per_unit = gdal["metres_per_unit"].as_f64().unwrap();

@@ -465,11 +465,19 @@ for name, extra, srs in [
 # ArcGIS writes it: a UTM zone (known by ESRI's name), a State Plane grid in US survey
 # feet and Conus Albers (known by their parameters). Beside each, the same grid as a
 # GeoTIFF with the CRS's EPSG code in its GeoKeys, and what GDAL reads of the sidecar.
-for name, code in [("utm", 32616), ("feet", 2263), ("albers", 5070)]:
+# And Conus Albers by its parameters alone in WKT 2, as PROJ writes a CRS with no code.
+conus_wkt2 = CRS.from_string("+proj=aea +lat_1=29.5 +lat_2=45.5 +lat_0=23 +lon_0=-96 "
+                             "+datum=NAD83 +units=m +no_defs").to_wkt(version="WKT2_2019")
+assert conus_wkt2.startswith("PROJCRS") and ',ID["EPSG",' not in conus_wkt2[-40:]
+for name, code, esri in [
+    ("utm", 32616, CRS.from_epsg(32616).to_wkt(version="WKT1_ESRI")),
+    ("feet", 2263, CRS.from_epsg(2263).to_wkt(version="WKT1_ESRI")),
+    ("albers", 5070, CRS.from_epsg(5070).to_wkt(version="WKT1_ESRI")),
+    ("wkt2-albers", 5070, conus_wkt2),
+]:
     path = os.path.join(out, f"spot--pam-esri-{name}.tif")
     with rasterio.open(path, "w", **dict(profile, PROFILE="BASELINE")) as dst:
         dst.write(data)
-    esri = CRS.from_epsg(code).to_wkt(version="WKT1_ESRI")
     assert "AUTHORITY" not in esri
     with open(path + ".aux.xml", "w") as f:
         f.write("<PAMDataset>\n  <SRS>" + esri.replace("&", "&amp;").replace('"', "&quot;")

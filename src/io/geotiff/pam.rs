@@ -257,33 +257,36 @@ fn esri_name_code(name: &str) -> Option<u16> {
     zones.contains(&number).then_some(base + number)
 }
 
-/// The GeoKeys GDAL writes for a WKT 1 CRS with no EPSG code (ArcGIS's sidecars hold
-/// such ESRI WKT): user-defined (32767), its unit, and a citation (GTCitationGeoKey)
-/// holding the WKT as an ESRI PE string, returned beside the keys as the
-/// GeoAsciiParams they point into; the reader takes the projection's parameters from
-/// it. `None` for what is neither a projected nor a geographic CRS.
+/// The GeoKeys GDAL writes for a CRS with no EPSG code (ArcGIS's sidecars hold such
+/// ESRI WKT; WKT 2 where WKT 1 cannot say it): user-defined (32767), its unit, and a
+/// citation (GTCitationGeoKey) holding the WKT (WKT 1 as an ESRI PE string, as GDAL
+/// writes one), returned beside the keys as the GeoAsciiParams they point into; the
+/// reader takes the projection's parameters from it. `None` for what is neither a
+/// projected nor a geographic CRS.
 fn user_defined_geokeys(wkt: &str) -> Option<(Vec<u16>, String)> {
     let wkt = wkt.trim();
     let root = wkt.split('[').next()?.trim().to_ascii_uppercase();
-    let geographic = root == "GEOGCS";
-    if !geographic && root != "PROJCS" {
+    let geographic = matches!(root.as_str(), "GEOGCS" | "GEOGCRS" | "GEOGRAPHICCRS");
+    let projected = matches!(root.as_str(), "PROJCS" | "PROJCRS" | "PROJECTEDCRS");
+    if !geographic && !projected {
         return None;
     }
     let top = top_level(wkt);
-    let citation = format!("ESRI PE String = {wkt}|");
+    let citation = if root.ends_with("CS") {
+        format!("ESRI PE String = {wkt}|")
+    } else {
+        format!("{wkt}|")
+    };
     let length = u16::try_from(citation.len()).ok()?;
     let mut keys: Vec<[u16; 4]> = vec![
         [1024, 0, 1, if geographic { 2 } else { 1 }],
         [1026, 34737, length, 0],
     ];
     if geographic {
-        let factor = top
-            .iter()
-            .find(|(keyword, _)| keyword == "UNIT")
-            .and_then(|(_, body)| body.split(',').nth(1)?.trim().parse::<f64>().ok());
-        let angular = match factor {
+        let angular = match angular_unit_factor(&top) {
             Some(f) if (f / 1f64.to_radians() - 1.0).abs() < 1e-9 => 9102,
             Some(f) if (f - 1.0).abs() < 1e-12 => 9101,
+            Some(f) if (f / 0.9f64.to_radians() - 1.0).abs() < 1e-9 => 9105,
             _ => 32767,
         };
         keys.extend([[2048, 0, 1, 32767], [2054, 0, 1, angular]]);
@@ -296,6 +299,35 @@ fn user_defined_geokeys(wkt: &str) -> Option<(Vec<u16>, String)> {
     let mut directory = vec![1, 1, 0, keys.len() as u16];
     directory.extend(keys.into_iter().flatten());
     Some((directory, citation))
+}
+
+/// Radians per unit of a geographic CRS's angles ([`unit_body`]); `None` where the
+/// unit gives no factor, and degrees where the CRS gives no unit, as GDAL takes them.
+fn angular_unit_factor(top: &[(String, String)]) -> Option<f64> {
+    match unit_body(top, "ANGLEUNIT") {
+        Some(body) => body.split(',').nth(1)?.trim().parse().ok(),
+        None => Some(1f64.to_radians()),
+    }
+}
+
+/// The body of a CRS's unit: WKT 1's `UNIT` or WKT 2's `unit_keyword` (`LENGTHUNIT`,
+/// `ANGLEUNIT`) at its top level, else in its axes (where PROJ's WKT 2 puts it).
+fn unit_body(top: &[(String, String)], unit_keyword: &str) -> Option<String> {
+    let is_unit = |keyword: &str| keyword == "UNIT" || keyword == unit_keyword;
+    top.iter()
+        .filter(|(keyword, _)| is_unit(keyword))
+        .map(|(_, body)| body.clone())
+        .next_back()
+        .or_else(|| {
+            top.iter()
+                .filter(|(keyword, _)| keyword == "AXIS")
+                .find_map(|(_, axis)| {
+                    top_level(&format!("AXIS[{axis}]"))
+                        .into_iter()
+                        .find(|(keyword, _)| is_unit(keyword))
+                        .map(|(_, body)| body)
+                })
+        })
 }
 
 /// The GeoKeys of a compound CRS (GDAL's for a DEM with a vertical datum,
@@ -346,22 +378,7 @@ const LINEAR_UNITS: [(u16, f64); 4] = [
 /// without a code): by its factor to metres, else by its own code, else user-defined
 /// (32767, which cannot be measured). `None` where the CRS gives no unit.
 fn linear_unit_code(top: &[(String, String)]) -> Option<u16> {
-    let is_unit = |keyword: &str| keyword == "UNIT" || keyword == "LENGTHUNIT";
-    let body = top
-        .iter()
-        .filter(|(keyword, _)| is_unit(keyword))
-        .map(|(_, body)| body.clone())
-        .next_back()
-        .or_else(|| {
-            top.iter()
-                .filter(|(keyword, _)| keyword == "AXIS")
-                .find_map(|(_, axis)| {
-                    top_level(&format!("AXIS[{axis}]"))
-                        .into_iter()
-                        .find(|(keyword, _)| is_unit(keyword))
-                        .map(|(_, body)| body)
-                })
-        })?;
+    let body = unit_body(top, "LENGTHUNIT")?;
     let factor = body
         .split(',')
         .nth(1)
@@ -643,6 +660,15 @@ mod tests {
             ]
         );
         assert!(citation.starts_with("ESRI PE String = PROJCS[") && citation.ends_with("]|"));
+        // WKT 2 with no code (PROJ's for a CRS given by parameters): its unit from
+        // its axes, the WKT itself as the citation.
+        let wkt2 = r#"PROJCRS["unknown",BASEGEOGCRS["unknown",DATUM["x",ELLIPSOID["GRS 1980",6378137,298.257222101]]],CONVERSION["unknown",METHOD["Albers Equal Area"]],CS[Cartesian,2],AXIS["(E)",east,ORDER[1],LENGTHUNIT["US survey foot",0.304800609601219,ID["EPSG",9003]]]]"#;
+        let (keys, citation) = user_defined_geokeys(wkt2).unwrap();
+        assert_eq!(&keys[12..], [3072, 0, 1, 32767, 3076, 0, 1, 9003]);
+        assert_eq!(citation, format!("{wkt2}|"));
+        let geographic = r#"GEOGCRS["unknown",DATUM["x",ELLIPSOID["Clarke 1866",6378206.4,294.978698213898]],CS[ellipsoidal,2],AXIS["longitude",east,ORDER[1],ANGLEUNIT["degree",0.0174532925199433]]]"#;
+        let (keys, _) = user_defined_geokeys(geographic).unwrap();
+        assert_eq!(&keys[12..], [2048, 0, 1, 32767, 2054, 0, 1, 9102]);
         let degrees = r#"GEOGCS["GCS_Custom",DATUM["D_x",SPHEROID["x",6378137.0,298.257223563]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]]"#;
         let (keys, _) = user_defined_geokeys(degrees).unwrap();
         assert_eq!(&keys[12..], [2048, 0, 1, 32767, 2054, 0, 1, 9102]);

@@ -163,11 +163,12 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
     Some(Projection::equal_area(equal_area))
 }
 
-/// The projection of a WKT 1 CRS in the citations, ESRI's or OGC's: GDAL writes an
-/// ESRI PE string for projections GeoTIFF has no code for (Mollweide, ESRI:54009), and
-/// sidecars (ArcGIS's `.aux.xml`) hold CRSs with no EPSG code. Its PROJECTION and
-/// PARAMETERs (names in either dialect, any case), false eastings and northings in the
-/// CRS's units, on its SPHEROID where the keys give no ellipsoid.
+/// The projection of a WKT CRS in the citations, ESRI's, OGC's WKT 1 or WKT 2: GDAL
+/// writes an ESRI PE string for projections GeoTIFF has no code for (Mollweide,
+/// ESRI:54009), and sidecars (ArcGIS's `.aux.xml`) hold CRSs with no EPSG code. Its
+/// PROJECTION or METHOD and its PARAMETERs (names in any of the dialects, any case),
+/// false eastings and northings in the CRS's units, on its SPHEROID or ELLIPSOID where
+/// the keys give no ellipsoid.
 pub(super) fn of_wkt_citation(
     citations: &str,
     ellipsoid: Option<Ellipsoid>,
@@ -178,12 +179,17 @@ pub(super) fn of_wkt_citation(
             .trim_matches('"')
             .to_ascii_lowercase()
             .replace(' ', "_")
+            .replace(['(', ')'], "")
     };
     // Each `KEYWORD["name",numbers...]` of the string, in order.
     let elements = |keyword: &str| -> Vec<(String, Vec<f64>)> {
         let key = format!("{keyword}[");
         citations
             .match_indices(&key)
+            .filter(|(at, _)| {
+                // Whole keywords only (not the end of a longer one).
+                !citations[..*at].ends_with(|c: char| c.is_ascii_alphabetic())
+            })
             .filter_map(|(at, _)| {
                 let rest = &citations[at + key.len()..];
                 let body = &rest[..rest.find(']')?];
@@ -193,7 +199,10 @@ pub(super) fn of_wkt_citation(
             })
             .collect()
     };
-    let (projection, _) = elements("PROJECTION").into_iter().next()?;
+    let (projection, _) = elements("PROJECTION")
+        .into_iter()
+        .chain(elements("METHOD"))
+        .next()?;
     let parameters = elements("PARAMETER");
     let parameter = |names: &[&str]| {
         parameters
@@ -201,28 +210,55 @@ pub(super) fn of_wkt_citation(
             .find(|(name, values)| names.contains(&name.as_str()) && !values.is_empty())
             .map(|(_, values)| values[0])
     };
-    let ellipsoid = ellipsoid.unwrap_or_else(|| match elements("SPHEROID").first() {
+    let spheroid = elements("SPHEROID")
+        .into_iter()
+        .chain(elements("ELLIPSOID"));
+    let ellipsoid = ellipsoid.unwrap_or_else(|| match spheroid.into_iter().next() {
         Some((_, axes)) if axes.len() >= 2 && axes[0] > 0.0 => {
             Ellipsoid::from_inverse_flattening(axes[0], axes[1])
         }
         _ => Ellipsoid::WGS84,
     });
     let false_origin = [
-        parameter(&["false_easting"]).unwrap_or(0.0) * metres_per_unit,
-        parameter(&["false_northing"]).unwrap_or(0.0) * metres_per_unit,
+        parameter(&["false_easting", "easting_at_false_origin"]).unwrap_or(0.0) * metres_per_unit,
+        parameter(&["false_northing", "northing_at_false_origin"]).unwrap_or(0.0) * metres_per_unit,
     ];
-    let central_meridian = parameter(&["central_meridian", "longitude_of_center"]).unwrap_or(0.0);
-    let origin_latitude = parameter(&["latitude_of_origin", "latitude_of_center"]).unwrap_or(0.0);
-    let first_parallel = parameter(&["standard_parallel_1"]);
-    let parallels = first_parallel.map(|p| [p, parameter(&["standard_parallel_2"]).unwrap_or(p)]);
-    let scale = parameter(&["scale_factor"]).unwrap_or(1.0);
+    let central_meridian = parameter(&[
+        "central_meridian",
+        "longitude_of_center",
+        "longitude_of_natural_origin",
+        "longitude_of_false_origin",
+        "longitude_of_origin",
+    ])
+    .unwrap_or(0.0);
+    let origin_latitude = parameter(&[
+        "latitude_of_origin",
+        "latitude_of_center",
+        "latitude_of_natural_origin",
+        "latitude_of_false_origin",
+    ])
+    .unwrap_or(0.0);
+    let first_parallel = parameter(&[
+        "standard_parallel_1",
+        "latitude_of_1st_standard_parallel",
+        "latitude_of_standard_parallel",
+    ]);
+    let parallels = first_parallel.map(|p| {
+        [
+            p,
+            parameter(&["standard_parallel_2", "latitude_of_2nd_standard_parallel"]).unwrap_or(p),
+        ]
+    });
+    let scale = parameter(&["scale_factor", "scale_factor_at_natural_origin"]).unwrap_or(1.0);
     let equal_area = match projection.as_str() {
         "transverse_mercator" | "gauss_kruger" => {
             return Some(Projection::transverse_mercator(scale, false_origin[0]));
         }
         "lambert_conformal_conic"
         | "lambert_conformal_conic_1sp"
-        | "lambert_conformal_conic_2sp" => {
+        | "lambert_conformal_conic_2sp"
+        | "lambert_conic_conformal_1sp"
+        | "lambert_conic_conformal_2sp" => {
             return Some(Projection::lambert_conformal(
                 parallels.unwrap_or([origin_latitude; 2]),
                 scale,
@@ -230,7 +266,9 @@ pub(super) fn of_wkt_citation(
                 false_origin,
             ));
         }
-        "stereographic_north_pole" | "stereographic_south_pole" => {
+        "stereographic_north_pole"
+        | "stereographic_south_pole"
+        | "polar_stereographic_variant_b" => {
             return Some(Projection::polar_stereographic_true_at(
                 first_parallel?.abs(),
                 false_origin,
@@ -241,7 +279,7 @@ pub(super) fn of_wkt_citation(
             central_meridian,
             false_easting_northing: false_origin,
         },
-        "albers" | "albers_conic_equal_area" => EqualArea::Albers {
+        "albers" | "albers_conic_equal_area" | "albers_equal_area" => EqualArea::Albers {
             ellipsoid,
             standard_parallels: parallels?,
             origin: [origin_latitude, central_meridian],
@@ -257,16 +295,18 @@ pub(super) fn of_wkt_citation(
             central_meridian,
             false_easting_northing: false_origin,
         },
-        "cylindrical_equal_area" | "behrmann" => EqualArea::Cylindrical {
-            ellipsoid,
-            standard_parallel: first_parallel.unwrap_or(if projection == "behrmann" {
-                30.0
-            } else {
-                0.0
-            }),
-            central_meridian,
-            false_easting_northing: false_origin,
-        },
+        "cylindrical_equal_area" | "lambert_cylindrical_equal_area" | "behrmann" => {
+            EqualArea::Cylindrical {
+                ellipsoid,
+                standard_parallel: first_parallel.unwrap_or(if projection == "behrmann" {
+                    30.0
+                } else {
+                    0.0
+                }),
+                central_meridian,
+                false_easting_northing: false_origin,
+            }
+        }
         "equal_earth" => EqualArea::EqualEarth {
             ellipsoid,
             central_meridian,
@@ -411,7 +451,8 @@ mod tests {
         let conus = scales(Projection::of_epsg(5070).unwrap());
         let esri = r#"PROJCS["NAD_1983_Contiguous_USA_Albers",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Albers"],PARAMETER["False_Easting",0.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-96.0],PARAMETER["Standard_Parallel_1",29.5],PARAMETER["Standard_Parallel_2",45.5],PARAMETER["Latitude_Of_Origin",23.0],UNIT["Meter",1.0]]"#;
         let ogc = r#"PROJCS["unnamed",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Albers_Conic_Equal_Area"],PARAMETER["latitude_of_center",23],PARAMETER["longitude_of_center",-96],PARAMETER["standard_parallel_1",29.5],PARAMETER["standard_parallel_2",45.5],PARAMETER["false_easting",0],PARAMETER["false_northing",0],UNIT["metre",1]]"#;
-        for wkt in [esri, ogc] {
+        let wkt2 = r#"PROJCRS["unknown",BASEGEOGCRS["unknown",DATUM["North American Datum 1983",ELLIPSOID["GRS 1980",6378137,298.257222101,LENGTHUNIT["metre",1]],ID["EPSG",6269]],PRIMEM["Greenwich",0,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8901]]],CONVERSION["unknown",METHOD["Albers Equal Area",ID["EPSG",9822]],PARAMETER["Latitude of false origin",23,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8821]],PARAMETER["Longitude of false origin",-96,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8822]],PARAMETER["Latitude of 1st standard parallel",29.5,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8823]],PARAMETER["Latitude of 2nd standard parallel",45.5,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8824]],PARAMETER["Easting at false origin",0,LENGTHUNIT["metre",1],ID["EPSG",8826]],PARAMETER["Northing at false origin",0,LENGTHUNIT["metre",1],ID["EPSG",8827]]],CS[Cartesian,2],AXIS["(E)",east,ORDER[1],LENGTHUNIT["metre",1,ID["EPSG",9001]]],AXIS["(N)",north,ORDER[2],LENGTHUNIT["metre",1,ID["EPSG",9001]]]]"#;
+        for wkt in [esri, ogc, wkt2] {
             let ours = scales(of_wkt_citation(wkt, None, 1.0).unwrap());
             assert!(
                 (ours[0] - conus[0]).abs() < 1e-9 && (ours[1] - conus[1]).abs() < 1e-9,
