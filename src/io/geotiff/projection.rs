@@ -204,11 +204,20 @@ pub(super) fn of_wkt_citation(
         .chain(elements("METHOD"))
         .next()?;
     let parameters = elements("PARAMETER");
+    // A parameter's value and, in WKT 2, its own unit's factor (to radians or metres).
     let parameter = |names: &[&str]| {
         parameters
             .iter()
             .find(|(name, values)| names.contains(&name.as_str()) && !values.is_empty())
-            .map(|(_, values)| values[0])
+            .map(|(_, values)| (values[0], values.get(1).copied()))
+    };
+    let degrees = |names: &[&str]| {
+        parameter(names).map(|(value, radians)| radians.map_or(value, |r| (value * r).to_degrees()))
+    };
+    let metres = |names: &[&str]| {
+        parameter(names).map_or(0.0, |(value, factor)| {
+            value * factor.unwrap_or(metres_per_unit)
+        })
     };
     let spheroid = elements("SPHEROID")
         .into_iter()
@@ -220,10 +229,10 @@ pub(super) fn of_wkt_citation(
         _ => Ellipsoid::WGS84,
     });
     let false_origin = [
-        parameter(&["false_easting", "easting_at_false_origin"]).unwrap_or(0.0) * metres_per_unit,
-        parameter(&["false_northing", "northing_at_false_origin"]).unwrap_or(0.0) * metres_per_unit,
+        metres(&["false_easting", "easting_at_false_origin"]),
+        metres(&["false_northing", "northing_at_false_origin"]),
     ];
-    let central_meridian = parameter(&[
+    let central_meridian = degrees(&[
         "central_meridian",
         "longitude_of_center",
         "longitude_of_natural_origin",
@@ -231,14 +240,14 @@ pub(super) fn of_wkt_citation(
         "longitude_of_origin",
     ])
     .unwrap_or(0.0);
-    let origin_latitude = parameter(&[
+    let origin_latitude = degrees(&[
         "latitude_of_origin",
         "latitude_of_center",
         "latitude_of_natural_origin",
         "latitude_of_false_origin",
     ])
     .unwrap_or(0.0);
-    let first_parallel = parameter(&[
+    let first_parallel = degrees(&[
         "standard_parallel_1",
         "latitude_of_1st_standard_parallel",
         "latitude_of_standard_parallel",
@@ -246,10 +255,11 @@ pub(super) fn of_wkt_citation(
     let parallels = first_parallel.map(|p| {
         [
             p,
-            parameter(&["standard_parallel_2", "latitude_of_2nd_standard_parallel"]).unwrap_or(p),
+            degrees(&["standard_parallel_2", "latitude_of_2nd_standard_parallel"]).unwrap_or(p),
         ]
     });
-    let scale = parameter(&["scale_factor", "scale_factor_at_natural_origin"]).unwrap_or(1.0);
+    let scale =
+        parameter(&["scale_factor", "scale_factor_at_natural_origin"]).map_or(1.0, |(k, _)| k);
     let equal_area = match projection.as_str() {
         "transverse_mercator" | "gauss_kruger" => {
             return Some(Projection::transverse_mercator(scale, false_origin[0]));
@@ -452,6 +462,37 @@ mod tests {
         let esri = r#"PROJCS["NAD_1983_Contiguous_USA_Albers",GEOGCS["GCS_North_American_1983",DATUM["D_North_American_1983",SPHEROID["GRS_1980",6378137.0,298.257222101]],PRIMEM["Greenwich",0.0],UNIT["Degree",0.0174532925199433]],PROJECTION["Albers"],PARAMETER["False_Easting",0.0],PARAMETER["False_Northing",0.0],PARAMETER["Central_Meridian",-96.0],PARAMETER["Standard_Parallel_1",29.5],PARAMETER["Standard_Parallel_2",45.5],PARAMETER["Latitude_Of_Origin",23.0],UNIT["Meter",1.0]]"#;
         let ogc = r#"PROJCS["unnamed",GEOGCS["NAD83",DATUM["North_American_Datum_1983",SPHEROID["GRS 1980",6378137,298.257222101]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433]],PROJECTION["Albers_Conic_Equal_Area"],PARAMETER["latitude_of_center",23],PARAMETER["longitude_of_center",-96],PARAMETER["standard_parallel_1",29.5],PARAMETER["standard_parallel_2",45.5],PARAMETER["false_easting",0],PARAMETER["false_northing",0],UNIT["metre",1]]"#;
         let wkt2 = r#"PROJCRS["unknown",BASEGEOGCRS["unknown",DATUM["North American Datum 1983",ELLIPSOID["GRS 1980",6378137,298.257222101,LENGTHUNIT["metre",1]],ID["EPSG",6269]],PRIMEM["Greenwich",0,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8901]]],CONVERSION["unknown",METHOD["Albers Equal Area",ID["EPSG",9822]],PARAMETER["Latitude of false origin",23,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8821]],PARAMETER["Longitude of false origin",-96,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8822]],PARAMETER["Latitude of 1st standard parallel",29.5,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8823]],PARAMETER["Latitude of 2nd standard parallel",45.5,ANGLEUNIT["degree",0.0174532925199433],ID["EPSG",8824]],PARAMETER["Easting at false origin",0,LENGTHUNIT["metre",1],ID["EPSG",8826]],PARAMETER["Northing at false origin",0,LENGTHUNIT["metre",1],ID["EPSG",8827]]],CS[Cartesian,2],AXIS["(E)",east,ORDER[1],LENGTHUNIT["metre",1,ID["EPSG",9001]]],AXIS["(N)",north,ORDER[2],LENGTHUNIT["metre",1,ID["EPSG",9001]]]]"#;
+        // The same with its angles in radians and its false easting in US survey feet,
+        // each parameter in its own unit as WKT 2 allows; the point moves with it.
+        let radians = |degrees: f64| format!("{},ANGLEUNIT[\"radian\",1]", degrees.to_radians());
+        let wkt2_radians = wkt2
+            .replace(
+                r#"23,ANGLEUNIT["degree",0.0174532925199433]"#,
+                &radians(23.0),
+            )
+            .replace(
+                r#"-96,ANGLEUNIT["degree",0.0174532925199433]"#,
+                &radians(-96.0),
+            )
+            .replace(
+                r#"29.5,ANGLEUNIT["degree",0.0174532925199433]"#,
+                &radians(29.5),
+            )
+            .replace(
+                r#"45.5,ANGLEUNIT["degree",0.0174532925199433]"#,
+                &radians(45.5),
+            )
+            .replace(
+                r#"Easting at false origin",0,LENGTHUNIT["metre",1]"#,
+                r#"Easting at false origin",1000,LENGTHUNIT["US survey foot",0.304800609601219]"#,
+            );
+        assert!(!wkt2_radians.contains("29.5"));
+        let shifted = of_wkt_citation(&wkt2_radians, None, 1.0).unwrap();
+        let ([sx, sy], _) = shifted.axis_scales(1.0e6 + 304.800609601219, 1.5e6);
+        assert!(
+            (sx - conus[0]).abs() < 1e-9 && (sy - conus[1]).abs() < 1e-9,
+            "{sx} {sy} against {conus:?}"
+        );
         for wkt in [esri, ogc, wkt2] {
             let ours = scales(of_wkt_citation(wkt, None, 1.0).unwrap());
             assert!(
