@@ -97,22 +97,7 @@ fn every_gdal_variant_reads_to_the_same_grid() {
             let codec = name.rsplit("--").next().unwrap();
             let gdal =
                 read_geotiff(&path(&format!("gdal-decoded--{source}-{codec}")), "m").unwrap();
-            assert_eq!(map.layers.len(), gdal.layers.len(), "{name}");
-            for (ours, theirs) in map.layers.iter().zip(&gdal.layers) {
-                let (a, b) = (&ours.values, &theirs.values);
-                let largest = a
-                    .iter()
-                    .zip(b)
-                    .map(|(p, q)| (p - q).abs())
-                    .fold(0.0, f32::max);
-                let mean =
-                    a.iter().zip(b).map(|(p, q)| (p - q).abs()).sum::<f32>() / a.len() as f32;
-                assert!(
-                    largest <= 2.0 && mean < 0.5,
-                    "{name} {}: largest {largest}, mean {mean}",
-                    ours.name
-                );
-            }
+            assert_within_decoder_rounding(name, &map, &gdal);
         }
         checked += 1;
     }
@@ -122,6 +107,63 @@ fn every_gdal_variant_reads_to_the_same_grid() {
     let (w, h) = (float.geo.width as usize, float.geo.height as usize);
     assert!(float.layers[0].values[(h - 1) * w].is_nan());
     assert!(!float.layers[0].values[0].is_nan());
+}
+
+/// Asserts that a lossy file reads as another decoder (GDAL's, libjxl's) decodes it,
+/// within the rounding of two decoders, in every band.
+fn assert_within_decoder_rounding(name: &str, map: &Map, theirs: &Map) {
+    assert_eq!(map.layers.len(), theirs.layers.len(), "{name}");
+    for (ours, theirs) in map.layers.iter().zip(&theirs.layers) {
+        let (a, b) = (&ours.values, &theirs.values);
+        let largest = a
+            .iter()
+            .zip(b)
+            .map(|(p, q)| (p - q).abs())
+            .fold(0.0, f32::max);
+        let mean = a.iter().zip(b).map(|(p, q)| (p - q).abs()).sum::<f32>() / a.len() as f32;
+        assert!(
+            largest <= 2.0 && mean < 0.5,
+            "{name} {}: largest {largest}, mean {mean}",
+            ours.name
+        );
+    }
+}
+
+/// JPEG XL-compressed GeoTIFFs (tifffile and libjxl write them: rasterio's GDAL has no
+/// JPEG XL codec) read to their uncompressed baselines: grey, RGB with extra channels
+/// and band-interleaved, 8 and 16 bits and floats with NaN, tiles and strips, GDAL's
+/// and DNG's codes; a lossy one as libjxl decodes it.
+#[test]
+fn jpeg_xl_variants_read_as_their_baselines() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(rasters) = shared_data("raster") else {
+        return;
+    };
+    let Some(files) = python_script("jpeg_xl.py", &[&rasters, dir.path()]) else {
+        return;
+    };
+    assert_eq!(files.len(), 8);
+    let read = |name: &str| {
+        read_geotiff(&dir.path().join(format!("{name}.tif")), "m")
+            .unwrap_or_else(|e| panic!("{name}: {e}"))
+    };
+    for file in &files {
+        let name = file["name"].as_str().unwrap();
+        let (map, reference) = (read(name), read(file["reference"].as_str().unwrap()));
+        assert_eq!(map.geo, reference.geo, "{name}");
+        if file["lossless"].as_bool().unwrap() {
+            assert!(same_values(&map, &reference), "{name}: values differ");
+        } else {
+            assert_within_decoder_rounding(name, &map, &reference);
+        }
+    }
+    // The float raster's NaN block, in the file's north-west corner, is nodata.
+    let heights = read("heights--jxl-tiles");
+    let (w, h) = (heights.geo.width as usize, heights.geo.height as usize);
+    assert!(heights.layers[0].values[(h - 1) * w].is_nan());
+    assert_eq!(heights.layers.len(), 1);
+    assert_eq!(read("five--jxl-strips").layers.len(), 5);
+    assert!(damage_each(dir.path(), &files) >= 36);
 }
 
 #[test]
@@ -600,6 +642,15 @@ fn damaged_variants_are_errors_not_panics() {
     let Some(files) = write_variants(dir.path()) else {
         return;
     };
+    let reads = damage_each(dir.path(), &files);
+    assert!(reads > 300, "{reads}");
+}
+
+/// Reads seeded damages of each file of `files` (JSON lines with its `name` in `dir`)
+/// under 400 kB: bytes changed in its header or anywhere, cut short, offsets and
+/// counts set to 0 or 0xFFFFFFFF. Each must read, or fail naming the file, never
+/// panic. Returns how many damaged files were read.
+fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {
         state ^= state << 13;
@@ -607,11 +658,11 @@ fn damaged_variants_are_errors_not_panics() {
         state ^= state << 17;
         state
     };
-    let damaged = dir.path().join("damaged.tif");
+    let damaged = dir.join("damaged.tif");
     let mut reads = 0;
-    for file in &files {
+    for file in files {
         let name = file["name"].as_str().unwrap();
-        let original = std::fs::read(dir.path().join(format!("{name}.tif"))).unwrap();
+        let original = std::fs::read(dir.join(format!("{name}.tif"))).unwrap();
         if original.len() > 400_000 {
             continue;
         }
@@ -646,7 +697,7 @@ fn damaged_variants_are_errors_not_panics() {
             reads += 1;
         }
     }
-    assert!(reads > 300, "{reads}");
+    reads
 }
 
 /// GDAL's order of georeferences: the PAM sidecar's geotransform and CRS before the

@@ -28,6 +28,7 @@ use crate::grid::{GeoRef, Layer, Map, TiffCrs};
 
 mod chunks;
 mod grey;
+mod jxl;
 mod lerc;
 mod mask;
 mod metadata;
@@ -127,7 +128,7 @@ fn compression_name(code: u16) -> &'static str {
         34925 => "LZMA",
         50000 => "ZSTD",
         50001 => "WebP",
-        50002 => "JPEG XL",
+        jxl::JXL | jxl::JXL_DNG => "JPEG XL",
         _ => "unknown",
     }
 }
@@ -207,6 +208,9 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     } else if compression == webp::WEBP {
         webp::read(&mut decoder, &image)
             .map_err(|e| problem(format!("WebP (tag Compression = {compression}): {e}")))?
+    } else if jxl::is_jxl(compression) {
+        jxl::read(&mut decoder, &image)
+            .map_err(|e| problem(format!("JPEG XL (tag Compression = {compression}): {e}")))?
     } else if unpack::reads(&mut decoder, compression)
         .map_err(|e| problem(format!("not a readable TIFF: {e}")))?
     {
