@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 
 use common::*;
 use imitate::io::demo_tables::{Columns, read_demonstrations_table};
+use imitate::io::geotiff::read_geotiff;
 use imitate::io::mcap::inspect::{Source, inspect};
 use imitate::io::tables::{read_costmap, read_features, read_map, read_paths};
 
@@ -66,5 +67,30 @@ fn damaged_mcap_files_are_errors() {
             assert!(!err.contains("panicked"), "{}: {err}", input.display());
             assert!(matches!(out.status.code(), Some(0 | 2)), "{err}");
         }
+    }
+}
+
+#[test]
+fn damaged_geotiffs_are_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let inputs = inputs("geotiff");
+    assert!(!inputs.is_empty());
+    for input in inputs {
+        let path = as_file(dir.path(), &input, "damaged.tif");
+        let error = read_geotiff(&path, "m").expect_err(&input.display().to_string());
+        assert!(error.to_string().contains("damaged.tif"), "{error}");
+        let out = imitate(
+            dir.path(),
+            &[
+                "plan",
+                "damaged.tif",
+                "--cells",
+                "--start",
+                "0,0",
+                "--goal",
+                "0,1",
+            ],
+        );
+        assert_input_error(&out, &["damaged.tif"]);
     }
 }

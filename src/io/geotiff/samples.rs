@@ -8,6 +8,7 @@ use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
 
 use super::chunks::{Image, Layout};
+use crate::error::catch_decoder_panic;
 
 /// The image's samples as `f32`, pixel-interleaved, or band after band when
 /// band-interleaved; strips or tiles the file leaves out hold the image's `fill`.
@@ -64,9 +65,7 @@ fn decode<R: Read + Seek>(
         // Into a buffer of the file's sample type, every plane of a band-interleaved
         // file included (`read_image` would read only the first).
         let mut decoded = DecodingResult::U8(Vec::new());
-        decoder
-            .read_image_to_buffer(&mut decoded)
-            .map_err(|e| e.to_string())?;
+        guarded(|| decoder.read_image_to_buffer(&mut decoded))?;
         let rows = image.height as usize * layout.planes();
         return to_f32(decoded, bits, image.width as usize, rows, depth);
     }
@@ -76,8 +75,7 @@ fn decode<R: Read + Seek>(
         let index = u32::try_from(chunk.index).map_err(|e| e.to_string())?;
         let (w, h) = decoder.chunk_data_dimensions(index);
         let (w, h) = (w as usize, h as usize);
-        let decoded = decoder
-            .read_chunk(index)
+        let decoded = guarded(|| decoder.read_chunk(index))
             .map_err(|e| format!("strip or tile {index}: {e}"))?;
         let samples = to_f32(decoded, bits, w, h, layout.depth())
             .map_err(|e| format!("strip or tile {index}: {e}"))?;
@@ -93,6 +91,14 @@ fn decode<R: Read + Seek>(
         layout.place_rows(&mut values, &chunk, w, h, &samples);
     }
     Ok(values)
+}
+
+/// Runs one of the `tiff` crate's decodes: its error, or its panic on a damaged file
+/// (it asserts on some chunk sizes), as a message.
+fn guarded<T>(decode: impl FnOnce() -> tiff::TiffResult<T>) -> Result<T, String> {
+    catch_decoder_panic(decode)
+        .map_err(|cause| format!("the decoder failed ({cause})"))?
+        .map_err(|e| e.to_string())
 }
 
 /// Decoded samples as `f32`. Samples of fewer than 8 bits come packed, each row of
