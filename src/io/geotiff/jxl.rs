@@ -13,7 +13,7 @@ use rayon::prelude::*;
 
 use tiff::decoder::Decoder;
 
-use super::chunks::{Chunk, Image, Layout};
+use super::chunks::{Image, Layout};
 use crate::error::catch_decoder_panic;
 
 /// TIFF compression code of JPEG XL (GDAL's and libtiff's `COMPRESSION_JXL`).
@@ -28,7 +28,8 @@ pub(super) fn is_jxl(compression: u16) -> bool {
 
 /// The image's samples as `f32`, laid out as the `tiff` crate lays them out (pixel-
 /// interleaved, or band after band when band-interleaved). Strips and tiles decode in
-/// parallel; each lands where it lies, so the result does not depend on the threads.
+/// parallel, a few per thread at a time so that their decoded samples stay few beside
+/// the image; each lands where it lies, so the result does not depend on the threads.
 /// A panic of the decoder on a damaged strip or tile is an error.
 pub(super) fn read<R: Read + Seek>(
     decoder: &mut Decoder<R>,
@@ -39,34 +40,27 @@ pub(super) fn read<R: Read + Seek>(
     let chunks = layout
         .stored_chunks(image.file)
         .collect::<Result<Vec<_>, _>>()?;
-    let decoded = chunks
-        .par_iter()
-        .map(|chunk| {
-            catch_decoder_panic(|| decode(chunk.bytes, depth, layout.stored_size(chunk)))
-                .unwrap_or_else(|cause| Err(format!("the decoder failed ({cause})")))
-                .map_err(|m| format!("strip or tile {}: {m}", chunk.index))
-        })
-        .collect::<Result<Vec<_>, _>>()?;
     let mut values = layout.buffer(image.fill);
-    for (chunk, (samples, width, height)) in chunks.iter().zip(&decoded) {
-        place(&layout, &mut values, chunk, samples, *width, *height)?;
+    for batch in chunks.chunks(4 * rayon::current_num_threads().max(1)) {
+        let decoded = batch
+            .par_iter()
+            .map(|chunk| {
+                let in_chunk = |m: String| format!("strip or tile {}: {m}", chunk.index);
+                let (samples, width, height) =
+                    catch_decoder_panic(|| decode(chunk.bytes, depth, layout.stored_size(chunk)))
+                        .unwrap_or_else(|cause| Err(format!("the decoder failed ({cause})")))
+                        .map_err(in_chunk)?;
+                layout
+                    .check_decoded(chunk, width, height)
+                    .map_err(in_chunk)?;
+                Ok((samples, width, height))
+            })
+            .collect::<Result<Vec<_>, String>>()?;
+        for (chunk, (samples, width, height)) in batch.iter().zip(decoded) {
+            layout.place_rows(&mut values, chunk, width, height, &samples);
+        }
     }
     Ok(values)
-}
-
-fn place(
-    layout: &Layout,
-    values: &mut [f32],
-    chunk: &Chunk,
-    samples: &[f32],
-    width: usize,
-    height: usize,
-) -> Result<(), String> {
-    layout
-        .check_decoded(chunk, width, height)
-        .map_err(|m| format!("strip or tile {}: {m}", chunk.index))?;
-    layout.place_rows(values, chunk, width, height, samples);
-    Ok(())
 }
 
 /// One strip's or tile's JPEG XL image: its samples, pixel-interleaved, in the
