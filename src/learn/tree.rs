@@ -105,11 +105,20 @@ impl RegressionTree {
         config: &TreeConfig,
     ) -> RegressionTree {
         let candidates = vec![Candidates::Binned; dims];
-        Self::fit_on(features, dims, targets, weights, config, &candidates)
+        Self::fit_on(
+            features,
+            dims,
+            targets,
+            weights,
+            config,
+            &candidates,
+            &vec![1.0; dims],
+        )
     }
 
     /// [`RegressionTree::fit`] with each feature's split thresholds as `candidates`
-    /// says.
+    /// says and its splits' gains times its factor in `gain_factors` (1 for a
+    /// feature split on freely).
     pub fn fit_on(
         features: &[f64],
         dims: usize,
@@ -117,10 +126,12 @@ impl RegressionTree {
         weights: &[f64],
         config: &TreeConfig,
         candidates: &[Candidates],
+        gain_factors: &[f64],
     ) -> RegressionTree {
         let rows = targets.len();
         debug_assert_eq!(features.len(), rows * dims);
         debug_assert_eq!(candidates.len(), dims);
+        debug_assert_eq!(gain_factors.len(), dims);
         // A feature with no split candidates is never split on.
         let edges: Vec<Vec<f64>> = (0..dims)
             .map(|j| {
@@ -150,6 +161,7 @@ impl RegressionTree {
             targets,
             weights,
             config,
+            gain_factors,
         };
         RegressionTree {
             root: fitter.grow(&all, 0),
@@ -183,6 +195,7 @@ struct Fitter<'a> {
     targets: &'a [f64],
     weights: &'a [f64],
     config: &'a TreeConfig,
+    gain_factors: &'a [f64],
 }
 
 impl Fitter<'_> {
@@ -245,8 +258,10 @@ impl Fitter<'_> {
                     continue;
                 }
                 let right_wy = total_wy - left_wy;
-                let gain = left_wy * left_wy / (left_w + l2) + right_wy * right_wy / (right_w + l2)
-                    - parent;
+                let gain = (left_wy * left_wy / (left_w + l2)
+                    + right_wy * right_wy / (right_w + l2)
+                    - parent)
+                    * self.gain_factors[feature];
                 if gain > 1e-12 && best.is_none_or(|(g, _, _)| gain > g + 1e-12) {
                     best = Some((gain, feature, bin));
                 }
@@ -295,6 +310,39 @@ mod tests {
         assert!(!uses(&tree.root, 2));
     }
 
+    #[test]
+    fn damped_gains_give_a_feature_only_the_splits_it_wins_by_far() {
+        // y is 1 where feature 1 > 0.5; feature 0 agrees on all rows but the last.
+        let (x, y): (Vec<f64>, Vec<f64>) = (0..20)
+            .map(|i| {
+                let f1 = f64::from(u8::from(i >= 10));
+                let f0 = if i == 19 { 0.0 } else { f1 };
+                ([f0, f1], f1)
+            })
+            .fold((Vec::new(), Vec::new()), |(mut x, mut y), (row, t)| {
+                x.extend_from_slice(&row);
+                y.push(t);
+                (x, y)
+            });
+        let w = vec![1.0; y.len()];
+        let config = TreeConfig {
+            max_depth: 1,
+            ..TreeConfig::default()
+        };
+        let root_feature = |gains: [f64; 2]| {
+            let tree =
+                RegressionTree::fit_on(&x, 2, &y, &w, &config, &[Candidates::Binned; 2], &gains);
+            match tree.root {
+                Node::Split { feature, .. } => feature,
+                Node::Leaf { .. } => panic!("no split"),
+            }
+        };
+        assert_eq!(root_feature([1.0, 1.0]), 1);
+        // Damped a little, the better feature still wins; damped much, it loses.
+        assert_eq!(root_feature([1.0, 0.95]), 1);
+        assert_eq!(root_feature([1.0, 0.3]), 0);
+    }
+
     fn uses(node: &Node, feature: usize) -> bool {
         match node {
             Node::Leaf { .. } => false,
@@ -329,6 +377,7 @@ mod tests {
             &w,
             &config,
             &[Candidates::Unused, Candidates::Binned],
+            &[1.0; 2],
         );
         assert!(!uses(&held.root, 0) && uses(&held.root, 1));
     }
@@ -343,11 +392,20 @@ mod tests {
             max_depth: 1,
             ..TreeConfig::default()
         };
-        let threshold =
-            |candidates| match RegressionTree::fit_on(&x, 1, &y, &w, &config, &[candidates]).root {
-                Node::Split { threshold, .. } => threshold,
-                Node::Leaf { .. } => panic!("no split"),
-            };
+        let threshold = |candidates| match RegressionTree::fit_on(
+            &x,
+            1,
+            &y,
+            &w,
+            &config,
+            &[candidates],
+            &[1.0],
+        )
+        .root
+        {
+            Node::Split { threshold, .. } => threshold,
+            Node::Leaf { .. } => panic!("no split"),
+        };
         assert_eq!(threshold(Candidates::Exact), 3.5);
         assert!(threshold(Candidates::Binned) > 4.0);
     }

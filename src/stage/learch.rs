@@ -178,9 +178,9 @@ pub struct LearchParams {
     #[arg(long)]
     #[serde(default)]
     pub keep_contrast: bool,
-    /// LEARCH with trees: split on features of every scale from the first round,
-    /// instead of on the cells' own values first and on wider neighbourhoods from a
-    /// quarter and half of the rounds on.
+    /// LEARCH with trees: split on features of every scale alike from the first
+    /// round, instead of on the cells' own values first and on wider neighbourhoods
+    /// (at a damped gain before then) from a quarter and half of the rounds on.
     #[arg(long)]
     #[serde(default)]
     pub all_scales_at_once: bool,
