@@ -5,16 +5,31 @@ mod common;
 
 use common::*;
 
+/// The prepared workspace with features `fr`: the layers and a regional feature (a
+/// blur over 6 cells), which the trees' stages hold back, so that LEARCH trains its two
+/// members.
+fn workspace_with_regional_features() -> tempfile::TempDir {
+    let ws = prepared_workspace();
+    let mut args = vec!["features", "--dataset", "ds", "--out", "fr"];
+    for layer in ["elevation", "vegetation", "water", "road"] {
+        args.extend(["--layer", layer]);
+    }
+    args.extend(["--op", r#"{"op":"blur","layer":"elevation","cells":[6]}"#]);
+    let out = imitate(ws.path(), &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    ws
+}
+
 #[test]
 fn tree_learch_with_early_stopping_writes_what_it_kept() {
-    let ws = prepared_workspace();
+    let ws = workspace_with_regional_features();
     let run = |args: &[&str]| imitate(ws.path(), args);
     let out = run(&[
         "learch",
         "--dataset",
         "ds",
         "--features",
-        "fs",
+        "fr",
         "--weak-learner",
         "tree",
         "--loss-kind",
@@ -31,31 +46,48 @@ fn tree_learch_with_early_stopping_writes_what_it_kept() {
     assert!(out.status.success(), "{}", stderr(&out));
     let metrics: serde_json::Value =
         serde_json::from_slice(&std::fs::read(ws.path().join("c/metrics.json")).unwrap()).unwrap();
-    let kept = metrics["kept_round"].as_u64().unwrap() as usize;
+    // Two members by default, each stopped on its own.
+    let members = metrics["members"].as_array().unwrap();
+    assert_eq!(members.len(), 2);
     let rounds = metrics["rounds"].as_array().unwrap();
-    assert!(kept >= 1 && kept <= rounds.len() && rounds.len() <= 20);
+    let member_rounds = |m: usize| -> Vec<&serde_json::Value> {
+        let m = m as u64;
+        rounds
+            .iter()
+            .filter(|r| r["member"].as_u64().unwrap_or(0) == m)
+            .collect()
+    };
+    for (m, member) in members.iter().enumerate() {
+        let kept = member["kept_round"].as_u64().unwrap() as usize;
+        let ran = member["rounds"].as_u64().unwrap() as usize;
+        assert_eq!(member_rounds(m).len(), ran);
+        assert!(kept >= 1 && kept <= ran && ran <= 20, "{member}");
+    }
     assert_eq!(metrics["validation"]["summary"]["examples"], 12);
     assert_eq!(metrics["holdout"]["summary"]["examples"], 16);
     let model: serde_json::Value =
         serde_json::from_slice(&std::fs::read(ws.path().join("c/model.json")).unwrap()).unwrap();
     let learners = model["cost"]["learners"].as_array().unwrap();
-    assert_eq!(learners.len(), kept);
     assert!(
         learners
             .iter()
             .all(|l| l["kind"] == "tree" && l["tree"].is_object())
     );
-    // The kept learners take the contrast chosen on the training paths times the
-    // steps their rounds record.
-    let contrast = metrics["contrast"].as_f64().unwrap();
-    assert!([1.0, 1.25, 1.5, 2.0].contains(&contrast), "{contrast}");
-    for (learner, round) in learners.iter().zip(rounds) {
-        let (kept_step, round_step) = (
-            learner["step"].as_f64().unwrap(),
-            round["step"].as_f64().unwrap(),
-        );
-        assert!((kept_step - contrast * round_step).abs() < 1e-12);
+    // Each member's kept learners, member after member, take the contrast chosen on
+    // the training paths times the steps their rounds record, halved: the geometric
+    // mean of the two members' costs.
+    let mut learners = learners.iter();
+    for (m, member) in members.iter().enumerate() {
+        let kept = member["kept_round"].as_u64().unwrap() as usize;
+        let contrast = member["contrast"].as_f64().unwrap();
+        assert!([1.0, 1.25, 1.5, 2.0].contains(&contrast), "{contrast}");
+        for round in &member_rounds(m)[..kept] {
+            let kept_step = learners.next().unwrap()["step"].as_f64().unwrap();
+            let round_step = round["step"].as_f64().unwrap();
+            assert!((kept_step - contrast * round_step / 2.0).abs() < 1e-12);
+        }
     }
+    assert!(learners.next().is_none());
 
     // Early stopping needs a validation split, and the other way round.
     let out = run(&[
@@ -83,7 +115,7 @@ const LONG_RUN: [&str; 10] = [
     "--dataset",
     "ds",
     "--features",
-    "fs",
+    "fr",
     "--rounds",
     "60",
     "--weak-learner",
@@ -103,7 +135,7 @@ fn digest(output: &std::process::Output) -> String {
 
 #[test]
 fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
-    let uninterrupted = prepared_workspace();
+    let uninterrupted = workspace_with_regional_features();
     let expected = digest(&imitate(
         uninterrupted.path(),
         &[&LONG_RUN[..], &["c"]].concat(),
@@ -117,7 +149,7 @@ fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
         0
     );
 
-    let ws = prepared_workspace();
+    let ws = workspace_with_regional_features();
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_imitate"))
         .current_dir(ws.path())
         .args([&LONG_RUN[..], &["c"]].concat())
@@ -138,15 +170,17 @@ fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
             .unwrap_or(0)
     };
     let started = std::time::Instant::now();
-    while rounds_done() < 5 && child.try_wait().unwrap().is_none() {
+    // Into the second member's rounds (60 each), so that the resumed run picks up the
+    // first member's finished model too.
+    while rounds_done() < 65 && child.try_wait().unwrap().is_none() {
         assert!(started.elapsed().as_secs() < 120, "no checkpoint appeared");
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     let _ = child.kill();
     let _ = child.wait();
     let done = rounds_done();
-    assert!(done >= 5, "{done} rounds checkpointed");
-    assert!(!ws.path().join("c/manifest.json").exists() || done == 60);
+    assert!(done >= 65, "{done} rounds checkpointed");
+    assert!(!ws.path().join("c/manifest.json").exists() || done == 120);
 
     let resumed = imitate(
         ws.path(),

@@ -473,6 +473,8 @@ fn bench_terrain_runs_the_hidden_teacher_protocol_on_a_real_raster() {
     let (uniform, tree) = (by("uniform", "threshold"), by("learch-tree", "threshold"));
     assert_eq!(tree["held_out"], 4);
     assert_eq!(tree["rounds"], 8, "--rounds overrides the method's default");
+    // Two models averaged, each of the rounds asked for.
+    assert_eq!(tree["models"], 2);
     // The same figures on the training paths, to tell overfitting from underfitting.
     let training = tree["training_mean_cost_ratio"].as_f64().unwrap();
     assert!(training >= 1.0 - 1e-9, "{tree}");

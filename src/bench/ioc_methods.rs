@@ -65,7 +65,10 @@ pub(super) struct MethodResult {
     pub within_radius: f64,
     pub mean_cost_ratio: f64,
     pub max_cost_ratio: f64,
+    /// Rounds run by each model (the most of its members').
     pub rounds: usize,
+    /// Models trained and averaged (LEARCH's members).
+    pub models: usize,
     pub seconds: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub training_within_radius: Option<f64>,
@@ -347,7 +350,8 @@ pub(super) fn measure(
         within_radius: agreement.within_radius,
         mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
         max_cost_ratio: agreement.max_reference_cost_ratio.unwrap_or(f64::NAN),
-        rounds: trained.rounds.len(),
+        rounds: trained.members.iter().map(|m| m.rounds).max().unwrap_or(0),
+        models: trained.members.len(),
         seconds,
     })
 }

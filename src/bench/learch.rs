@@ -115,9 +115,11 @@ pub fn run(args: LearchBenchArgs) -> Result<()> {
             }
         })
         .collect();
+    // One model: what is timed is a round.
     let config = LearchConfig {
         rounds: 3,
         weak_learner: args.weak_learner,
+        members: 1,
         ..LearchConfig::default()
     };
     let all_threads = rayon::current_num_threads();

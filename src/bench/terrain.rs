@@ -133,6 +133,9 @@ pub struct TerrainArgs {
     /// LEARCH's trees split on features of every scale from the first round.
     #[arg(long)]
     pub all_scales_at_once: bool,
+    /// LEARCH with trees: models trained and averaged (1: the staged model alone).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::ioc::MEMBERS.len() as u64))]
+    pub members: Option<u64>,
     #[arg(long)]
     pub json: bool,
 }
@@ -466,6 +469,7 @@ fn uniform(terrain: &Terrain) -> MethodResult {
         mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
         max_cost_ratio: agreement.max_reference_cost_ratio.unwrap_or(f64::NAN),
         rounds: 0,
+        models: 0,
         seconds: 0.0,
         training_within_radius: None,
         training_mean_cost_ratio: None,
@@ -506,6 +510,9 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         }
         config.calibrate_contrast &= !args.keep_contrast;
         config.widen_in_stages &= !args.all_scales_at_once;
+        if let Some(members) = args.members {
+            config.members = members as usize;
+        }
     }
     for m in &args.methods {
         if !all_methods.iter().any(|(name, _)| name == m) {

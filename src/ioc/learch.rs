@@ -113,7 +113,8 @@ pub const CONTRASTS: [f64; 4] = [1.0, 1.25, 1.5, 2.0];
 /// and regional ones last took the held-out cost ratio on eight real rasters from
 /// 1.0248 to 1.0220 over five seeds (BENCHMARKS.md, "Features widened in stages").
 /// Before its stage opens a feature may still win a split whose gain, damped by the
-/// stage's factor, beats the open features' (distances wait): a cost that truly is
+/// stage's factor of the model's member (`MEMBERS`), beats the open features'
+/// (distances wait, in the first member): a cost that truly is
 /// regional, such as rough ground over a wide window, then gets more than the last
 /// half of the rounds, whose steps are short. Over four seeds of the eight rasters'
 /// eight teachers that took the pairs ≤ 1.03 from 201 to 209 of 256 and the texture
@@ -123,28 +124,54 @@ pub const SCALE_STAGES: [ScaleStage; 3] = [
     ScaleStage {
         from_share: 0.0,
         cells: 1.0,
-        gain_before: 1.0,
     },
     ScaleStage {
         from_share: 0.25,
         cells: 4.0,
-        gain_before: 0.3,
     },
     ScaleStage {
         from_share: 0.5,
         cells: f64::INFINITY,
-        gain_before: 0.1,
     },
 ];
 
 /// Features of scales up to `cells` (and above the stage before) are split on freely
-/// from round `from_share × rounds`, and before it with their gains times
-/// `gain_before`.
+/// from round `from_share × rounds`, and before it with their gains damped by the
+/// member's factor for the stage (`MemberStages`).
 #[derive(Debug, Clone, Copy)]
 pub struct ScaleStage {
     pub from_share: f64,
     pub cells: f64,
-    pub gain_before: f64,
+}
+
+/// The members of a LEARCH model with trees widened in stages (`LearchConfig::members`):
+/// each is trained on its own, with the same rounds, and the costmap is the geometric
+/// mean of their costs (one model: both members' learners, every step halved). The
+/// stages trade the costs that truly are regional (rough ground over a wide window, a
+/// shore) against the regional coincidences of the training paths; the first member
+/// holds wide features back hard, the second lets them compete earlier, and their
+/// mean errs less than the first alone. On fourteen real rasters with eight teachers
+/// of `bench terrain`, two seeds, the pairs whose held-out cost ratio is ≤ 1.03 went from 177 to
+/// 187 of 224 (the six rasters never tuned on: 73 to 77 of 96) at about twice the
+/// training time (BENCHMARKS.md, "Two models averaged").
+pub const MEMBERS: [MemberStages; 2] = [
+    MemberStages {
+        gain_before: [1.0, 0.3, 0.1],
+        distances_before: 0.0,
+    },
+    MemberStages {
+        gain_before: [1.0, 0.6, 0.3],
+        distances_before: 0.3,
+    },
+];
+
+/// How early one member's wider features compete: the factor on the split gains of
+/// the features of each stage of `SCALE_STAGES` before the stage opens, and of
+/// distances before theirs (0: they wait).
+#[derive(Debug, Clone, Copy)]
+pub struct MemberStages {
+    pub gain_before: [f64; SCALE_STAGES.len()],
+    pub distances_before: f64,
 }
 
 /// A demonstration on one of the maps.
@@ -261,6 +288,9 @@ pub struct LearchConfig {
     /// LEARCH with trees: split on the cells' own values first and on wider
     /// neighbourhoods in later rounds (`SCALE_STAGES`).
     pub widen_in_stages: bool,
+    /// LEARCH with trees widened in stages: how many of `MEMBERS` to train, in turn
+    /// (1 or 2); the cost is the geometric mean of theirs.
+    pub members: usize,
 }
 
 impl Default for LearchConfig {
@@ -288,11 +318,25 @@ impl Default for LearchConfig {
             window_margin: 6,
             calibrate_contrast: true,
             widen_in_stages: true,
+            members: MEMBERS.len(),
         }
     }
 }
 
 impl LearchConfig {
+    /// The members this configuration trains: several only where the stages make them
+    /// differ (LEARCH with trees, widened in stages).
+    pub fn member_count(&self) -> usize {
+        let staged_trees = self.method == GridMethod::Learch
+            && self.widen_in_stages
+            && self.weak_learner != WeakLearnerKind::Ridge;
+        if staged_trees {
+            self.members.clamp(1, MEMBERS.len())
+        } else {
+            1
+        }
+    }
+
     fn step(&self, t: usize) -> f64 {
         let t = t as f64;
         match self.schedule {
@@ -306,6 +350,10 @@ impl LearchConfig {
 /// What one round did.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct RoundMetrics {
+    /// The member of the model (`MEMBERS`) this round trained; absent for the first.
+    #[serde(default, skip_serializing_if = "is_first_member")]
+    pub member: usize,
+    /// The member's round, from 1.
     pub round: usize,
     pub step: f64,
     /// Mean over training examples of (C(demo) − C(plan)) / C(demo) on the
@@ -326,8 +374,13 @@ pub struct RoundMetrics {
     pub projected_to_margin: bool,
 }
 
+fn is_first_member(member: &usize) -> bool {
+    *member == 0
+}
+
 /// Training so far: what a checkpoint holds and a resumed run starts from. Training is
 /// deterministic given it, so a resumed run ends where an uninterrupted one would.
+/// Every member's learners and rounds follow the earlier members'.
 #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
 pub struct Progress {
     pub learners: Vec<WeakLearner>,
@@ -337,12 +390,22 @@ pub struct Progress {
 #[derive(Debug, Clone)]
 pub struct TrainedLearch {
     pub model: LogCostModel,
+    /// Every member's rounds, member after member.
     pub rounds: Vec<RoundMetrics>,
+    pub members: Vec<TrainedMember>,
+}
+
+/// What training kept of one member of the model.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TrainedMember {
+    /// Rounds run.
+    pub rounds: usize,
     /// The round whose model was kept (the last, or the best on validation when early
     /// stopping is on).
     pub kept_round: usize,
-    /// The exponent γ on the kept round's cost (`CONTRASTS`): the model's learners
-    /// take γ times the steps their rounds record. 1 when not calibrated.
+    /// The exponent γ on the kept round's cost (`CONTRASTS`): the member's learners
+    /// take γ times the steps their rounds record, divided by the number of members.
+    /// 1 when not calibrated.
     pub contrast: f64,
 }
 
@@ -511,102 +574,218 @@ pub fn train_with(
     if config.method == GridMethod::Mmp && config.weak_learner != WeakLearnerKind::Ridge {
         return Err("mmp learns a linear cost; its weak learner is ridge".into());
     }
-    let mut model = LogCostModel::zero_with(names, feature_scales(stacks), config.method.link());
-    let Progress {
-        learners: resumed,
-        rounds: resumed_rounds,
-    } = resume.unwrap_or_default();
-    if resumed.len() != resumed_rounds.len() || resumed.len() > config.rounds {
-        return Err(format!(
-            "the checkpoint holds {} learners and {} rounds, this run has {} rounds",
-            resumed.len(),
-            resumed_rounds.len(),
-            config.rounds
-        ));
-    }
-    for learner in resumed {
-        model.push(learner);
-    }
+    let zero = LogCostModel::zero_with(names, feature_scales(stacks), config.method.link());
+    let resumed = resume.unwrap_or_default();
+    let members = members_to_train(config, &zero.feature_names, stacks);
+    let resumed_members = resumed_members(&resumed, members, config.rounds)?;
     let prepared = remote
         .is_none()
         .then(|| PreparedExamples::new(stacks, training.to_vec(), config));
-    let mut best: Option<(f64, usize)> = None;
-    let improves =
-        |best: Option<(f64, usize)>, agreement: f64| best.is_none_or(|(b, _)| agreement > b);
-    for (t, metrics) in resumed_rounds.iter().enumerate() {
-        if let Some(v) = &metrics.validation
-            && improves(best, v.within_radius)
-        {
-            best = Some((v.within_radius, t + 1));
-        }
+    let mut progress = resumed;
+    let mut kept_models = Vec::with_capacity(members);
+    let mut trained_members = Vec::with_capacity(members);
+    for (member, done) in resumed_members.into_iter().enumerate() {
+        let mut member_run = MemberRun {
+            member,
+            model: zero.clone(),
+            progress: &mut progress,
+            on_round: &mut on_round,
+            remote: remote.as_deref_mut(),
+            prepared: prepared.as_ref(),
+            stacks,
+            map_names,
+            training,
+            validation,
+            holdout,
+            references,
+            config,
+        };
+        let (kept, trained) = member_run.train(done)?;
+        kept_models.push(kept);
+        trained_members.push(trained);
     }
-    let mut progress = Progress {
-        learners: Vec::new(),
-        rounds: resumed_rounds,
+    Ok(TrainedLearch {
+        model: LogCostModel::geometric_mean(&kept_models),
+        rounds: progress.rounds,
+        members: trained_members,
+    })
+}
+
+/// One member's share of a checkpoint.
+#[derive(Default)]
+struct ResumedMember {
+    learners: Vec<WeakLearner>,
+    rounds: Vec<RoundMetrics>,
+    /// A later member has begun: this one is finished, even where early stopping ended
+    /// it before its last round.
+    finished: bool,
+}
+
+/// Each member's share of a checkpoint.
+fn resumed_members(
+    resumed: &Progress,
+    members: usize,
+    rounds: usize,
+) -> Result<Vec<ResumedMember>, String> {
+    let mismatch = |what: String| {
+        format!("the checkpoint {what}; this run trains {members} member(s) of {rounds} rounds")
     };
-    for t in progress.rounds.len()..config.rounds {
-        let statistics = match (&mut remote, &prepared) {
-            (Some(remote), _) => remote(&model)?,
-            (None, Some(prepared)) => prepared.plan(&model, stacks, config)?,
-            (None, None) => unreachable!("examples are prepared when planned here"),
-        };
-        if statistics.len() != training.len() {
-            return Err(format!(
-                "round {}: {} examples' statistics came back for {} training examples",
-                t + 1,
-                statistics.len(),
-                training.len()
-            ));
+    if resumed.learners.len() != resumed.rounds.len() {
+        return Err(mismatch(format!(
+            "holds {} learners and {} rounds",
+            resumed.learners.len(),
+            resumed.rounds.len()
+        )));
+    }
+    if resumed.rounds.windows(2).any(|w| w[1].member < w[0].member) {
+        return Err(mismatch("holds members out of order".into()));
+    }
+    let last_member = resumed.rounds.last().map_or(0, |r| r.member);
+    if last_member >= members {
+        return Err(mismatch(format!(
+            "holds rounds of member {}",
+            last_member + 1
+        )));
+    }
+    let mut per_member: Vec<ResumedMember> = (0..members)
+        .map(|m| ResumedMember {
+            finished: m < last_member,
+            ..ResumedMember::default()
+        })
+        .collect();
+    for (learner, round) in resumed.learners.iter().zip(&resumed.rounds) {
+        let member = &mut per_member[round.member];
+        member.learners.push(learner.clone());
+        member.rounds.push(round.clone());
+    }
+    if let Some(over) = per_member.iter().find(|m| m.rounds.len() > rounds) {
+        return Err(mismatch(format!(
+            "holds {} rounds of a member",
+            over.rounds.len()
+        )));
+    }
+    Ok(per_member)
+}
+
+/// One member's training, adding its rounds to the progress of the whole model, and
+/// what `train_with` was given.
+struct MemberRun<'a, 'r, F: FnMut(&Progress)> {
+    member: usize,
+    model: LogCostModel,
+    progress: &'a mut Progress,
+    on_round: &'a mut F,
+    remote: Option<&'a mut RemoteRounds<'r>>,
+    prepared: Option<&'a PreparedExamples>,
+    stacks: &'a [FeatureStack],
+    map_names: &'a [String],
+    training: &'a [Example],
+    validation: &'a [Example],
+    holdout: &'a [Example],
+    references: Option<&'a [Grid<f32>]>,
+    config: &'a LearchConfig,
+}
+
+impl<F: FnMut(&Progress)> MemberRun<'_, '_, F> {
+    /// Runs the member's rounds after those `done` and returns its kept model,
+    /// calibrated.
+    fn train(&mut self, done: ResumedMember) -> Result<(LogCostModel, TrainedMember), String> {
+        let (stacks, map_names, training, config) =
+            (self.stacks, self.map_names, self.training, self.config);
+        let (validation, holdout, references) = (self.validation, self.holdout, self.references);
+        let ResumedMember {
+            learners,
+            mut rounds,
+            finished,
+        } = done;
+        for learner in learners {
+            self.model.push(learner);
         }
-        let round = fit_round(&model, stacks, &statistics, config, t)?;
-        let (step, projected_to_margin) = (round.step, round.projected_to_margin);
-        model.push(round.learner);
-        let agreement_on = |examples: &[Example]| {
-            (!examples.is_empty())
-                .then(|| evaluate(&model, stacks, map_names, examples, references))
-                .transpose()
-                .map(|e| e.map(|evaluations| summarize(&evaluations)))
-        };
-        let holdout_agreement = agreement_on(holdout)?;
-        let validation_agreement = agreement_on(validation)?;
-        let metrics = RoundMetrics {
-            round: t + 1,
-            step,
-            training_loss: round.training_loss,
-            disagreeing_cells: round.disagreeing_cells,
-            holdout: holdout_agreement,
-            validation: validation_agreement,
-            projected_to_margin,
-        };
-        tracing::debug!(round = t + 1, weights = ?model.raw_weights, "learch model");
-        let agreement = metrics.validation.as_ref().map(|v| v.within_radius);
-        progress.rounds.push(metrics);
-        progress.learners.clone_from(&model.learners);
-        on_round(&progress);
-        if let (Some(patience), Some(agreement)) = (config.patience, agreement) {
-            if improves(best, agreement) {
-                best = Some((agreement, t + 1));
-            }
-            if let Some((_, round)) = best
-                && t + 1 - round >= patience
+        let mut best: Option<(f64, usize)> = None;
+        let improves =
+            |best: Option<(f64, usize)>, agreement: f64| best.is_none_or(|(b, _)| agreement > b);
+        for (t, metrics) in rounds.iter().enumerate() {
+            if let Some(v) = &metrics.validation
+                && improves(best, v.within_radius)
             {
+                best = Some((v.within_radius, t + 1));
+            }
+        }
+        // Early stopping: the best round is `patience` rounds behind.
+        let patience_spent = |best: Option<(f64, usize)>, t: usize| match (config.patience, best) {
+            (Some(patience), Some((_, round))) => t - round >= patience,
+            _ => false,
+        };
+        for t in rounds.len()..config.rounds {
+            if finished || patience_spent(best, t) {
                 break;
             }
+            let statistics = match (&mut self.remote, self.prepared) {
+                (Some(remote), _) => remote(&self.model)?,
+                (None, Some(prepared)) => prepared.plan(&self.model, stacks, config)?,
+                (None, None) => unreachable!("examples are prepared when planned here"),
+            };
+            if statistics.len() != training.len() {
+                return Err(format!(
+                    "round {}: {} examples' statistics came back for {} training examples",
+                    t + 1,
+                    statistics.len(),
+                    training.len()
+                ));
+            }
+            let round = fit_round(&self.model, stacks, &statistics, config, t, self.member)?;
+            let (step, projected_to_margin) = (round.step, round.projected_to_margin);
+            self.progress.learners.push(round.learner.clone());
+            self.model.push(round.learner);
+            let model = &self.model;
+            let agreement_on = |examples: &[Example]| {
+                (!examples.is_empty())
+                    .then(|| evaluate(model, stacks, map_names, examples, references))
+                    .transpose()
+                    .map(|e| e.map(|evaluations| summarize(&evaluations)))
+            };
+            let metrics = RoundMetrics {
+                member: self.member,
+                round: t + 1,
+                step,
+                training_loss: round.training_loss,
+                disagreeing_cells: round.disagreeing_cells,
+                holdout: agreement_on(holdout)?,
+                validation: agreement_on(validation)?,
+                projected_to_margin,
+            };
+            tracing::debug!(
+                member = self.member,
+                round = t + 1,
+                weights = ?model.raw_weights,
+                "learch model"
+            );
+            if let Some(v) = &metrics.validation
+                && improves(best, v.within_radius)
+            {
+                best = Some((v.within_radius, t + 1));
+            }
+            rounds.push(metrics.clone());
+            self.progress.rounds.push(metrics);
+            (self.on_round)(self.progress);
         }
+        let kept_round = match config.patience {
+            Some(_) => best.map_or(rounds.len(), |(_, round)| round),
+            None => rounds.len(),
+        };
+        let kept = self.model.truncated(kept_round);
+        let (model, contrast) = if config.calibrate_contrast && config.method == GridMethod::Learch
+        {
+            calibrated_contrast(kept, stacks, map_names, training)?
+        } else {
+            (kept, 1.0)
+        };
+        let trained = TrainedMember {
+            rounds: rounds.len(),
+            kept_round,
+            contrast,
+        };
+        Ok((model, trained))
     }
-    let kept_round = best.map_or(progress.rounds.len(), |(_, round)| round);
-    let kept = model.truncated(kept_round);
-    let (model, contrast) = if config.calibrate_contrast && config.method == GridMethod::Learch {
-        calibrated_contrast(kept, stacks, map_names, training)?
-    } else {
-        (kept, 1.0)
-    };
-    Ok(TrainedLearch {
-        model,
-        rounds: progress.rounds,
-        kept_round,
-        contrast,
-    })
 }
 
 /// `model` with the exponent of `CONTRASTS` under which the plans between the ends
@@ -701,9 +880,10 @@ pub struct FittedRound {
     pub disagreeing_cells: usize,
 }
 
-/// The reduce step of round `t` (from 0): merges the examples' statistics in the order
-/// given (example order, whatever machine planned them, so that the result is the
-/// same everywhere) and fits the next weak learner of `model`. `stacks` are read by
+/// The reduce step of round `t` (from 0) of member `member` (`MEMBERS`): merges the
+/// examples' statistics in the order given (example order, whatever machine planned
+/// them, so that the result is the same everywhere) and fits the next weak learner of
+/// `model`. `stacks` are read by
 /// MMP's projection and MaxEnt's trust region only.
 pub fn fit_round(
     model: &LogCostModel,
@@ -711,6 +891,7 @@ pub fn fit_round(
     statistics: &[ExampleStatistics],
     config: &LearchConfig,
     t: usize,
+    member: usize,
 ) -> Result<FittedRound, String> {
     let step = config.step(t);
     let mut projected_to_margin = false;
@@ -778,7 +959,8 @@ pub fn fit_round(
                 y.push(*target);
                 w.push(*weight);
             }
-            let (candidates, gains) = split_candidates(&model.feature_names, stacks, config, t);
+            let (candidates, gains) =
+                split_candidates(&model.feature_names, stacks, config, t, member);
             let tree = RegressionTree::fit_on(&x, dims, &y, &w, &config.tree, &candidates, &gains);
             WeakLearner::tree(step, tree)
         }
@@ -796,14 +978,15 @@ pub fn fit_round(
 /// Where round `t`'s tree may split each feature, and the factor on its splits' gains:
 /// distances between any two of their values, the others at binned candidates
 /// ([`Candidates`]); features of a stage of `SCALE_STAGES` not yet open by then with
-/// their gains times the stage's factor, distances not at all.
+/// their gains times the member's factor for it, and none where that is 0.
 fn split_candidates(
     names: &[String],
     stacks: &[FeatureStack],
     config: &LearchConfig,
     t: usize,
+    member: usize,
 ) -> (Vec<Candidates>, Vec<f64>) {
-    let gains = split_gains(names, stacks, config, t);
+    let gains = split_gains(names, stacks, config, t, member);
     let candidates = names
         .iter()
         .zip(&gains)
@@ -818,17 +1001,41 @@ fn split_candidates(
 
 /// The factor on round `t`'s split gains of each feature: 1 for every feature, or, in
 /// stages, 1 for those of the stages of `SCALE_STAGES` open by then (and at least the
-/// finest scale there is), the stage's factor for the others and 0 for distances not
-/// yet open.
+/// finest scale there is) and the member's factors (`MEMBERS`) for the others.
 fn split_gains(
     names: &[String],
     stacks: &[FeatureStack],
     config: &LearchConfig,
     t: usize,
+    member: usize,
 ) -> Vec<f64> {
     if !(config.widen_in_stages && config.method == GridMethod::Learch) {
         return vec![1.0; names.len()];
     }
+    let (scales, finest) = scales_in_cells(names, stacks);
+    let factors = &MEMBERS[member.min(MEMBERS.len() - 1)];
+    names
+        .iter()
+        .zip(&scales)
+        .map(|(name, &scale)| {
+            let k = SCALE_STAGES
+                .iter()
+                .position(|stage| scale <= stage.cells)
+                .unwrap_or(SCALE_STAGES.len() - 1);
+            if scale <= finest || t as f64 >= SCALE_STAGES[k].from_share * config.rounds as f64 {
+                1.0
+            } else if is_distance(name) {
+                factors.distances_before
+            } else {
+                factors.gain_before[k]
+            }
+        })
+        .collect()
+}
+
+/// Each feature's scale in cells ([`scale_in_cells`], at the maps' finest cells), and
+/// the finest of them.
+fn scales_in_cells(names: &[String], stacks: &[FeatureStack]) -> (Vec<f64>, f64) {
     let cell_metres = stacks
         .iter()
         .flat_map(|s| s.geo.cell_metres())
@@ -838,23 +1045,18 @@ fn split_gains(
         .map(|n| scale_in_cells(n, cell_metres))
         .collect();
     let finest = scales.iter().copied().fold(f64::INFINITY, f64::min);
-    names
-        .iter()
-        .zip(&scales)
-        .map(|(name, &scale)| {
-            let stage = SCALE_STAGES
-                .iter()
-                .find(|stage| scale <= stage.cells)
-                .unwrap_or(&SCALE_STAGES[SCALE_STAGES.len() - 1]);
-            if scale <= finest || t as f64 >= stage.from_share * config.rounds as f64 {
-                1.0
-            } else if is_distance(name) {
-                0.0
-            } else {
-                stage.gain_before
-            }
-        })
-        .collect()
+    (scales, finest)
+}
+
+/// The members to train on these features: one where every feature is of the finest
+/// scale, since no stage then holds any back and the members would be the same model.
+fn members_to_train(config: &LearchConfig, names: &[String], stacks: &[FeatureStack]) -> usize {
+    let (scales, finest) = scales_in_cells(names, stacks);
+    if scales.iter().any(|&scale| scale > finest) {
+        config.member_count()
+    } else {
+        1
+    }
 }
 
 /// The largest |Δs| over every cell of every map of the linear step `step · direction`
@@ -1280,6 +1482,13 @@ mod tests {
 
     /// A small synthetic world: (stacks, map names, examples, true costs).
     fn small_world() -> (Vec<FeatureStack>, Vec<String>, Vec<Example>, Vec<Grid<f32>>) {
+        small_world_with(Vec::new())
+    }
+
+    /// The small world with features made by `ops` besides the layers.
+    fn small_world_with(
+        ops: Vec<crate::features::Op>,
+    ) -> (Vec<FeatureStack>, Vec<String>, Vec<Example>, Vec<Grid<f32>>) {
         let config = WorldConfig {
             seed: 11,
             maps: 4,
@@ -1291,7 +1500,7 @@ mod tests {
         let world = generate_world(&config).unwrap();
         let spec = FeatureSpec {
             layers: None,
-            ops: Vec::new(),
+            ops,
             bias: true,
             nodata_fill: 0.0,
             bank: None,
@@ -1318,8 +1527,12 @@ mod tests {
         (stacks, names, examples, world.truth)
     }
 
+    /// One member: the core loop (the members have their own test).
     fn config() -> LearchConfig {
-        LearchConfig::default()
+        LearchConfig {
+            members: 1,
+            ..LearchConfig::default()
+        }
     }
 
     /// (stacks, map names, training, held out, true costs).
@@ -1406,13 +1619,13 @@ mod tests {
         )
         .unwrap();
         assert!(trained.model.learners.iter().all(|l| l.tree.is_some()));
-        assert_eq!(trained.model.learners.len(), trained.kept_round);
+        assert_eq!(trained.model.learners.len(), trained.members[0].kept_round);
         let best = trained
             .rounds
             .iter()
             .map(|r| r.validation.as_ref().unwrap().within_radius)
             .fold(0.0, f64::max);
-        let kept = &trained.rounds[trained.kept_round - 1];
+        let kept = &trained.rounds[trained.members[0].kept_round - 1];
         assert_eq!(kept.validation.as_ref().unwrap().within_radius, best);
         assert!(best >= 0.9, "{best}");
         // The kept model evaluates to what was measured at that round.
@@ -1479,7 +1692,7 @@ mod tests {
             ..config()
         };
         let trained = train_without_evaluation(&stacks, &names, &training, &config).unwrap();
-        assert_eq!(trained.contrast, 1.0);
+        assert_eq!(trained.members[0].contrast, 1.0);
         let within = |model: &LogCostModel| {
             summarize(&evaluate(model, &stacks, &names, &training, None).unwrap()).within_radius
         };
@@ -1798,15 +2011,119 @@ mod tests {
                     .rev()
                     .flatten()
                     .collect();
-                let round = fit_round(&model, &stacks, &statistics, &config, t).unwrap();
+                let round = fit_round(&model, &stacks, &statistics, &config, t, 0).unwrap();
                 model.push(round.learner);
             }
             // The trainer ends by choosing the contrast on the training paths.
             assert_eq!(
-                model.with_contrast(trained.contrast),
+                model.with_contrast(trained.members[0].contrast),
                 trained.model,
                 "{method:?} with {weak_learner:?}"
             );
+        }
+    }
+
+    #[test]
+    fn two_members_average_their_costs_and_resume_across_them() {
+        // A regional feature, which the stages hold back (by each member's factors, as
+        // `trees_widen_the_features_they_split_on_in_stages` checks).
+        let (stacks, names, examples, _) = small_world_with(vec![crate::features::Op::Blur {
+            layer: "elevation".into(),
+            sigmas: Vec::new(),
+            cells: vec![6.0],
+        }]);
+        let one = LearchConfig {
+            weak_learner: WeakLearnerKind::Tree,
+            rounds: 4,
+            ..config()
+        };
+        let two = LearchConfig {
+            members: 2,
+            ..one.clone()
+        };
+        assert_eq!(two.member_count(), 2);
+        let first = train_without_evaluation(&stacks, &names, &examples, &one).unwrap();
+        let mut checkpoints = Vec::new();
+        let both = train(
+            &stacks,
+            &names,
+            &examples,
+            &[],
+            &[],
+            None,
+            &two,
+            None,
+            |progress| checkpoints.push(progress.clone()),
+        )
+        .unwrap();
+        // The first member is the staged model alone; the second's rounds follow.
+        assert_eq!(both.members.len(), 2);
+        assert_eq!(both.members[0], first.members[0]);
+        let rounds: Vec<_> = both.rounds.iter().map(|r| (r.member, r.round)).collect();
+        assert_eq!(
+            rounds,
+            [
+                (0, 1),
+                (0, 2),
+                (0, 3),
+                (0, 4),
+                (1, 1),
+                (1, 2),
+                (1, 3),
+                (1, 4)
+            ]
+        );
+        // The geometric mean of the two costs: each member's learners at half their steps.
+        assert_eq!(both.model.learners.len(), 8);
+        for (mean, alone) in both.model.learners.iter().zip(&first.model.learners) {
+            assert_eq!(mean.step, alone.step / 2.0);
+            assert_eq!(mean.tree, alone.tree);
+        }
+        // Resumed from a checkpoint in either member, or between them, training ends
+        // where it did.
+        let resume = |config: &LearchConfig, done: usize| {
+            let checkpoint = Some(checkpoints[done - 1].clone());
+            train(
+                &stacks,
+                &names,
+                &examples,
+                &[],
+                &[],
+                None,
+                config,
+                checkpoint,
+                |_| {},
+            )
+        };
+        for done in [2, 4, 6] {
+            let resumed = resume(&two, done).unwrap();
+            assert_eq!(resumed.model, both.model, "resumed after {done} rounds");
+            assert_eq!(resumed.rounds, both.rounds);
+        }
+        // A checkpoint of more members than the run trains is refused.
+        let err = resume(&one, 6).unwrap_err();
+        assert!(err.contains("member 2"), "{err}");
+        // Where no feature is wider than a cell, the members would be the same: one is
+        // trained.
+        let (stacks, names, examples, _) = small_world();
+        let alone = train_without_evaluation(&stacks, &names, &examples, &two).unwrap();
+        assert_eq!(alone.members.len(), 1);
+        // Where there are no stages to differ by, one member is trained.
+        for config in [
+            LearchConfig {
+                weak_learner: WeakLearnerKind::Ridge,
+                ..two.clone()
+            },
+            LearchConfig {
+                widen_in_stages: false,
+                ..two.clone()
+            },
+            LearchConfig {
+                method: GridMethod::Maxent,
+                ..two.clone()
+            },
+        ] {
+            assert_eq!(config.member_count(), 1, "{config:?}");
         }
     }
 
@@ -1862,11 +2179,16 @@ mod tests {
             rounds: 80,
             ..LearchConfig::default()
         };
-        let gains = |config: &LearchConfig, t| split_gains(&names, &stacks, config, t);
+        let gains = |config: &LearchConfig, t| split_gains(&names, &stacks, config, t, 0);
         assert_eq!(gains(&config, 0), [1.0, 0.3, 0.1, 0.0, 1.0]);
         assert_eq!(gains(&config, 19), [1.0, 0.3, 0.1, 0.0, 1.0]);
         assert_eq!(gains(&config, 20), [1.0, 1.0, 0.1, 0.0, 1.0]);
         assert_eq!(gains(&config, 40), [1.0; 5]);
+        // The second member lets wider features and distances compete earlier.
+        let second = |t| split_gains(&names, &stacks, &config, t, 1);
+        assert_eq!(second(0), [1.0, 0.6, 0.3, 0.3, 1.0]);
+        assert_eq!(second(20), [1.0, 1.0, 0.3, 0.3, 1.0]);
+        assert_eq!(second(40), [1.0; 5]);
         let at_once = LearchConfig {
             widen_in_stages: false,
             ..config.clone()
@@ -1874,10 +2196,10 @@ mod tests {
         assert_eq!(gains(&at_once, 0), [1.0; 5]);
         // With only regional features the first rounds split the finest freely.
         let wide = ["band/blur_8c".to_string(), "band/blur_16c".to_string()];
-        assert_eq!(split_gains(&wide, &stacks, &config, 0), [1.0, 0.1]);
+        assert_eq!(split_gains(&wide, &stacks, &config, 0, 0), [1.0, 0.1]);
         // Distances wait for their stage, then are split between any two of their values.
         use Candidates::{Binned, Exact, Unused};
-        let candidates = |t| split_candidates(&names, &stacks, &config, t).0;
+        let candidates = |t| split_candidates(&names, &stacks, &config, t, 0).0;
         assert_eq!(candidates(0), [Binned, Binned, Binned, Unused, Binned]);
         assert_eq!(candidates(40), [Binned, Binned, Binned, Exact, Binned]);
     }

@@ -140,6 +140,23 @@ impl LogCostModel {
         model
     }
 
+    /// The model whose cost is the geometric mean of the models' costs (their
+    /// log-costs averaged): every learner of each, its step divided by their number.
+    /// The models share their features, scales and link; one model comes back as it is.
+    pub fn geometric_mean(models: &[LogCostModel]) -> Self {
+        let first = &models[0];
+        let mut mean =
+            LogCostModel::zero_with(first.feature_names.clone(), first.scale.clone(), first.link);
+        let share = models.len() as f64;
+        for learner in models.iter().flat_map(|m| &m.learners) {
+            mean.push(WeakLearner {
+                step: learner.step / share,
+                ..learner.clone()
+            });
+        }
+        mean
+    }
+
     /// The model of the first `rounds` learners (what early stopping keeps).
     pub fn truncated(&self, rounds: usize) -> Self {
         let mut model =

@@ -35,8 +35,8 @@ pub const KIND: &str = "learch";
 /// mass. 9: LEARCH plans its examples with Dijkstra (other ties than A*'s). 10: cells
 /// weighed by their steps' lengths, trees widened in stages, ridge and trees in turn
 /// for 160 rounds by default. 11: trees split distances between any two of their
-/// values.
-const VERSION: u32 = 11;
+/// values. 12: LEARCH with trees trains two members and averages their costs.
+const VERSION: u32 = 12;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
@@ -75,6 +75,9 @@ mod defaults {
     }
     pub fn schedule_offset() -> f64 {
         1.0
+    }
+    pub fn members() -> usize {
+        crate::ioc::MEMBERS.len()
     }
     pub fn method() -> crate::ioc::GridMethod {
         crate::ioc::GridMethod::Learch
@@ -184,6 +187,14 @@ pub struct LearchParams {
     #[arg(long)]
     #[serde(default)]
     pub all_scales_at_once: bool,
+    /// LEARCH with trees widened in stages: how many models to train and plan on the
+    /// geometric mean of (`members` in metrics.json). 2 adds a model whose wider
+    /// features compete earlier to the staged one, at twice the training time, and
+    /// imitates real terrain better across teachers (BENCHMARKS.md); 1 trains the
+    /// staged model alone.
+    #[arg(long, default_value_t = defaults::members())]
+    #[serde(default = "defaults::members")]
+    pub members: usize,
     /// Fraction of demonstrations held out for validation.
     #[arg(long, default_value_t = defaults::holdout())]
     #[serde(default = "defaults::holdout")]
@@ -236,6 +247,9 @@ impl LearchParams {
         }
         if !(self.ridge_lambda.is_finite() && self.ridge_lambda >= 0.0) {
             return bad("ridge_lambda must be >= 0");
+        }
+        if !(1..=ioc::MEMBERS.len()).contains(&self.members) {
+            return bad(&format!("members must be 1 to {}", ioc::MEMBERS.len()));
         }
         if !(0.0..1.0).contains(&self.loss) {
             return bad("loss must be in [0, 1)");
@@ -501,6 +515,7 @@ impl LearchParams {
             patience: self.patience,
             calibrate_contrast: !self.keep_contrast,
             widen_in_stages: !self.all_scales_at_once,
+            members: self.members,
         }
     }
 
@@ -623,8 +638,7 @@ impl LearchParams {
         let metrics = serde_json::json!({
             "schema": "imitate.learch-metrics/1",
             "rounds": trained.rounds,
-            "kept_round": trained.kept_round,
-            "contrast": trained.contrast,
+            "members": trained.members,
             "training": { "summary": training_summary, "examples": train_eval },
             "validation": { "summary": ioc::summarize(validation_eval), "examples": validation_eval },
             "holdout": { "summary": holdout_summary, "examples": holdout_eval },
@@ -636,21 +650,40 @@ impl LearchParams {
         let final_loss = trained.rounds.last().map(|r| r.training_loss);
         let summary_metrics = serde_json::json!({
             "rounds": self.rounds(),
-            "kept_round": trained.kept_round,
+            "kept_rounds": trained.members.iter().map(|m| m.kept_round).collect::<Vec<_>>(),
             "training_examples": training.len(),
             "holdout_examples": holdout.len(),
             "final_training_loss": final_loss,
             "holdout": holdout_summary,
         });
-        let rounds_run = trained.rounds.len();
-        let rounds = if rounds_run < self.rounds() || trained.kept_round < rounds_run {
-            format!(
-                "stopped early after {rounds_run} of {} rounds, kept round {}",
+        let stopped_early =
+            |m: &ioc::TrainedMember| m.rounds < self.rounds() || m.kept_round < m.rounds;
+        let rounds = match trained.members.as_slice() {
+            [one] if stopped_early(one) => format!(
+                "stopped early after {} of {} rounds, kept round {}",
+                one.rounds,
                 self.rounds(),
-                trained.kept_round
-            )
-        } else {
-            format!("{} rounds", self.rounds())
+                one.kept_round
+            ),
+            [_] => format!("{} rounds", self.rounds()),
+            members if members.iter().any(stopped_early) => {
+                let listed = |of: fn(&ioc::TrainedMember) -> usize| {
+                    let numbers: Vec<String> = members.iter().map(|m| of(m).to_string()).collect();
+                    numbers.join(" and ")
+                };
+                format!(
+                    "{} models averaged, stopped early after {} of {} rounds, kept rounds {}",
+                    members.len(),
+                    listed(|m| m.rounds),
+                    self.rounds(),
+                    listed(|m| m.kept_round),
+                )
+            }
+            members => format!(
+                "{} models averaged, {} rounds each",
+                members.len(),
+                self.rounds()
+            ),
         };
         let mut summary = format!(
             "{rounds}, {} training / {} held-out demonstrations; held-out: {:.1}% of planned cells within {} cells",
