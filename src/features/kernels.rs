@@ -120,72 +120,120 @@ pub fn gaussian_blur(input: &[f32], width: usize, height: usize, sigma: [f64; 2]
     separable(input, width, height, &taps_x, &taps_y, out);
 }
 
-/// Local standard deviation (roughness) over a `window` × `window` square (odd).
-/// Sums of x and x² run along rows, then down columns, in f64 so that E[x²] − E[x]²
-/// stays accurate; each row's sums are recomputed when it leaves the window instead
-/// of being stored, so memory is a few rows.
+/// [`gaussian_blur`] of the cells with data (normalised convolution): each cell with
+/// data the Gaussian-weighted mean of the data around it, cells without data (NaN)
+/// left out rather than read as a fill value, whose cliff at the edge of every void a
+/// blur would spread over σ. A cell without data is `fill`, as its own value reads:
+/// a void stays as distinct from the ground around it as the fill makes it. Where
+/// every cell has data it is `gaussian_blur`, to the bit.
+pub fn gaussian_blur_of_data(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    sigma: [f64; 2],
+    fill: f32,
+    out: &mut [f32],
+) {
+    if !input.iter().any(|v| v.is_nan()) {
+        return gaussian_blur(input, width, height, sigma, out);
+    }
+    let values: Vec<f32> = input
+        .iter()
+        .map(|&v| if v.is_nan() { 0.0 } else { v })
+        .collect();
+    let data: Vec<f32> = input
+        .iter()
+        .map(|&v| f32::from(u8::from(!v.is_nan())))
+        .collect();
+    let mut weight = vec![0.0f32; input.len()];
+    gaussian_blur(&values, width, height, sigma, out);
+    gaussian_blur(&data, width, height, sigma, &mut weight);
+    for ((o, &w), v) in out.iter_mut().zip(&weight).zip(input) {
+        *o = if v.is_nan() { fill } else { *o / w };
+    }
+}
+
+/// Local standard deviation (roughness) over a `window` × `window` square (odd), of
+/// the cells with data in it: a cell without data (NaN) is left out rather than read
+/// as a fill value, which would make every edge of a void rough ground (and, running
+/// through the sums, every cell after it); 0 on a cell without data, as the
+/// gradient is.
+/// Sums of x, x² and the cells with data run along rows, then down columns, in f64 so
+/// that E[x²] − E[x]² stays accurate; each row's sums are recomputed when it leaves
+/// the window instead of being stored, so memory is a few rows.
 pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out: &mut [f32]) {
     let r = window / 2;
-    let mut padded = vec![0.0f64; width + 2 * r];
-    // Sums of x and x² over the horizontal window of every cell of a row.
-    let mut row_sums = |row: usize, sums: &mut [f64], squares: &mut [f64]| {
+    // (x, x², 1) of a cell with data, zeros of one without.
+    let mut padded = vec![[0.0f64; 3]; width + 2 * r];
+    let mut row_sums = |row: usize, sums: &mut [[f64; 3]]| {
         for (p, &v) in padded[r..r + width]
             .iter_mut()
             .zip(&input[row * width..(row + 1) * width])
         {
-            *p = f64::from(v);
+            let x = f64::from(v);
+            *p = if v.is_nan() {
+                [0.0; 3]
+            } else {
+                [x, x * x, 1.0]
+            };
         }
         for j in 0..r {
             padded[j] = padded[r + reflect(j as isize - r as isize, width)];
             padded[r + width + j] = padded[r + reflect((width + j) as isize, width)];
         }
-        let (mut s, mut q) = (0.0, 0.0);
-        for &v in &padded[..window] {
-            s += v;
-            q += v * v;
+        let mut acc = [0.0f64; 3];
+        for v in &padded[..window] {
+            add(&mut acc, v, 1.0);
         }
         for c in 0..width {
-            sums[c] = s;
-            squares[c] = q;
+            sums[c] = acc;
             if c + 1 < width {
                 let (enter, leave) = (padded[c + window], padded[c]);
-                s += enter - leave;
-                q += enter * enter - leave * leave;
+                for ((a, e), l) in acc.iter_mut().zip(enter).zip(leave) {
+                    *a += e - l;
+                }
             }
         }
     };
-    let (mut column_s, mut column_q) = (vec![0.0f64; width], vec![0.0f64; width]);
-    let (mut s, mut q) = (vec![0.0f64; width], vec![0.0f64; width]);
-    for k in -(r as isize)..=r as isize {
-        row_sums(reflect(k, height), &mut s, &mut q);
-        for c in 0..width {
-            column_s[c] += s[c];
-            column_q[c] += q[c];
+    fn add(acc: &mut [f64; 3], v: &[f64; 3], sign: f64) {
+        for (a, x) in acc.iter_mut().zip(v) {
+            *a += sign * x;
         }
     }
-    let area = (window * window) as f64;
+    let mut column = vec![[0.0f64; 3]; width];
+    let mut sums = vec![[0.0f64; 3]; width];
+    let mut add_row = |row: usize, sign: f64, column: &mut [[f64; 3]]| {
+        row_sums(row, &mut sums);
+        for (c, s) in column.iter_mut().zip(&sums) {
+            add(c, s, sign);
+        }
+    };
+    for k in -(r as isize)..=r as isize {
+        add_row(reflect(k, height), 1.0, &mut column);
+    }
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
-        for c in 0..width {
-            let mean = column_s[c] / area;
-            dst[c] = (column_q[c] / area - mean * mean).max(0.0).sqrt() as f32;
+        let here = &input[row * width..(row + 1) * width];
+        for ((d, &[s, q, n]), v) in dst.iter_mut().zip(&column).zip(here) {
+            *d = if v.is_nan() {
+                0.0
+            } else {
+                let mean = s / n;
+                (q / n - mean * mean).max(0.0).sqrt() as f32
+            };
         }
         if row + 1 == height {
             break;
         }
-        row_sums(
+        add_row(
             reflect(row as isize + r as isize + 1, height),
-            &mut s,
-            &mut q,
+            1.0,
+            &mut column,
         );
-        for c in 0..width {
-            column_s[c] += s[c];
-            column_q[c] += q[c];
-        }
-        row_sums(reflect(row as isize - r as isize, height), &mut s, &mut q);
-        for c in 0..width {
-            column_s[c] -= s[c];
-            column_q[c] -= q[c];
-        }
+        add_row(
+            reflect(row as isize - r as isize, height),
+            -1.0,
+            &mut column,
+        );
     }
 }
 
@@ -303,6 +351,9 @@ pub fn aspect(input: &[f32], width: usize, height: usize, spacing: &[[f64; 2]], 
 
 /// The 5-point Laplacian per square metre (scipy.ndimage.laplace / resolution² on
 /// square cells); `spacing` is the cell size (x, y) in metres, per row or for all.
+/// Along an axis with a neighbour without data (NaN) there is no second difference
+/// (0), so that a void's edge is no curvature, and a cell without data gets 0, as
+/// [`gradient`] steps around gaps.
 pub fn laplacian(
     input: &[f32],
     width: usize,
@@ -323,16 +374,23 @@ pub fn laplacian(
         let (below, above) = (line(row as isize - 1), line(row as isize + 1));
         for c in 0..width {
             let h = f64::from(here[c]);
-            dst[c] = if scale_y == scale {
-                let sum = f64::from(below[c])
-                    + f64::from(above[c])
-                    + f64::from(padded[c])
-                    + f64::from(padded[c + 2])
-                    - 4.0 * h;
+            let (left, right, down, up) = (padded[c], padded[c + 2], below[c], above[c]);
+            dst[c] = if h.is_nan() {
+                0.0
+            } else if scale_y == scale && ![left, right, down, up].iter().any(|v| v.is_nan()) {
+                let sum =
+                    f64::from(down) + f64::from(up) + f64::from(left) + f64::from(right) - 4.0 * h;
                 sum * scale
             } else {
-                (f64::from(padded[c]) + f64::from(padded[c + 2]) - 2.0 * h) * scale
-                    + (f64::from(below[c]) + f64::from(above[c]) - 2.0 * h) * scale_y
+                // Each axis's second difference where both its neighbours have data.
+                let second = |a: f32, b: f32| {
+                    if a.is_nan() || b.is_nan() {
+                        0.0
+                    } else {
+                        f64::from(a) + f64::from(b) - 2.0 * h
+                    }
+                };
+                second(left, right) * scale + second(down, up) * scale_y
             } as f32;
         }
     }
@@ -612,6 +670,92 @@ mod tests {
         gaussian_blur(&impulse, w, h, [2.0, 1.0], &mut out);
         assert!((out.iter().sum::<f32>() - 1.0).abs() < 1e-3);
         assert!(out[4 * w + 7] > out[6 * w + 5]);
+    }
+
+    /// A raster of `w` × `h` with a void (NaN) in the rows and columns given.
+    fn with_void(
+        w: usize,
+        h: usize,
+        value: impl Fn(usize, usize) -> f32,
+        void: (std::ops::Range<usize>, std::ops::Range<usize>),
+    ) -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                let (r, c) = (i / w, i % w);
+                if void.0.contains(&r) && void.1.contains(&c) {
+                    f32::NAN
+                } else {
+                    value(r, c)
+                }
+            })
+            .collect()
+    }
+
+    #[test]
+    fn neighbourhoods_read_the_data_around_a_void_not_a_fill() {
+        let (w, h) = (12, 10);
+        let flat = with_void(w, h, |_, _| 50.0, (3..6, 4..8));
+        let mut out = vec![f32::NAN; w * h];
+        // Flat ground with a hole is nowhere rough, and blurs to itself; the hole reads
+        // the fill.
+        local_std(&flat, w, h, 5, &mut out);
+        assert!(out.iter().all(|&v| v == 0.0), "{out:?}");
+        gaussian_blur_of_data(&flat, w, h, [1.5; 2], -1.0, &mut out);
+        for (v, o) in flat.iter().zip(&out) {
+            let expected = if v.is_nan() { -1.0 } else { 50.0 };
+            assert!((o - expected).abs() < 1e-4, "{out:?}");
+        }
+        // A plane's curvature is 0 beside the hole as everywhere inside (the edges
+        // reflect), and 0 in it.
+        let plane = with_void(w, h, |r, c| (3 * c + r) as f32, (3..6, 4..8));
+        laplacian(&plane, w, h, &[[1.0; 2]], &mut out);
+        let inside = (1..h - 1).flat_map(|r| (1..w - 1).map(move |c| r * w + c));
+        assert!(inside.map(|i| out[i]).all(|v| v.abs() < 1e-4), "{out:?}");
+        // No data at all: the fill, and no roughness.
+        let empty = vec![f32::NAN; w * h];
+        gaussian_blur_of_data(&empty, w, h, [1.0; 2], -1.0, &mut out);
+        assert!(out.iter().all(|&v| v == -1.0));
+        local_std(&empty, w, h, 3, &mut out);
+        assert!(out.iter().all(|&v| v == 0.0));
+    }
+
+    proptest::proptest! {
+        /// The roughness of a cell with data is the standard deviation of the cells with
+        /// data in its window (reflected at the edges), and a raster without voids blurs as
+        /// `gaussian_blur` does, to the bit.
+        #[test]
+        fn roughness_is_the_spread_of_the_data_in_the_window(
+            cells in proptest::collection::vec(proptest::option::weighted(0.8, -100.0f32..100.0), 48),
+            window in proptest::sample::select(vec![1usize, 3, 5]),
+        ) {
+            let (w, h) = (8, 6);
+            let input: Vec<f32> = cells.iter().map(|v| v.unwrap_or(f32::NAN)).collect();
+            let mut out = vec![0.0; w * h];
+            local_std(&input, w, h, window, &mut out);
+            let r = window as isize / 2;
+            for (i, &got) in out.iter().enumerate() {
+                let (row, col) = ((i / w) as isize, (i % w) as isize);
+                let data: Vec<f64> = (-r..=r)
+                    .flat_map(|dr| (-r..=r).map(move |dc| (dr, dc)))
+                    .map(|(dr, dc)| input[reflect(row + dr, h) * w + reflect(col + dc, w)])
+                    .filter(|v| !v.is_nan())
+                    .map(f64::from)
+                    .collect();
+                let n = data.len() as f64;
+                let expected = if input[i].is_nan() {
+                    0.0
+                } else {
+                    let mean = data.iter().sum::<f64>() / n;
+                    (data.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
+                };
+                proptest::prop_assert!((f64::from(got) - expected).abs() < 1e-3, "cell {i}: {got} vs {expected}");
+            }
+            let full: Vec<f32> = cells.iter().map(|v| v.unwrap_or(1.0)).collect();
+            let (mut plain, mut of_data) = (vec![0.0; w * h], vec![0.0; w * h]);
+            gaussian_blur(&full, w, h, [1.0; 2], &mut plain);
+            gaussian_blur_of_data(&full, w, h, [1.0; 2], 0.0, &mut of_data);
+            proptest::prop_assert_eq!(plain, of_data);
+        }
     }
 
     #[test]

@@ -10,7 +10,8 @@ pub use bank::Bank;
 pub use scale::{is_distance, scale_in_cells};
 
 pub use kernels::{
-    aspect, distance_transform, gaussian_blur, gradient, laplacian, local_std, robust_normalize,
+    aspect, distance_transform, gaussian_blur, gaussian_blur_of_data, gradient, laplacian,
+    local_std, robust_normalize,
 };
 
 use rayon::prelude::*;
@@ -933,10 +934,12 @@ pub fn compute_in_dataset(
                 }
             }
             Plane::Normalize(i) => robust_normalize(input(i), out),
-            Plane::Blur(i, sigma_cells) => gaussian_blur(input(i), w, h, sigma_cells, out),
+            Plane::Blur(i, sigma_cells) => {
+                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, spec.nodata_fill, out)
+            }
             Plane::Gradient(i, degrees) => gradient(unfilled(i), w, h, &by_row, degrees, out),
-            Plane::Roughness(i, window) => local_std(input(i), w, h, window, out),
-            Plane::Laplacian(i) => laplacian(input(i), w, h, &by_row, out),
+            Plane::Roughness(i, window) => local_std(unfilled(i), w, h, window, out),
+            Plane::Laplacian(i) => laplacian(unfilled(i), w, h, &by_row, out),
             Plane::Equals(i, c) => {
                 for (o, &v) in out.iter_mut().zip(input(i)) {
                     *o = f32::from(u8::from(v == c));
@@ -948,7 +951,8 @@ pub fn compute_in_dataset(
                 }
             }
             Plane::Distance(i, target, cap) => {
-                let mask: Vec<bool> = input(i).iter().map(|&v| target.holds(v)).collect();
+                // A void is no target, whatever the fill value says.
+                let mask: Vec<bool> = unfilled(i).iter().map(|&v| target.holds(v)).collect();
                 distance_transform(&mask, w, h, res, cap, out);
             }
             Plane::NormalizedDifference(a, b) => {
@@ -966,16 +970,21 @@ pub fn compute_in_dataset(
                 let scale = 1.0 / layers.len() as f32;
                 out.iter_mut().for_each(|o| *o *= scale);
             }
+            // A cell against the mean of the data around it; 0 on a cell without data.
             Plane::Relief(i, sigma_cells) => {
-                gaussian_blur(input(i), w, h, sigma_cells, out);
-                for (o, &v) in out.iter_mut().zip(input(i)) {
-                    *o = v - *o;
+                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, 0.0, out);
+                for (o, &v) in out.iter_mut().zip(unfilled(i)) {
+                    *o = if v.is_nan() { 0.0 } else { v - *o };
                 }
             }
             Plane::Contrast(i, sigma_cells) => {
-                gaussian_blur(input(i), w, h, sigma_cells, out);
-                for (o, &v) in out.iter_mut().zip(input(i)) {
-                    *o = normalized_difference(v, *o);
+                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, 0.0, out);
+                for (o, &v) in out.iter_mut().zip(unfilled(i)) {
+                    *o = if v.is_nan() {
+                        0.0
+                    } else {
+                        normalized_difference(v, *o)
+                    };
                 }
             }
             Plane::Share(i, c, sigma_cells) => {
@@ -1389,6 +1398,85 @@ mod tests {
         let stack = compute(&m, &s).unwrap();
         assert_eq!(stack.names, ["a", "a/nodata", "bias"]);
         assert_eq!(stack.data, [1.0, -1.0, 0.0, 1.0, 1.0, 1.0]);
+    }
+
+    #[test]
+    fn neighbourhood_operators_leave_voids_out_and_voids_keep_the_fill() {
+        // Two flat bands, 9 × 7 cells, with a void in one: a neighbourhood reads the
+        // data around it, not the fill; the cell's own value is the fill.
+        let (w, h) = (9, 7);
+        let mut m = map();
+        m.geo.width = w as u32;
+        m.geo.height = h as u32;
+        m.layers = vec![
+            Layer::new("a", vec![10.0; w * h]),
+            Layer::new("b", (0..w * h).map(|i| (i % w) as f32).collect()),
+        ];
+        let whole = m.clone();
+        for cell in [3 * w + 4, 3 * w + 5] {
+            m.layers[0].values[cell] = f32::NAN;
+        }
+        let ops = vec![
+            Op::Blur {
+                layer: "a".into(),
+                sigmas: vec![],
+                cells: vec![2.0],
+            },
+            Op::Roughness {
+                layer: "a".into(),
+                windows: vec![3],
+            },
+            Op::Relief {
+                layer: "a".into(),
+                cells: vec![2.0],
+            },
+            Op::Laplacian { layer: "a".into() },
+            Op::QuantileDistance {
+                layer: "a".into(),
+                q: 0.1,
+                side: Side::Below,
+                max: None,
+                max_cells: None,
+            },
+            Op::Brightness {
+                layers: vec!["a".into(), "b".into()],
+                quantiles: vec![],
+                distance_above: None,
+                distance_below: None,
+                distance_max_cells: None,
+                gradient: false,
+                roughness: vec![5],
+            },
+        ];
+        let stack = compute(&m, &spec(Some(vec!["a"]), ops.clone())).unwrap();
+        let plane = |name: &str| stack.plane(stack.names.iter().position(|n| n == name).unwrap());
+        let void = |cell: usize| m.layers[0].values[cell].is_nan();
+        assert_eq!(plane("a")[3 * w + 4], 0.0);
+        for (cell, v) in plane("a/blur_2c").iter().enumerate() {
+            let expected = if void(cell) { 0.0 } else { 10.0 };
+            assert!((v - expected).abs() < 1e-4, "cell {cell}: {v}");
+        }
+        for flat in ["a/roughness_3c", "a/relief_2c", "a/laplacian"] {
+            assert!(plane(flat).iter().all(|v| v.abs() < 1e-4), "{flat}");
+        }
+        // Nothing is below the data's lowest decile, and the void, read as 0, is not.
+        let distance = plane("a/distance_to_below_q10_m");
+        assert!(distance.iter().all(|&d| d == distance[0] && d > 9.0));
+        // The brightness's spread is that of the data in each window: where a window
+        // misses the void (the last row), what it is without the void.
+        let without_void = compute(&whole, &spec(Some(vec!["a"]), ops)).unwrap();
+        let name = "brightness/roughness_5c";
+        let k = stack.names.iter().position(|n| n == name).unwrap();
+        assert!(
+            plane(name)
+                .iter()
+                .enumerate()
+                .all(|(cell, &v)| void(cell) || v > 0.0)
+        );
+        assert_eq!(
+            stack.plane(k)[(h - 1) * w..],
+            without_void.plane(k)[(h - 1) * w..]
+        );
     }
 
     #[test]

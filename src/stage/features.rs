@@ -19,7 +19,7 @@ pub const KIND: &str = "features";
 /// brightness's); derivatives step around cells with no data. 8: the banks' per-class
 /// indicators on layers of many classes. 9: the roughness of elevation, of a map's
 /// only band and of the brightness over windows of 3 to 31 cells.
-const VERSION: u32 = 9;
+const VERSION: u32 = 10;
 
 fn default_bias() -> bool {
     true
@@ -49,7 +49,8 @@ pub struct FeaturesParams {
     #[arg(long = "no-bias", action = clap::ArgAction::SetFalse)]
     #[serde(default = "default_bias")]
     pub bias: bool,
-    /// Value that no-data (NaN) cells read as; such layers also get a `/nodata` indicator.
+    /// Value that no-data (NaN) cells' own values read as (neighbourhood operators leave
+    /// such cells out); such layers also get a `/nodata` indicator.
     #[arg(long, default_value_t = 0.0)]
     #[serde(default)]
     pub nodata_fill: f32,
