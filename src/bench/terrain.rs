@@ -30,10 +30,12 @@ pub enum Teacher {
     /// A bowl: the squared distance of the brightness from its median, in IQRs.
     Square,
     /// A ratio: the normalised difference of the last and first band (of the band
-    /// and its neighbourhood mean for one band), dear above its median.
+    /// and its neighbourhood mean for one band, a Gaussian of 3 cells on the ground),
+    /// dear above its median.
     Ratio,
     /// A margin: dear above the 70th percentile and within 3 cells of the brightest
-    /// decile (a distance, which per-cell features only approximate).
+    /// decile (a distance, which per-cell features only approximate; on the ground, in
+    /// the cells' mean side where they are not square).
     Margin,
     /// Obstacles: dear above the median brightness and 43 times the cheapest cost above
     /// the 90th percentile, as a planner's near-lethal cells are. A learner that flattens
@@ -45,8 +47,8 @@ pub enum Teacher {
     /// the cheapest. The bank holds slope for DEMs but no gradient of imagery.
     Slope,
     /// A shore: 7 times the cheapest within 3 cells of the darkest decile (water,
-    /// shadow; the lowest ground on a DEM), the mirror of `margin`, and cheap
-    /// everywhere else.
+    /// shadow; the lowest ground on a DEM; on the ground, as `margin`), the mirror of
+    /// `margin`, and cheap everywhere else.
     Shore,
     /// Land cover: every class its own cost between 1 and 9, in no order of the codes
     /// (a class layer's classes where every band is one, else the brightness's deciles
@@ -249,11 +251,35 @@ fn brightness(map: &Map) -> Vec<f32> {
         .collect()
 }
 
-/// Distance in cells to the nearest cell of `z` where `target` holds.
-fn cells_to(z: &[f32], target: impl Fn(f32) -> bool, w: usize, h: usize) -> Vec<f32> {
+/// A cell's sides (x, y) in units of its mean side √(dx·dy) on the ground. The
+/// teachers' neighbourhoods are round on the ground, as a real cost's are (a margin of
+/// so many metres), not in the raster's rows and columns: on cells that are not square
+/// (a geographic raster away from the equator: Rhine 0.66, Jacksboro 0.81) a radius
+/// of 3 cells spans fewer of them along their longer side.
+fn cell_sides(geo: &GeoRef) -> [f64; 2] {
+    let [sx, sy] = geo.cell_metres();
+    let mean = (sx * sy).sqrt();
+    [sx / mean, sy / mean]
+}
+
+/// Whether a distance in mean sides is within `cells` of them; half a percent more, so
+/// that near-square cells (GDAL's 300.038 × 300.042 m) count the cells square ones do.
+fn within(distance: f32, cells: f32) -> bool {
+    distance <= cells * 1.005
+}
+
+/// Ground distance, in mean cell sides ([`cell_sides`]), to the nearest cell of `z`
+/// where `target` holds.
+fn cells_to(
+    z: &[f32],
+    target: impl Fn(f32) -> bool,
+    w: usize,
+    h: usize,
+    sides: [f64; 2],
+) -> Vec<f32> {
     let mask: Vec<bool> = z.iter().map(|&v| target(v)).collect();
     let mut distance = vec![0.0f32; z.len()];
-    crate::features::distance_transform(&mask, w, h, [1.0; 2], 1e9, &mut distance);
+    crate::features::distance_transform(&mask, w, h, sides, 1e9, &mut distance);
     distance
 }
 
@@ -261,6 +287,7 @@ fn cells_to(z: &[f32], target: impl Fn(f32) -> bool, w: usize, h: usize) -> Vec<
 fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
     let (w, h) = (map.geo.width as usize, map.geo.height as usize);
     let z = brightness(map);
+    let sides = cell_sides(&map.geo);
     let (q15, q50, q60, q70, q75, q90) = (
         quantile(&z, 0.15),
         quantile(&z, 0.5),
@@ -305,7 +332,9 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
                     .map(|&v| if v.is_nan() { q50 } else { v })
                     .collect();
                 let mut mean = vec![0.0; filled.len()];
-                gaussian_blur(&filled, w, h, [3.0; 2], &mut mean);
+                // σ of 3 mean sides on the ground, in cells per axis.
+                let sigma = sides.map(|side| 3.0 / side);
+                gaussian_blur(&filled, w, h, sigma, &mut mean);
                 filled
                     .iter()
                     .zip(&mean)
@@ -315,13 +344,13 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
             ramp(&ratio)
         }
         Teacher::Margin => {
-            let distance = cells_to(&z, |v| v > q90, w, h);
+            let distance = cells_to(&z, |v| v > q90, w, h, sides);
             z.iter()
                 .zip(&distance)
                 .map(|(&v, &d)| {
                     data(
                         v,
-                        1.0 + 3.0 * f32::from(v > q70) + 4.0 * f32::from(d <= 3.0),
+                        1.0 + 3.0 * f32::from(v > q70) + 4.0 * f32::from(within(d, 3.0)),
                     )
                 })
                 .collect()
@@ -349,10 +378,10 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
         }
         Teacher::Shore => {
             let q10 = quantile(&z, 0.1);
-            let distance = cells_to(&z, |v| v < q10, w, h);
+            let distance = cells_to(&z, |v| v < q10, w, h, sides);
             z.iter()
                 .zip(&distance)
-                .map(|(&v, &d)| data(v, 1.0 + 6.0 * f32::from(d <= 3.0)))
+                .map(|(&v, &d)| data(v, 1.0 + 6.0 * f32::from(within(d, 3.0))))
                 .collect()
         }
         Teacher::Texture => {
@@ -693,6 +722,34 @@ mod tests {
         assert!(cost[..dark + 3].iter().all(|&c| c == 7.0), "{cost:?}");
         assert!(cost[dark + 3..].iter().all(|&c| c == 1.0), "{cost:?}");
     }
+    #[test]
+    fn the_shore_teachers_margin_is_round_on_the_ground_where_cells_are_not() {
+        // Cells of 20 × 45 m (a mean side of 30 m) around one dark cell: the shore is
+        // the cells within 3 mean sides (90 m) of it on the ground, 4 columns but only
+        // 2 rows, where cells counted in rows and columns would make it 3 of each.
+        let (w, h) = (21usize, 15usize);
+        let mut geo = GeoRef::square(w as u32, h as u32, 20.0, [0.0, 0.0], "map");
+        geo.resolution_y = Some(45.0);
+        let (cx, cy) = (10, 7);
+        let mut values = vec![100.0f32; w * h];
+        values[cy * w + cx] = 0.0;
+        let map = Map {
+            name: "rectangles".into(),
+            layers: vec![Layer::new("band1", values)],
+            geo,
+        };
+        let cost = teacher_cost(&map, Teacher::Shore, 7);
+        for r in 0..h {
+            for c in 0..w {
+                let metres = (20.0 * c.abs_diff(cx) as f64).hypot(45.0 * r.abs_diff(cy) as f64);
+                let expected = if metres <= 90.0 * 1.005 { 7.0 } else { 1.0 };
+                assert_eq!(cost[r * w + c], expected, "row {r}, column {c}: {metres} m");
+            }
+        }
+        assert_eq!(cost[cy * w + cx + 4], 7.0);
+        assert_eq!(cost[(cy + 3) * w + cx], 1.0);
+    }
+
     #[test]
     fn the_classes_teacher_gives_each_class_one_cost_in_no_order_of_the_codes() {
         // A class layer of codes 10, 20, 30, 40: each code one cost in [1, 9), the
