@@ -6,6 +6,7 @@ use common::*;
 use imitate::grid::{GeoRef, Grid};
 use imitate::io::geotiff::write_geotiff;
 use imitate::io::tables::write_costmap;
+use std::path::{Path, PathBuf};
 
 /// A 5 x 4 costmap of ones with a wall in column 2, open only in the top row.
 fn walled(dir: &std::path::Path) -> std::path::PathBuf {
@@ -526,13 +527,10 @@ fn bench_terrain_names_a_raster_it_cannot_use() {
     assert_input_error(&out, &["one-cell.tif", "no 60 pairs of cells", "1 × 1"]);
 }
 
-/// `--hidden-cost-off-by` plans the held-out pairs on the hidden cost itself, off by a
-/// smooth random factor: at 0 it is the teacher's own cost and plans its paths; with
-/// `--method uniform` no learner runs.
-#[test]
-fn bench_terrain_plans_on_the_hidden_cost_off_by_a_smooth_factor() {
-    let dir = tempfile::tempdir().unwrap();
-    let raster = dir.path().join("waves.tif");
+/// A 48 × 40 GeoTIFF of 30 m cells in `dir`: crossed waves on a slope, a terrain
+/// that `bench terrain` runs on in seconds.
+fn waves_raster(dir: &Path) -> PathBuf {
+    let raster = dir.join("waves.tif");
     let (width, height) = (48u32, 40u32);
     let values: Vec<f32> = (0..width * height)
         .map(|i| {
@@ -546,6 +544,71 @@ fn bench_terrain_plans_on_the_hidden_cost_off_by_a_smooth_factor() {
         &values,
     )
     .unwrap();
+    raster
+}
+
+/// MaxEnt's horizon reaches the learner from the command line, and one shorter than
+/// the demonstrations (which no path of theirs would fit) is refused by name.
+#[test]
+fn bench_terrain_takes_maxents_horizon_and_refuses_one_below_a_demonstration() {
+    let dir = tempfile::tempdir().unwrap();
+    let raster = waves_raster(dir.path());
+    let run = |factor: &str| {
+        imitate(
+            dir.path(),
+            &[
+                "bench",
+                "terrain",
+                raster.to_str().unwrap(),
+                "--teacher",
+                "slope",
+                "--method",
+                "maxent",
+                "--rounds",
+                "3",
+                "--paths",
+                "16",
+                "--horizon-factor",
+                factor,
+                "--json",
+            ],
+        )
+    };
+    let ratios: Vec<f64> = ["1", "3"]
+        .iter()
+        .map(|factor| {
+            let out = run(factor);
+            assert!(out.status.success(), "{}", stderr(&out));
+            let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+            let maxent = report["results"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .find(|r| r["method"] == "maxent")
+                .cloned()
+                .unwrap();
+            assert_eq!(maxent["rounds"], 3, "{maxent}");
+            maxent["training_mean_cost_ratio"].as_f64().unwrap()
+        })
+        .collect();
+    // Paths three times the demonstrations' length spread the visits: another cost.
+    assert_ne!(ratios[0], ratios[1], "the horizon did not reach MaxEnt");
+    let out = run("0.9");
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("--horizon-factor"),
+        "{}",
+        stderr(&out)
+    );
+}
+
+/// `--hidden-cost-off-by` plans the held-out pairs on the hidden cost itself, off by a
+/// smooth random factor: at 0 it is the teacher's own cost and plans its paths; with
+/// `--method uniform` no learner runs.
+#[test]
+fn bench_terrain_plans_on_the_hidden_cost_off_by_a_smooth_factor() {
+    let dir = tempfile::tempdir().unwrap();
+    let raster = waves_raster(dir.path());
     let raster = raster.to_str().unwrap();
     let args = |off: &[&'static str]| {
         let mut args = vec![

@@ -132,6 +132,9 @@ pub struct TerrainArgs {
     pub loss_kind: Option<crate::ioc::LossKind>,
     #[arg(long, value_enum)]
     pub schedule: Option<crate::ioc::StepSchedule>,
+    /// MaxEnt's paths may take up to this many times each demonstration's steps.
+    #[arg(long, value_parser = at_least_one)]
+    pub horizon_factor: Option<f64>,
     /// LEARCH keeps the contrast its rounds left (no choice of the cost's exponent on
     /// the training paths).
     #[arg(long)]
@@ -573,6 +576,14 @@ fn planned_on(terrain: &Terrain, costs: &[Grid<f32>], method: &'static str) -> M
     }
 }
 
+/// A `--horizon-factor`: finite and at least 1 (a path needs its demonstration's steps).
+fn at_least_one(text: &str) -> std::result::Result<f64, String> {
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v >= 1.0 => Ok(v),
+        _ => Err(format!("'{text}' is not a number of at least 1")),
+    }
+}
+
 pub fn run(args: TerrainArgs) -> Result<()> {
     if args.rounds == Some(0) || args.paths < 8 {
         return Err(Error::Usage(
@@ -604,6 +615,9 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         }
         if let Some(v) = args.schedule {
             config.schedule = v;
+        }
+        if let Some(v) = args.horizon_factor {
+            config.horizon_factor = v;
         }
         config.calibrate_contrast &= !args.keep_contrast;
         config.widen_in_stages &= !args.all_scales_at_once;

@@ -8,10 +8,11 @@ pub mod soft_paths;
 pub mod tabular;
 
 pub use learch::{
-    Example, ExampleStatistics, FittedRound, GridMethod, LearchConfig, LossKind, MEMBERS,
-    PreparedExamples, Progress, RemoteRounds, RoundMetrics, StepSchedule, TREE_BINS, TREE_LEAF_L2,
-    TrainedLearch, TrainedMember, WeakLearnerKind, default_rounds_and_step,
-    evaluate as learch_evaluate, fit_round, hold_out_every, train, train_with,
+    Example, ExampleStatistics, FittedRound, GridMethod, LearchConfig, LossKind,
+    MAXENT_HORIZON_FACTOR, MEMBERS, PreparedExamples, Progress, RemoteRounds, RoundMetrics,
+    StepSchedule, TREE_BINS, TREE_LEAF_L2, TrainedLearch, TrainedMember, WeakLearnerKind,
+    default_rounds_and_step, evaluate as learch_evaluate, fit_round, hold_out_every, train,
+    train_with,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
 pub use model::{CostLink, LogCostModel, WeakLearner};

@@ -83,7 +83,7 @@ mod defaults {
         crate::ioc::GridMethod::Learch
     }
     pub fn horizon_factor() -> f64 {
-        1.25
+        crate::ioc::MAXENT_HORIZON_FACTOR
     }
     pub fn window_margin() -> u32 {
         6
