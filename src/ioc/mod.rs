@@ -4,6 +4,7 @@ mod learch;
 mod metrics;
 mod model;
 pub mod objectworld;
+mod soft_math;
 pub mod soft_paths;
 pub mod tabular;
 

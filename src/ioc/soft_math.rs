@@ -1,0 +1,708 @@
+//! The arithmetic of the soft passes (`soft_paths`): e^x, the logarithm of a cell's
+//! summed move terms, and the soft minimum over a cell's eight moves, for one cell and
+//! for a row of cells.
+//!
+//! The passes spend most of their time here. A row goes four cells at a time with AVX2
+//! where the CPU has it (2.2–2.8 times faster than one at a time), one at a time
+//! elsewhere. Both are plain f64 arithmetic with the same operations in the same order
+//! (no fused multiply-adds, no libm), so a costmap has the same bits on every machine;
+//! a test holds the vector path to the scalar one.
+
+const ROUND: f64 = 6_755_399_441_055_744.0; // 1.5 × 2^52: adding it rounds to integers
+const STEPS_PER_UNIT: f64 = 92.332_482_616_893_66; // 64 / ln 2
+// ln 2 / 64 in two parts; the first has 33 significant bits, so k times it is exact.
+const STEP_HI: f64 = 0.010_830_424_696_905_538;
+const STEP_LO: f64 = -6.563_929_801_064_195e-13;
+// ln 2 in two parts; the first has 32 significant bits, so e times it is exact.
+const LN2_HI: f64 = 0.693_147_180_369_123_8;
+const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
+const TWO_52: f64 = 4_503_599_627_370_496.0;
+const MANTISSA: u64 = (1 << 52) - 1;
+const ONE: u64 = 0x3ff0_0000_0000_0000;
+/// Keeps a mantissa's first seven bits: c = 1 + j/128.
+const TABLE_CUT: u64 = !((1 << 45) - 1);
+
+/// e^x, as the passes need it: within a few ulp of the exact value for x in [−708, 709]
+/// and exactly 0 below (a step the goal cannot be reached through weighs nothing).
+///
+/// The passes spend most of their time in exponentials. This one is plain f64
+/// arithmetic, the same bits on every machine (libm picks an FMA variant or not at run
+/// time), and short: x = (64m + j) ln 2 / 64 + r with |r| ≤ ln 2 / 128, e^x = 2^m ·
+/// 2^(j/64) · e^r, the 64 powers 2^(j/64) from a table (correctly rounded) and e^r by
+/// its Taylor series to r⁵ (truncation below 4e-17). The integer k = 64m + j comes out
+/// of the rounding constant's low mantissa bits, so no float-to-integer conversion.
+#[inline(always)]
+pub(super) fn exp(x: f64) -> f64 {
+    let clamped = x.clamp(-708.0, 709.0);
+    let shifted = clamped * STEPS_PER_UNIT + ROUND;
+    let k = shifted - ROUND;
+    let r = (clamped - k * STEP_HI) - k * STEP_LO;
+    let bits = shifted.to_bits();
+    let power = f64::from_bits(EXP_POWERS[(bits & 63) as usize]);
+    // 2^m, m = ⌊k / 64⌋: the rounded sum's bits end in k (two's complement) above a
+    // base divisible by 64, so shifting out j and adding the bias leaves the exponent.
+    let two_to_m = f64::from_bits(((bits >> 6).wrapping_add(1023)) << 52);
+    let r2 = r * r;
+    let series_minus_one = r + r2 * (0.5 + r * (1.0 / 6.0) + r2 * (1.0 / 24.0 + r * (1.0 / 120.0)));
+    let result = (power + power * series_minus_one) * two_to_m;
+    if x < -708.0 { 0.0 } else { result }
+}
+
+/// ln s for s in [1, 8]: the sum of a cell's eight move terms, of which the largest is
+/// 1 (`soft_min`). libm's logarithm, like its exponential, picks an FMA variant or not
+/// at run time and may round a last bit differently on another CPU; this one is plain
+/// f64 arithmetic, the same bits on every machine, and as fast (the passes are bound by
+/// the eight exponentials): s = 2^e · m, m in [1, 2), c = 1 + j/128 the mantissa's
+/// first seven bits, ln s = e ln 2 + ln c + ln(1 + r) with r = (m − c)/c in [0, 2⁻⁷)
+/// (m − c is exact; 1/c correctly rounded at compile time), ln c from a table
+/// (correctly rounded) and ln(1 + r) by its series to r⁸ (truncation below 2e-18 of r).
+/// Exactly 0 at 1, so a cell with one way to the goal keeps its value.
+#[inline(always)]
+fn ln_of_sum(s: f64) -> f64 {
+    let bits = s.to_bits();
+    // e and c without integer-to-float conversions (which AVX2 lacks): the exponent
+    // bits as the low mantissa bits of 2^52, and the mantissa cut after seven bits.
+    let e = f64::from_bits(TWO_52.to_bits() | (bits >> 52)) - (TWO_52 + 1023.0);
+    let j = ((bits >> 45) & 127) as usize;
+    let m_bits = (bits & MANTISSA) | ONE;
+    let (m, c) = (f64::from_bits(m_bits), f64::from_bits(m_bits & TABLE_CUT));
+    let r = (m - c) * LN_INVERSES[j];
+    let r2 = r * r;
+    // ln(1 + r) − r.
+    let tail = r2
+        * (-0.5
+            + r * (1.0 / 3.0)
+            + r2 * (-0.25 + r * 0.2 + r2 * (-1.0 / 6.0 + r * (1.0 / 7.0) - r2 * 0.125)));
+    e * LN2_HI + (f64::from_bits(LN_TABLE[j]) + (e * LN2_LO + (r + tail)))
+}
+
+/// −ln Σ exp(−q): the soft minimum over a cell's eight moves, ∞ when none reaches the
+/// goal. The exponentials go to an array before they are summed (in move order): the
+/// compiler then overlaps them, a quarter faster than summing as they come, same bits.
+#[inline(always)]
+fn soft_min(q: &[f64; 8]) -> f64 {
+    let least = q.iter().copied().fold(f64::INFINITY, f64::min);
+    if least == f64::INFINITY {
+        return least;
+    }
+    let mut terms = [0.0; 8];
+    for (t, &q) in terms.iter_mut().zip(q) {
+        *t = exp(least - q);
+    }
+    least - ln_of_sum(terms.iter().sum::<f64>())
+}
+
+/// One row of a backward step: `out[i]` = the soft minimum over moves m of
+/// `edges[m][i] + ahead[m][i]` (a cell's step costs and its neighbours' values one step
+/// later). Returns whether any value moved from `old[i]` by more than `tolerance`
+/// relative to its size (the backward pass's test for settled values; a value that is
+/// now infinite counts as unmoved).
+pub(super) fn soft_min_row(
+    edges: [&[f64]; 8],
+    ahead: [&[f64]; 8],
+    old: &[f64],
+    tolerance: f64,
+    out: &mut [f64],
+) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        return unsafe { avx2::soft_min_row(edges, ahead, old, tolerance, out) };
+    }
+    soft_min_row_scalar(edges, ahead, old, tolerance, out, 0)
+}
+
+/// `soft_min_row` one cell at a time from `from` on: the reference, the tail of the
+/// vector path and the path on CPUs without AVX2.
+fn soft_min_row_scalar(
+    edges: [&[f64]; 8],
+    ahead: [&[f64]; 8],
+    old: &[f64],
+    tolerance: f64,
+    out: &mut [f64],
+    from: usize,
+) -> bool {
+    let mut changed = false;
+    for i in from..out.len() {
+        let v = soft_min(&std::array::from_fn(|m| edges[m][i] + ahead[m][i]));
+        out[i] = v;
+        changed |= moved(v, old[i], tolerance);
+    }
+    changed
+}
+
+/// One row of a forward step: the probability of each cell's moves, exp(`here[i]` −
+/// `edges[m][i]` − `ahead[m][i]`) (its finite value, the step's cost and the
+/// neighbour's value one step later), at `out[m · len + i]`.
+pub(super) fn move_probabilities_row(
+    here: &[f64],
+    edges: [&[f64]; 8],
+    ahead: [&[f64]; 8],
+    out: &mut [f64],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has AVX2.
+        return unsafe { avx2::move_probabilities_row(here, edges, ahead, out) };
+    }
+    move_probabilities_row_scalar(here, edges, ahead, out, 0)
+}
+
+/// `move_probabilities_row` one cell at a time from `from` on.
+fn move_probabilities_row_scalar(
+    here: &[f64],
+    edges: [&[f64]; 8],
+    ahead: [&[f64]; 8],
+    out: &mut [f64],
+    from: usize,
+) {
+    let len = here.len();
+    for m in 0..8 {
+        for i in from..len {
+            out[m * len + i] = exp(here[i] - edges[m][i] - ahead[m][i]);
+        }
+    }
+}
+
+#[inline(always)]
+fn moved(v: f64, old: f64, tolerance: f64) -> bool {
+    !(v == old || (v - old).abs() <= tolerance * v.abs().max(1.0))
+}
+
+/// The same operations as `exp`, `ln_of_sum` and `soft_min`, on four cells at once.
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::*;
+    use std::arch::x86_64::*;
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn splat(x: f64) -> __m256d {
+        _mm256_set1_pd(x)
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn splat_bits(x: u64) -> __m256i {
+        _mm256_set1_epi64x(x as i64)
+    }
+
+    /// `exp`, lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn exp(x: __m256d) -> __m256d {
+        let clamped = _mm256_min_pd(_mm256_max_pd(x, splat(-708.0)), splat(709.0));
+        let shifted = _mm256_add_pd(_mm256_mul_pd(clamped, splat(STEPS_PER_UNIT)), splat(ROUND));
+        let k = _mm256_sub_pd(shifted, splat(ROUND));
+        let r = _mm256_sub_pd(
+            _mm256_sub_pd(clamped, _mm256_mul_pd(k, splat(STEP_HI))),
+            _mm256_mul_pd(k, splat(STEP_LO)),
+        );
+        let bits = _mm256_castpd_si256(shifted);
+        let j = _mm256_and_si256(bits, splat_bits(63));
+        // SAFETY: j < 64, within the table.
+        let power = unsafe { _mm256_i64gather_pd::<8>(EXP_POWERS.as_ptr().cast(), j) };
+        let two_to_m = _mm256_castsi256_pd(_mm256_slli_epi64::<52>(_mm256_add_epi64(
+            _mm256_srli_epi64::<6>(bits),
+            splat_bits(1023),
+        )));
+        let r2 = _mm256_mul_pd(r, r);
+        let low = _mm256_add_pd(splat(0.5), _mm256_mul_pd(r, splat(1.0 / 6.0)));
+        let high = _mm256_add_pd(splat(1.0 / 24.0), _mm256_mul_pd(r, splat(1.0 / 120.0)));
+        let series_minus_one = _mm256_add_pd(
+            r,
+            _mm256_mul_pd(r2, _mm256_add_pd(low, _mm256_mul_pd(r2, high))),
+        );
+        let result = _mm256_mul_pd(
+            _mm256_add_pd(power, _mm256_mul_pd(power, series_minus_one)),
+            two_to_m,
+        );
+        let below = _mm256_cmp_pd::<_CMP_LT_OQ>(x, splat(-708.0));
+        _mm256_andnot_pd(below, result)
+    }
+
+    /// `ln_of_sum`, lane by lane.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn ln_of_sum(s: __m256d) -> __m256d {
+        let bits = _mm256_castpd_si256(s);
+        let e = _mm256_sub_pd(
+            _mm256_castsi256_pd(_mm256_or_si256(
+                splat_bits(TWO_52.to_bits()),
+                _mm256_srli_epi64::<52>(bits),
+            )),
+            splat(TWO_52 + 1023.0),
+        );
+        let j = _mm256_and_si256(_mm256_srli_epi64::<45>(bits), splat_bits(127));
+        let m_bits = _mm256_or_si256(
+            _mm256_and_si256(bits, splat_bits(MANTISSA)),
+            splat_bits(ONE),
+        );
+        let m = _mm256_castsi256_pd(m_bits);
+        let c = _mm256_castsi256_pd(_mm256_and_si256(m_bits, splat_bits(TABLE_CUT)));
+        // SAFETY: j < 128, within both tables.
+        let (inverse, ln_c) = unsafe {
+            (
+                _mm256_i64gather_pd::<8>(LN_INVERSES.as_ptr(), j),
+                _mm256_i64gather_pd::<8>(LN_TABLE.as_ptr().cast(), j),
+            )
+        };
+        let r = _mm256_mul_pd(_mm256_sub_pd(m, c), inverse);
+        let r2 = _mm256_mul_pd(r, r);
+        let d = _mm256_sub_pd(
+            _mm256_add_pd(splat(-1.0 / 6.0), _mm256_mul_pd(r, splat(1.0 / 7.0))),
+            _mm256_mul_pd(r2, splat(0.125)),
+        );
+        let c4 = _mm256_add_pd(
+            _mm256_add_pd(splat(-0.25), _mm256_mul_pd(r, splat(0.2))),
+            _mm256_mul_pd(r2, d),
+        );
+        let c2 = _mm256_add_pd(
+            _mm256_add_pd(splat(-0.5), _mm256_mul_pd(r, splat(1.0 / 3.0))),
+            _mm256_mul_pd(r2, c4),
+        );
+        let tail = _mm256_mul_pd(r2, c2);
+        _mm256_add_pd(
+            _mm256_mul_pd(e, splat(LN2_HI)),
+            _mm256_add_pd(
+                ln_c,
+                _mm256_add_pd(_mm256_mul_pd(e, splat(LN2_LO)), _mm256_add_pd(r, tail)),
+            ),
+        )
+    }
+
+    /// `move_probabilities_row`, four cells at a time, the last few one at a time.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn move_probabilities_row(
+        here: &[f64],
+        edges: [&[f64]; 8],
+        ahead: [&[f64]; 8],
+        out: &mut [f64],
+    ) {
+        let len = here.len();
+        assert!(out.len() >= 8 * len && edges.iter().chain(&ahead).all(|s| s.len() >= len));
+        let mut i = 0;
+        while i + 4 <= len {
+            // SAFETY: i + 4 ≤ len, every slice holds at least len values and `out` 8 len.
+            let load = |s: &[f64]| unsafe { _mm256_loadu_pd(s.as_ptr().add(i)) };
+            let h = load(here);
+            for m in 0..8 {
+                let p = exp(_mm256_sub_pd(
+                    _mm256_sub_pd(h, load(edges[m])),
+                    load(ahead[m]),
+                ));
+                // SAFETY: as for the loads.
+                unsafe { _mm256_storeu_pd(out.as_mut_ptr().add(m * len + i), p) };
+            }
+            i += 4;
+        }
+        move_probabilities_row_scalar(here, edges, ahead, out, i);
+    }
+
+    /// `soft_min_row`, four cells at a time, the last few one at a time.
+    #[target_feature(enable = "avx2")]
+    pub(super) fn soft_min_row(
+        edges: [&[f64]; 8],
+        ahead: [&[f64]; 8],
+        old: &[f64],
+        tolerance: f64,
+        out: &mut [f64],
+    ) -> bool {
+        let len = out.len();
+        assert!(old.len() >= len && edges.iter().chain(&ahead).all(|s| s.len() >= len));
+        let sign = splat(-0.0);
+        let mut unmoved = _mm256_castsi256_pd(splat_bits(u64::MAX));
+        let mut i = 0;
+        while i + 4 <= len {
+            // SAFETY: i + 4 ≤ len, and every slice holds at least len values.
+            let load = |s: &[f64]| unsafe { _mm256_loadu_pd(s.as_ptr().add(i)) };
+            let q: [__m256d; 8] =
+                std::array::from_fn(|m| _mm256_add_pd(load(edges[m]), load(ahead[m])));
+            let least = q
+                .iter()
+                .fold(splat(f64::INFINITY), |a, &b| _mm256_min_pd(a, b));
+            let finite = _mm256_cmp_pd::<_CMP_LT_OQ>(least, splat(f64::INFINITY));
+            // Where no move reaches the goal, any finite base keeps the lanes tame.
+            let base = _mm256_and_pd(finite, least);
+            let sum = q[1..].iter().fold(exp(_mm256_sub_pd(base, q[0])), |s, &q| {
+                _mm256_add_pd(s, exp(_mm256_sub_pd(base, q)))
+            });
+            let v = _mm256_blendv_pd(
+                splat(f64::INFINITY),
+                _mm256_sub_pd(least, ln_of_sum(sum)),
+                finite,
+            );
+            // SAFETY: as for the loads.
+            unsafe { _mm256_storeu_pd(out.as_mut_ptr().add(i), v) };
+            let o = load(old);
+            let close = _mm256_cmp_pd::<_CMP_LE_OQ>(
+                _mm256_andnot_pd(sign, _mm256_sub_pd(v, o)),
+                _mm256_mul_pd(
+                    splat(tolerance),
+                    _mm256_max_pd(_mm256_andnot_pd(sign, v), splat(1.0)),
+                ),
+            );
+            let same = _mm256_cmp_pd::<_CMP_EQ_OQ>(v, o);
+            unmoved = _mm256_and_pd(unmoved, _mm256_or_pd(same, close));
+            i += 4;
+        }
+        let changed = _mm256_movemask_pd(unmoved) != 0b1111;
+        soft_min_row_scalar(edges, ahead, old, tolerance, out, i) | changed
+    }
+}
+
+const EXP_POWERS: [u64; 64] = [
+    0x3ff0000000000000,
+    0x3ff02c9a3e778061,
+    0x3ff059b0d3158574,
+    0x3ff0874518759bc8,
+    0x3ff0b5586cf9890f,
+    0x3ff0e3ec32d3d1a2,
+    0x3ff11301d0125b51,
+    0x3ff1429aaea92de0,
+    0x3ff172b83c7d517b,
+    0x3ff1a35beb6fcb75,
+    0x3ff1d4873168b9aa,
+    0x3ff2063b88628cd6,
+    0x3ff2387a6e756238,
+    0x3ff26b4565e27cdd,
+    0x3ff29e9df51fdee1,
+    0x3ff2d285a6e4030b,
+    0x3ff306fe0a31b715,
+    0x3ff33c08b26416ff,
+    0x3ff371a7373aa9cb,
+    0x3ff3a7db34e59ff7,
+    0x3ff3dea64c123422,
+    0x3ff4160a21f72e2a,
+    0x3ff44e086061892d,
+    0x3ff486a2b5c13cd0,
+    0x3ff4bfdad5362a27,
+    0x3ff4f9b2769d2ca7,
+    0x3ff5342b569d4f82,
+    0x3ff56f4736b527da,
+    0x3ff5ab07dd485429,
+    0x3ff5e76f15ad2148,
+    0x3ff6247eb03a5585,
+    0x3ff6623882552225,
+    0x3ff6a09e667f3bcd,
+    0x3ff6dfb23c651a2f,
+    0x3ff71f75e8ec5f74,
+    0x3ff75feb564267c9,
+    0x3ff7a11473eb0187,
+    0x3ff7e2f336cf4e62,
+    0x3ff82589994cce13,
+    0x3ff868d99b4492ed,
+    0x3ff8ace5422aa0db,
+    0x3ff8f1ae99157736,
+    0x3ff93737b0cdc5e5,
+    0x3ff97d829fde4e50,
+    0x3ff9c49182a3f090,
+    0x3ffa0c667b5de565,
+    0x3ffa5503b23e255d,
+    0x3ffa9e6b5579fdbf,
+    0x3ffae89f995ad3ad,
+    0x3ffb33a2b84f15fb,
+    0x3ffb7f76f2fb5e47,
+    0x3ffbcc1e904bc1d2,
+    0x3ffc199bdd85529c,
+    0x3ffc67f12e57d14b,
+    0x3ffcb720dcef9069,
+    0x3ffd072d4a07897c,
+    0x3ffd5818dcfba487,
+    0x3ffda9e603db3285,
+    0x3ffdfc97337b9b5f,
+    0x3ffe502ee78b3ff6,
+    0x3ffea4afa2a490da,
+    0x3ffefa1bee615a27,
+    0x3fff50765b6e4540,
+    0x3fffa7c1819e90d8,
+];
+
+const LN_INVERSES: [f64; 128] = {
+    let mut inverses = [0.0; 128];
+    let mut j = 0;
+    while j < 128 {
+        inverses[j] = 1.0 / (1.0 + j as f64 / 128.0);
+        j += 1;
+    }
+    inverses
+};
+
+const LN_TABLE: [u64; 128] = [
+    0x0000000000000000,
+    0x3f7fe02a6b106789,
+    0x3f8fc0a8b0fc03e4,
+    0x3f97b91b07d5b11b,
+    0x3f9f829b0e783300,
+    0x3fa39e87b9febd60,
+    0x3fa77458f632dcfc,
+    0x3fab42dd711971bf,
+    0x3faf0a30c01162a6,
+    0x3fb16536eea37ae1,
+    0x3fb341d7961bd1d1,
+    0x3fb51b073f06183f,
+    0x3fb6f0d28ae56b4c,
+    0x3fb8c345d6319b21,
+    0x3fba926d3a4ad563,
+    0x3fbc5e548f5bc743,
+    0x3fbe27076e2af2e6,
+    0x3fbfec9131dbeabb,
+    0x3fc0d77e7cd08e59,
+    0x3fc1b72ad52f67a0,
+    0x3fc29552f81ff523,
+    0x3fc371fc201e8f74,
+    0x3fc44d2b6ccb7d1e,
+    0x3fc526e5e3a1b438,
+    0x3fc5ff3070a793d4,
+    0x3fc6d60fe719d21d,
+    0x3fc7ab890210d909,
+    0x3fc87fa06520c911,
+    0x3fc9525a9cf456b4,
+    0x3fca23bc1fe2b563,
+    0x3fcaf3c94e80bff3,
+    0x3fcbc286742d8cd6,
+    0x3fcc8ff7c79a9a22,
+    0x3fcd5c216b4fbb91,
+    0x3fce27076e2af2e6,
+    0x3fcef0adcbdc5936,
+    0x3fcfb9186d5e3e2b,
+    0x3fd0402594b4d041,
+    0x3fd0a324e27390e3,
+    0x3fd1058bf9ae4ad5,
+    0x3fd1675cababa60e,
+    0x3fd1c898c16999fb,
+    0x3fd22941fbcf7966,
+    0x3fd2895a13de86a3,
+    0x3fd2e8e2bae11d31,
+    0x3fd347dd9a987d55,
+    0x3fd3a64c556945ea,
+    0x3fd404308686a7e4,
+    0x3fd4618bc21c5ec2,
+    0x3fd4be5f957778a1,
+    0x3fd51aad872df82d,
+    0x3fd5767717455a6c,
+    0x3fd5d1bdbf5809ca,
+    0x3fd62c82f2b9c795,
+    0x3fd686c81e9b14af,
+    0x3fd6e08eaa2ba1e4,
+    0x3fd739d7f6bbd007,
+    0x3fd792a55fdd47a2,
+    0x3fd7eaf83b82afc3,
+    0x3fd842d1da1e8b17,
+    0x3fd89a3386c1425b,
+    0x3fd8f11e873662c7,
+    0x3fd947941c2116fb,
+    0x3fd99d958117e08b,
+    0x3fd9f323ecbf984c,
+    0x3fda484090e5bb0a,
+    0x3fda9cec9a9a084a,
+    0x3fdaf1293247786b,
+    0x3fdb44f77bcc8f63,
+    0x3fdb9858969310fb,
+    0x3fdbeb4d9da71b7c,
+    0x3fdc3dd7a7cdad4d,
+    0x3fdc8ff7c79a9a22,
+    0x3fdce1af0b85f3eb,
+    0x3fdd32fe7e00ebd5,
+    0x3fdd83e7258a2f3e,
+    0x3fddd46a04c1c4a1,
+    0x3fde24881a7c6c26,
+    0x3fde744261d68788,
+    0x3fdec399d2468cc0,
+    0x3fdf128f5faf06ed,
+    0x3fdf6123fa7028ac,
+    0x3fdfaf588f78f31f,
+    0x3fdffd2e0857f498,
+    0x3fe02552a5a5d0ff,
+    0x3fe04bdf9da926d2,
+    0x3fe0723e5c1cdf40,
+    0x3fe0986f4f573521,
+    0x3fe0be72e4252a83,
+    0x3fe0e44985d1cc8c,
+    0x3fe109f39e2d4c97,
+    0x3fe12f719593efbc,
+    0x3fe154c3d2f4d5ea,
+    0x3fe179eabbd899a1,
+    0x3fe19ee6b467c96f,
+    0x3fe1c3b81f713c25,
+    0x3fe1e85f5e7040d0,
+    0x3fe20cdcd192ab6e,
+    0x3fe23130d7bebf43,
+    0x3fe2555bce98f7cb,
+    0x3fe2795e1289b11b,
+    0x3fe29d37fec2b08b,
+    0x3fe2c0e9ed448e8c,
+    0x3fe2e47436e40268,
+    0x3fe307d7334f10be,
+    0x3fe32b1339121d71,
+    0x3fe34e289d9ce1d3,
+    0x3fe37117b54747b6,
+    0x3fe393e0d3562a1a,
+    0x3fe3b68449fffc23,
+    0x3fe3d9026a7156fb,
+    0x3fe3fb5b84d16f42,
+    0x3fe41d8fe84672ae,
+    0x3fe43f9fe2f9ce67,
+    0x3fe4618bc21c5ec2,
+    0x3fe48353d1ea88df,
+    0x3fe4a4f85db03ebb,
+    0x3fe4c679afccee3a,
+    0x3fe4e7d811b75bb1,
+    0x3fe50913cc01686b,
+    0x3fe52a2d265bc5ab,
+    0x3fe54b2467999498,
+    0x3fe56bf9d5b3f399,
+    0x3fe58cadb5cd7989,
+    0x3fe5ad404c359f2d,
+    0x3fe5cdb1dc6c1765,
+    0x3fe5ee02a9241675,
+    0x3fe60e32f44788d9,
+];
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_inline_exponential_is_libms_to_a_few_ulp() {
+        let mut worst = 0.0f64;
+        for i in 0..=200_000 {
+            let x = -708.0 + 717.0 * f64::from(i) / 200_000.0;
+            let (fast, exact) = (exp(x), x.exp());
+            worst = worst.max((fast - exact).abs() / exact);
+        }
+        assert!(worst < 4.0 * f64::EPSILON, "relative error {worst:e}");
+        for x in [0.0, -1e-300, 1e-300, -0.5 * std::f64::consts::LN_2] {
+            assert!((exp(x) - x.exp()).abs() <= f64::EPSILON * x.exp(), "{x}");
+        }
+        assert_eq!(exp(0.0), 1.0);
+        for x in [-708.5, -1e6, f64::NEG_INFINITY] {
+            assert_eq!(exp(x), 0.0, "{x}");
+        }
+    }
+
+    #[test]
+    fn the_inline_logarithm_is_libms_to_an_ulp_on_sums_of_eight_terms() {
+        let mut worst = 0.0f64;
+        let mut check = |s: f64| {
+            let (fast, exact) = (ln_of_sum(s), s.ln());
+            let ulp = f64::EPSILON * exact.abs().max(f64::MIN_POSITIVE);
+            worst = worst.max((fast - exact).abs() / ulp);
+        };
+        for i in 0..=700_000 {
+            check(1.0 + 7.0 * f64::from(i) / 700_000.0);
+        }
+        // Just above 1 and at every table edge, where the series is longest.
+        for k in 1..60 {
+            check(1.0 + 2f64.powi(-k));
+        }
+        for j in 0..=384 {
+            let edge = 1.0 + f64::from(j) / 128.0;
+            check(edge);
+            check(f64::from_bits(edge.to_bits() - 1));
+        }
+        assert!(worst <= 1.0, "error {worst} ulp");
+        assert_eq!(ln_of_sum(1.0), 0.0);
+    }
+
+    /// A row of cells as the backward pass gives them: finite and infinite step costs
+    /// and neighbour values, cells no move leaves, and lengths that are not multiples
+    /// of four.
+    fn random_row(len: usize, seed: u64) -> ([Vec<f64>; 8], [Vec<f64>; 8], Vec<f64>) {
+        let mut state = seed;
+        let mut uniform = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut value = |infinite: f64, scale: f64| {
+            if uniform() < infinite {
+                f64::INFINITY
+            } else {
+                scale * uniform()
+            }
+        };
+        // Every seventh cell is walled in: no move leaves it.
+        let edges = std::array::from_fn(|_| {
+            (0..len)
+                .map(|i| {
+                    if i % 7 == 3 {
+                        f64::INFINITY
+                    } else {
+                        value(0.2, 3.0)
+                    }
+                })
+                .collect()
+        });
+        let ahead = std::array::from_fn(|_| (0..len).map(|_| value(0.3, 800.0)).collect());
+        let old = (0..len).map(|_| value(0.2, 800.0)).collect();
+        (edges, ahead, old)
+    }
+
+    #[test]
+    fn move_probabilities_are_the_same_bits_four_at_a_time_as_one_at_a_time() {
+        for (len, seed) in [(0, 7), (3, 8), (4, 9), (37, 10), (1001, 11)] {
+            let (edges, ahead, old) = random_row(len, seed);
+            // Cells with mass to move have finite values.
+            let here: Vec<f64> = old.iter().map(|v| v.min(900.0)).collect();
+            let (edges, ahead) = (
+                edges.each_ref().map(Vec::as_slice),
+                ahead.each_ref().map(Vec::as_slice),
+            );
+            let mut reference = vec![0.0; 8 * len];
+            move_probabilities_row_scalar(&here, edges, ahead, &mut reference, 0);
+            let mut row = vec![0.0; 8 * len];
+            move_probabilities_row(&here, edges, ahead, &mut row);
+            for (i, (a, b)) in row.iter().zip(&reference).enumerate() {
+                assert_eq!(a.to_bits(), b.to_bits(), "{i} of {len}: {a} against {b}");
+            }
+        }
+    }
+
+    #[test]
+    fn a_row_is_the_same_bits_four_at_a_time_as_one_at_a_time() {
+        for (len, seed) in [(0, 1), (3, 2), (4, 3), (37, 4), (400, 5), (1001, 6)] {
+            let (edges, ahead, mut old) = random_row(len, seed);
+            let (edges, ahead) = (
+                edges.each_ref().map(Vec::as_slice),
+                ahead.each_ref().map(Vec::as_slice),
+            );
+            let mut reference = vec![0.0; len];
+            soft_min_row_scalar(edges, ahead, &old, 1e-13, &mut reference, 0);
+            let mut row = vec![0.0; len];
+            soft_min_row(edges, ahead, &old, 1e-13, &mut row);
+            for (i, (a, b)) in row.iter().zip(&reference).enumerate() {
+                assert_eq!(
+                    a.to_bits(),
+                    b.to_bits(),
+                    "cell {i} of {len}: {a} against {b}"
+                );
+            }
+            assert_eq!(reference.iter().any(|v| v.is_infinite()), len > 3);
+            // Whether anything moved, from each cell of the row in turn.
+            old.copy_from_slice(&reference);
+            assert!(!soft_min_row(edges, ahead, &old, 1e-13, &mut row));
+            for i in 0..len {
+                let kept = old[i];
+                old[i] = if kept.is_finite() {
+                    kept * (1.0 + 1e-9) + 1e-9
+                } else {
+                    1.0
+                };
+                let moved = reference[i].is_finite();
+                assert_eq!(
+                    soft_min_row_scalar(edges, ahead, &old, 1e-13, &mut row, 0),
+                    moved,
+                    "{i}"
+                );
+                assert_eq!(
+                    soft_min_row(edges, ahead, &old, 1e-13, &mut row),
+                    moved,
+                    "{i}"
+                );
+                old[i] = kept;
+            }
+        }
+    }
+}
