@@ -7,7 +7,7 @@
 
 mod grid;
 mod mdp;
-mod queue;
+pub(crate) mod queue;
 mod relax;
 mod steps;
 
