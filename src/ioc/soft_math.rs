@@ -105,6 +105,15 @@ pub(super) fn binary_exponent(x: f64) -> i32 {
     }
 }
 
+/// e^−x for each x in place (0 for x = ∞): steps' weights from their excess costs, a
+/// plain loop the compiler runs several at a time.
+#[inline(always)]
+pub(super) fn negated_exp_row(values: &mut [f64]) {
+    for value in values {
+        *value = exp(-*value);
+    }
+}
+
 /// One row of a backward step: `out[i]` = Σ over moves m of `weights[m][i]` ·
 /// `ahead[m][i]` (a cell's step weights and its neighbours' partition functions one
 /// step later), summed in move order.

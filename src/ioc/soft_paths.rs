@@ -26,7 +26,8 @@
 //! is dropped, as the forward pass drops negligible mass.
 
 use super::soft_math::{
-    binary_exponent, exp, ln_scaled, move_probabilities_row, partition_row, power_of_two,
+    binary_exponent, ln_scaled, move_probabilities_row, negated_exp_row, partition_row,
+    power_of_two,
 };
 use crate::grid::{Cell, Grid};
 use crate::plan::StepLengths;
@@ -102,6 +103,7 @@ impl Window {
     }
 
     /// The window's neighbour of `index` by move `m`.
+    #[cfg(test)]
     fn neighbour(&self, index: usize, m: usize) -> Option<usize> {
         let (dr, dc) = MOVES[m];
         let cols = self.cols as i64;
@@ -110,6 +112,16 @@ impl Window {
             (index as i64) % cols + dc as i64,
         );
         (r >= 0 && c >= 0 && r < self.rows as i64 && c < cols).then(|| (r * cols + c) as usize)
+    }
+
+    /// The moves out of the cell at window row `r`, column `c` that stay in the window,
+    /// with the neighbour each reaches (no division, for the loops over every cell).
+    fn moves_from(&self, r: usize, c: usize) -> impl Iterator<Item = (usize, usize)> {
+        let (rows, cols) = (self.rows as isize, self.cols as isize);
+        MOVES.iter().enumerate().filter_map(move |(m, &(dr, dc))| {
+            let (r, c) = (r as isize + dr as isize, c as isize + dc as isize);
+            (r >= 0 && c >= 0 && r < rows && c < cols).then(|| (m, (r * cols + c) as usize))
+        })
     }
 
     /// The window's neighbour of `index` by move `m`, with the move's length.
@@ -360,20 +372,17 @@ impl SoftGoal {
                 (window.col0..window.col0 + window.cols).map(move |col| Cell::new(row, col))
             })
         };
-        let cell_costs: Vec<f64> = cells()
+        let usable = |cell: Cell| {
+            start.is_none_or(|s| s.chebyshev(cell) + cell.chebyshev(goal_cell) <= horizon as u32)
+        };
+        let priced: Vec<f64> = cells()
             .map(|cell| match costs.get(cell) {
-                c if c.is_finite() && c > 0.0 => f64::from(c),
+                c if c.is_finite() && c > 0.0 && usable(cell) => f64::from(c),
                 _ => f64::INFINITY,
             })
             .collect();
-        let usable: Vec<bool> = cells()
-            .map(|cell| {
-                start
-                    .is_none_or(|s| s.chebyshev(cell) + cell.chebyshev(goal_cell) <= horizon as u32)
-            })
-            .collect();
         let lengths = StepLengths::of(&costs.geo);
-        let cols = window.cols as usize;
+        let (rows, cols) = (window.rows as usize, window.cols as usize);
         // Each window row's move lengths (0 off the window's rows): a step's length
         // depends on the rows it joins alone.
         let row_lengths: Vec<[f64; 8]> = (0..window.rows)
@@ -392,38 +401,47 @@ impl SoftGoal {
                 })
             })
             .collect();
-        let mut edge = vec![f64::INFINITY; n * 8];
+        let steps = StepCosts {
+            window: &window,
+            priced: &priced,
+            row_lengths: &row_lengths,
+        };
         let (mut least_edge, mut dearest_edge) = (f64::INFINITY, 0.0f64);
-        for x in (0..n).filter(|&x| usable[x]) {
-            for m in 0..8 {
-                if let Some(y) = window.neighbour(x, m).filter(|&y| usable[y]) {
-                    let e = row_lengths[x / cols][m] * 0.5 * (cell_costs[x] + cell_costs[y]);
-                    edge[m * n + x] = e;
-                    if e.is_finite() {
-                        least_edge = least_edge.min(e);
-                        dearest_edge = dearest_edge.max(e);
-                    }
+        for (r, c) in (0..rows).flat_map(|r| (0..cols).map(move |c| (r, c))) {
+            let x = r * cols + c;
+            for (m, y) in window.moves_from(r, c) {
+                let e = steps.cost(x, r, m, y);
+                if e.is_finite() {
+                    least_edge = least_edge.min(e);
+                    dearest_edge = dearest_edge.max(e);
                 }
             }
         }
         let goal = window.index(goal_cell);
         let potential = match Buckets::new(least_edge, dearest_edge) {
-            Some(buckets) => cost_to_goal(&window, &edge, goal, buckets),
-            None => cost_to_goal(&window, &edge, goal, Heap::default()),
+            Some(buckets) => steps.cost_to_goal(goal, buckets),
+            None => steps.cost_to_goal(goal, Heap::default()),
         };
-        let mut weight = vec![0.0; n * 8];
-        for x in (0..n).filter(|&x| potential[x].is_finite()) {
-            for m in 0..8 {
-                let Some(y) = window.neighbour(x, m) else {
+        // Each step's excess over the potential's drop (at least 0, as h(x) is the least
+        // of these sums; ∞ where the step is not taken), then its weight e^−excess, a
+        // row of one move at a time.
+        let mut weight = vec![f64::INFINITY; n * 8];
+        for (m, &(dr, dc)) in MOVES.iter().enumerate() {
+            for r in 0..rows {
+                let Some(to) = r.checked_add_signed(dr as isize).filter(|&to| to < rows) else {
                     continue;
                 };
-                // At least 0, as h(x) is the least of these sums.
-                let excess = (edge[m * n + x] + potential[y]) - potential[x];
-                if excess.is_finite() {
-                    weight[m * n + x] = exp(-excess);
+                let columns = (dc < 0) as usize..cols - (dc > 0) as usize;
+                for c in columns {
+                    let (x, y) = (r * cols + c, to * cols + c.wrapping_add_signed(dc as isize));
+                    let excess = (steps.cost(x, r, m, y) + potential[y]) - potential[x];
+                    if potential[x].is_finite() && excess.is_finite() {
+                        weight[m * n + x] = excess;
+                    }
                 }
             }
         }
+        weights_from_excess(&mut weight);
         let mut soft = SoftGoal {
             window,
             weight,
@@ -669,15 +687,22 @@ impl SoftGoal {
             }
             let cells = Rect::ball(&self.window, start, taken).intersect(self.region(left));
             for row in cells.rows(width) {
-                // The row's cells that hold mass to move, from the first to the last.
-                let holds = |&x: &usize| {
-                    let m = mass[ahead.at(x)];
-                    m >= NEGLIGIBLE_MASS && x != self.goal
+                // The row's cells that hold mass to move, from the first to the last (a
+                // scan of the row's mass, side by side in memory).
+                let row_mass = &mass[ahead.at(row.start)..][..row.len()];
+                let holds = |(i, &m): (usize, &f64)| {
+                    (m >= NEGLIGIBLE_MASS && row.start + i != self.goal).then_some(i)
                 };
-                let Some(first) = row.clone().find(holds) else {
+                let Some(first) = row_mass.iter().enumerate().find_map(holds) else {
                     continue;
                 };
-                let span = first..row.clone().rfind(holds).map_or(first, |x| x + 1);
+                let last = row_mass
+                    .iter()
+                    .enumerate()
+                    .rev()
+                    .find_map(holds)
+                    .unwrap_or(first);
+                let span = row.start + first..row.start + last + 1;
                 let len = span.len();
                 let probabilities = &mut probabilities[..8 * len];
                 let (row, col) = (span.start / width as usize, span.start % width as usize);
@@ -773,34 +798,71 @@ impl SoftGoal {
     }
 }
 
-/// h: the least cost from each window cell to `goal` (index) over the steps `edge`
-/// prices, by Dijkstra backwards from the goal (∞ where there is no way). Each cell's
-/// h is the least of its steps' sums, whatever order the queue pops cells of equal keys.
-fn cost_to_goal(window: &Window, edge: &[f64], goal: usize, mut open: impl MinQueue) -> Vec<f64> {
-    let n = window.len();
-    let mut least = vec![f64::INFINITY; n];
-    let mut done = vec![false; n];
-    least[goal] = 0.0;
-    open.push(0.0, goal as u32);
-    while let Some(y) = open.pop() {
-        let y = y as usize;
-        if std::mem::replace(&mut done[y], true) {
-            continue;
+/// e^−x in place of each step's excess x (0 for ∞), compiled for AVX2 where the CPU
+/// has it, four at a time (the same bits: see `SoftGoal::backward`).
+fn weights_from_excess(excess: &mut [f64]) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        #[target_feature(enable = "avx2")]
+        fn avx2(excess: &mut [f64]) {
+            negated_exp_row(excess)
         }
-        let to_goal = least[y];
-        for m in 0..8 {
-            // x reaches y by move m: it is y's neighbour by the opposite move.
-            let Some(x) = window.neighbour(y, OPPOSITE[m]) else {
+        // SAFETY: the CPU has AVX2.
+        return unsafe { avx2(excess) };
+    }
+    negated_exp_row(excess)
+}
+
+/// The cost of each step between window cells: its length times the mean of its two
+/// cells' costs, ∞ where either cannot be entered or no path within the horizon uses it.
+/// Worked out where needed rather than stored: eight steps a cell would be the largest
+/// array the passes make, and a Dijkstra pass reading it would miss the cache at
+/// every step.
+struct StepCosts<'a> {
+    window: &'a Window,
+    /// Each cell's cost, ∞ where paths cannot use it.
+    priced: &'a [f64],
+    /// Each window row's move lengths.
+    row_lengths: &'a [[f64; 8]],
+}
+
+impl StepCosts<'_> {
+    /// The step from `x` (in window row `row`) by move `m` to its neighbour `y`.
+    #[inline(always)]
+    fn cost(&self, x: usize, row: usize, m: usize, y: usize) -> f64 {
+        self.row_lengths[row][m] * 0.5 * (self.priced[x] + self.priced[y])
+    }
+
+    /// h: the least cost from each window cell to `goal` (index), by Dijkstra backwards
+    /// from the goal (∞ where there is no way). Each cell's h is the least of its steps'
+    /// sums, whatever order the queue pops cells of equal keys.
+    fn cost_to_goal(&self, goal: usize, mut open: impl MinQueue) -> Vec<f64> {
+        let n = self.window.len();
+        let cols = self.window.cols as usize;
+        let mut least = vec![f64::INFINITY; n];
+        let mut done = vec![false; n];
+        least[goal] = 0.0;
+        open.push(0.0, goal as u32);
+        while let Some(y) = open.pop() {
+            let y = y as usize;
+            if std::mem::replace(&mut done[y], true) {
                 continue;
-            };
-            let through = edge[m * n + x] + to_goal;
-            if !done[x] && through < least[x] {
-                open.decrease(x as u32, least[x], through);
-                least[x] = through;
+            }
+            let to_goal = least[y];
+            let (row, col) = (y / cols, y % cols);
+            for (back, x) in self.window.moves_from(row, col) {
+                // x reaches y by the move opposite to `back`.
+                let m = OPPOSITE[back];
+                let through =
+                    self.cost(x, (row as isize + MOVES[back].0 as isize) as usize, m, y) + to_goal;
+                if !done[x] && through < least[x] {
+                    open.decrease(x as u32, least[x], through);
+                    least[x] = through;
+                }
             }
         }
+        least
     }
-    least
 }
 
 /// The move back of each of `MOVES`.
@@ -1062,6 +1124,23 @@ mod tests {
             assert_eq!(bits(&a.visits), bits(&b.visits));
             assert_eq!(bits(&a.incidence), bits(&b.incidence));
         }
+    }
+
+    #[test]
+    fn weights_compiled_for_avx2_have_the_same_bits() {
+        let excess: Vec<f64> = (0..4099)
+            .map(|i| match i % 97 {
+                0 => f64::INFINITY,
+                k => f64::from(i) * 0.1913 + f64::from(k) * 1e-3,
+            })
+            .collect();
+        let (mut auto, mut plain) = (excess.clone(), excess);
+        weights_from_excess(&mut auto);
+        negated_exp_row(&mut plain);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&auto), bits(&plain));
+        assert!(auto.iter().all(|w| (0.0..=1.0).contains(w)));
+        assert_eq!(auto[0], 0.0);
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! that most reduces the weighted squared error; ties go to the lower feature index
 //! and the lower edge, so trees are deterministic.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -132,8 +133,11 @@ impl RegressionTree {
         debug_assert_eq!(features.len(), rows * dims);
         debug_assert_eq!(candidates.len(), dims);
         debug_assert_eq!(gain_factors.len(), dims);
-        // A feature with no split candidates is never split on.
+        // A feature with no split candidates is never split on. Columns are sorted and
+        // binned in parallel: on the terrain learners they are most of a round's serial
+        // work, between the examples' parallel passes.
         let edges: Vec<Vec<f64>> = (0..dims)
+            .into_par_iter()
             .map(|j| {
                 let column = (0..rows).map(|i| features[i * dims + j]);
                 match candidates[j] {
@@ -145,7 +149,7 @@ impl RegressionTree {
             .collect();
         // Bin index of every value, column by column (none for a feature never split on).
         let binned: Vec<Vec<u16>> = edges
-            .iter()
+            .par_iter()
             .enumerate()
             .map(|(j, edges)| match edges.is_empty() {
                 true => Vec::new(),
