@@ -825,6 +825,9 @@ fn calibrated_contrast(
 pub struct PreparedExamples {
     examples: Vec<Example>,
     shares: Vec<CompactShares>,
+    /// The examples' indices, longest path first: the order a round's threads take
+    /// them in, so that the last ones left are short and the threads finish together.
+    longest_first: Vec<usize>,
 }
 
 impl PreparedExamples {
@@ -836,7 +839,13 @@ impl PreparedExamples {
                 CompactShares::new(&loss_shares(stack, ex, config), stack.geo.width as usize)
             })
             .collect();
-        PreparedExamples { examples, shares }
+        let mut longest_first: Vec<usize> = (0..examples.len()).collect();
+        longest_first.sort_by_key(|&i| std::cmp::Reverse(steps(&examples[i].path)));
+        PreparedExamples {
+            examples,
+            shares,
+            longest_first,
+        }
     }
 
     pub fn len(&self) -> usize {
@@ -864,16 +873,21 @@ impl PreparedExamples {
         let costmaps: Vec<Option<Grid<f32>>> = (stacks.par_iter().zip(&used))
             .map(|(s, &used)| used.then(|| model.costmap(s)))
             .collect();
-        let statistics = self
-            .examples
+        // Taken longest first, one example a task; returned in example order.
+        let mut statistics: Vec<(usize, Result<ExampleStatistics, String>)> = self
+            .longest_first
             .par_iter()
-            .zip(&self.shares)
-            .map(|(ex, share)| {
+            .with_max_len(1)
+            .map(|&i| {
+                let ex = &self.examples[i];
                 let costs = costmaps[ex.map].as_ref().expect("costmaps of used maps");
-                example_statistics(model, &stacks[ex.map], costs, ex, share, config)
+                let statistics =
+                    example_statistics(model, &stacks[ex.map], costs, ex, &self.shares[i], config);
+                (i, statistics)
             })
-            .collect::<Vec<_>>();
-        first_error_in_order(statistics)
+            .collect();
+        statistics.sort_by_key(|&(i, _)| i);
+        first_error_in_order(statistics.into_iter().map(|(_, s)| s).collect())
     }
 }
 
