@@ -1,9 +1,9 @@
 //! The arithmetic of the soft passes (`soft_paths`): e^x and the logarithm, the same
-//! bits on every machine, and the two row kernels the passes spend their time in.
+//! bits on every machine, and the row kernels the passes spend their time in.
 //!
 //! The passes work with partition functions rather than soft values: a backward step
-//! is then eight products summed per cell and a move's probability one product over
-//! the cell's sum, plain loops the compiler runs several cells at a time. Without fused
+//! is then eight products summed per cell and a forward step eight products added to
+//! the neighbours, plain loops the compiler runs several cells at a time. Without fused
 //! multiply-adds (the target has none unless told) every cell's operations come in the
 //! same order whatever the vector width, so a costmap has the same bits on every machine.
 
@@ -24,8 +24,8 @@ const TABLE_CUT: u64 = !((1 << 45) - 1);
 /// and exactly 0 below (a step far dearer than the cheapest way weighs nothing).
 ///
 /// libm's exponential picks an FMA variant or not at run time and may round a last bit
-/// differently on another CPU; this one is plain f64 arithmetic, the same bits on every machine (libm picks an FMA variant or not at run
-/// time), and short: x = (64m + j) ln 2 / 64 + r with |r| ≤ ln 2 / 128, e^x = 2^m ·
+/// differently on another CPU; this one is plain f64 arithmetic, the same bits on every
+/// machine, and short: x = (64m + j) ln 2 / 64 + r with |r| ≤ ln 2 / 128, e^x = 2^m ·
 /// 2^(j/64) · e^r, the 64 powers 2^(j/64) from a table (correctly rounded) and e^r by
 /// its Taylor series to r⁵ (truncation below 4e-17). The integer k = 64m + j comes out
 /// of the rounding constant's low mantissa bits, so no float-to-integer conversion.
@@ -129,38 +129,106 @@ pub(super) fn partition_row(weights: [&[f64]; 8], ahead: [&[f64]; 8], out: &mut 
     }
 }
 
-/// One row of a forward step: the probability of each cell's moves, `weights[m][i]` ·
-/// `ahead[m][i]` over the cell's sum of them, at `out[m · len + i]` (all 0 for a cell
-/// from which no move reaches the goal in time). `totals` is scratch of the row's length.
+/// One move of a forward step over a row's cells: each source cell's forward partition
+/// function `forward[i]` times its step's weight `weights[i]` arrives at the neighbour
+/// (`arrived[i]`); that times the neighbour's partition function `ahead[i]` is the
+/// weight of the paths taking the step, and `half` (half the step's length times the
+/// paths' scale) of it adds to the incidence of both ends: `at_target[i]` and
+/// `at_source[i]`.
 #[inline(always)]
-pub(super) fn move_probabilities_row(
-    weights: [&[f64]; 8],
-    ahead: [&[f64]; 8],
-    totals: &mut [f64],
-    out: &mut [f64],
+pub(super) fn flow_row(
+    forward: &[f64],
+    weights: &[f64],
+    ahead: &[f64],
+    half: f64,
+    arrived: &mut [f64],
+    at_target: &mut [f64],
+    at_source: &mut [f64],
 ) {
-    let len = totals.len();
-    totals.fill(0.0);
-    for (m, (weights, ahead)) in weights.iter().zip(ahead).enumerate() {
-        let terms = &mut out[m * len..(m + 1) * len];
-        for (((term, total), &w), &z) in terms
-            .iter_mut()
-            .zip(totals.iter_mut())
-            .zip(*weights)
-            .zip(ahead)
-        {
-            *term = w * z;
-            *total += *term;
+    let len = forward.len();
+    let (weights, ahead) = (&weights[..len], &ahead[..len]);
+    let (arrived, at_target, at_source) = (
+        &mut arrived[..len],
+        &mut at_target[..len],
+        &mut at_source[..len],
+    );
+    for i in 0..len {
+        let reaching = forward[i] * weights[i];
+        arrived[i] += reaching;
+        let flow = reaching * ahead[i] * half;
+        at_target[i] += flow;
+        at_source[i] += flow;
+    }
+}
+
+/// Share of the paths (of the start's 1) below which a cell's is dropped rather than
+/// moved on: far from the likely routes most cells hold next to nothing, and moving it
+/// costs as much as moving real paths. What is dropped, over every cell and step of a
+/// long path, stays below 1e-9 of a visit.
+pub(super) const NEGLIGIBLE_MASS: f64 = 1e-18;
+
+/// The arrivals of a forward step on a row's cells: each cell's share of the paths,
+/// `arrived[i]` · `ahead[i]` · `share`, adds to its visits; a share below
+/// `NEGLIGIBLE_MASS` is not moved on (`arrived[i]` set to 0). `largest` keeps the largest
+/// value left, four lanes at a time (a maximum over lanes, unlike one over a row,
+/// runs several cells at once).
+#[inline(always)]
+pub(super) fn arrive_row(
+    arrived: &mut [f64],
+    visits: &mut [f64],
+    ahead: &[f64],
+    share: f64,
+    largest: &mut [f64; 4],
+) {
+    let len = arrived.len();
+    let (visits, ahead) = (&mut visits[..len], &ahead[..len]);
+    let arrive = |a: &mut f64, visits: &mut f64, ahead: f64, lane: &mut f64| {
+        let mass = *a * ahead * share;
+        *visits += mass;
+        let kept = if mass < NEGLIGIBLE_MASS { 0.0 } else { *a };
+        *a = kept;
+        *lane = if kept > *lane { kept } else { *lane };
+    };
+    let whole = len / 4 * 4;
+    let (head, tail) = arrived.split_at_mut(whole);
+    let quads = head
+        .chunks_exact_mut(4)
+        .zip(visits.chunks_exact_mut(4))
+        .zip(ahead.chunks_exact(4));
+    for ((a, v), z) in quads {
+        for j in 0..4 {
+            arrive(&mut a[j], &mut v[j], z[j], &mut largest[j]);
         }
     }
-    for total in totals.iter_mut() {
-        *total = if *total > 0.0 { 1.0 / *total } else { 0.0 };
+    for (j, a) in tail.iter_mut().enumerate() {
+        arrive(a, &mut visits[whole + j], ahead[whole + j], &mut largest[j]);
     }
-    for terms in out[..8 * len].chunks_exact_mut(len) {
-        for (term, &inverse) in terms.iter_mut().zip(&*totals) {
-            *term *= inverse;
+}
+
+/// The largest of `values` (all finite and at least 0), four lanes at a time.
+#[inline(always)]
+pub(super) fn largest_of(values: &[f64]) -> f64 {
+    let mut lanes = [0.0f64; 4];
+    let quads = values.chunks_exact(4);
+    let tail = quads.remainder();
+    for quad in quads {
+        for (lane, &v) in lanes.iter_mut().zip(quad) {
+            *lane = if v > *lane { v } else { *lane };
         }
     }
+    for (lane, &v) in lanes.iter_mut().zip(tail) {
+        *lane = if v > *lane { v } else { *lane };
+    }
+    lanes.into_iter().fold(0.0, f64::max)
+}
+
+/// 2^e / z for a positive normal z, finite however large e (capped near the largest
+/// float): what turns scaled partition functions into shares of the paths.
+pub(super) fn scaled_inverse(e: i32, z: f64) -> f64 {
+    let z_exponent = binary_exponent(z);
+    let mantissa = z * power_of_two(-z_exponent / 2) * power_of_two(-z_exponent + z_exponent / 2);
+    let e = (e - z_exponent).min(1022);
+    power_of_two(e / 2) * power_of_two(e - e / 2) / mantissa
 }
 
 const EXP_POWERS: [u64; 64] = [
@@ -445,7 +513,7 @@ mod tests {
     }
 
     #[test]
-    fn move_probabilities_sum_to_one_and_a_dead_end_moves_nothing() {
+    fn row_kernels_sum_in_move_order_and_flow_to_both_ends() {
         let len = 5;
         let weights: [Vec<f64>; 8] =
             std::array::from_fn(|m| (0..len).map(|i| ((m + i) % 3) as f64 * 0.4).collect());
@@ -460,18 +528,6 @@ mod tests {
                 })
                 .collect()
         });
-        let (mut totals, mut out) = (vec![0.0; len], vec![0.0; 8 * len]);
-        move_probabilities_row(
-            std::array::from_fn(|m| weights[m].as_slice()),
-            std::array::from_fn(|m| ahead[m].as_slice()),
-            &mut totals,
-            &mut out,
-        );
-        for i in 0..len {
-            let sum: f64 = (0..8).map(|m| out[m * len + i]).sum();
-            let expected = if i == 4 { 0.0 } else { 1.0 };
-            assert!((sum - expected).abs() < 1e-15, "cell {i}: {sum}");
-        }
         let mut sums = vec![0.0; len];
         partition_row(
             std::array::from_fn(|m| weights[m].as_slice()),
@@ -482,5 +538,32 @@ mod tests {
             let direct: f64 = (0..8).map(|m| weights[m][i] * ahead[m][i]).sum();
             assert_eq!(sums[i], direct);
         }
+        let forward = [1.0, 0.0, 2.0, 0.25, 3.0];
+        let (mut arrived, mut at_target, mut at_source) = ([1.0; 5], [0.0; 5], [0.5; 5]);
+        flow_row(
+            &forward,
+            &weights[1],
+            &ahead[1],
+            0.5,
+            &mut arrived,
+            &mut at_target,
+            &mut at_source,
+        );
+        for i in 0..len {
+            let reaching = forward[i] * weights[1][i];
+            assert_eq!(arrived[i], 1.0 + reaching);
+            assert_eq!(at_target[i], reaching * ahead[1][i] * 0.5);
+            assert_eq!(at_source[i], 0.5 + at_target[i]);
+        }
+    }
+
+    #[test]
+    fn scaled_inverses_are_exact_for_powers_of_two_and_stay_finite() {
+        assert_eq!(scaled_inverse(3, 2.0), 4.0);
+        let exact = 2f64.powi(-550) * (2f64.powi(-550) / 1e-300);
+        assert!((scaled_inverse(-1100, 1e-300) / exact - 1.0).abs() < 1e-14);
+        assert!((scaled_inverse(10, 3.0) - 1024.0 / 3.0).abs() < 1e-12);
+        assert!(scaled_inverse(5000, 1e-310).is_finite());
+        assert_eq!(scaled_inverse(-5000, 1.0), 0.0);
     }
 }

@@ -10,9 +10,13 @@
 //!
 //! Backward: Z_k(x), the summed exp(−cost) of the paths from x with at most k steps left
 //! (Z_0 = 1 at the goal, 0 elsewhere; Z_k(goal) = 1 as paths end there), Z_k(x) = Σ over
-//! moves of exp(−edge) Z_{k−1}(next); the soft cost-to-go is V_k = −ln Z_k. Forward: the
-//! start's unit mass follows the policy π_k(a | x) = exp(−edge) Z_{k−1}(next) / Z_k(x) and
-//! is absorbed at the goal. Everything is computed on a window of the map, which keeps
+//! moves of exp(−edge) Z_{k−1}(next); the soft cost-to-go is V_k = −ln Z_k. Forward:
+//! A_t(x), the summed exp(−cost) of the paths from the start that reach x in t steps
+//! without having reached the goal (A_0 = 1 at the start, A_t(x) = Σ over moves into x
+//! of A_{t−1}(prev) exp(−edge)); the paths at x after t of T steps are a share
+//! A_t(x) Z_{T−t}(x) / Z_T(start) of them all, and those taking a step a → b one of
+//! A_{t−1}(a) exp(−edge) Z_{T−t}(b) / Z_T(start): the visits and the edge incidence, with
+//! no division per cell. Everything is computed on a window of the map, which keeps
 //! each example's cost in proportion to its neighbourhood rather than to the map.
 //!
 //! Why partition functions rather than soft values: a backward step is then eight
@@ -26,8 +30,8 @@
 //! is dropped, as the forward pass drops negligible mass.
 
 use super::soft_math::{
-    binary_exponent, ln_scaled, move_probabilities_row, negated_exp_row, partition_row,
-    power_of_two,
+    arrive_row, binary_exponent, flow_row, largest_of, ln_scaled, negated_exp_row, partition_row,
+    power_of_two, scaled_inverse,
 };
 use crate::grid::{Cell, Grid};
 use crate::plan::StepLengths;
@@ -330,12 +334,6 @@ pub struct Visitation {
 /// Relative change below which a partition function counts as settled.
 const SETTLED: f64 = 1e-13;
 
-/// Mass (of the start's 1) below which a cell's share is dropped rather than moved on:
-/// far from the likely routes most cells hold next to nothing, and moving it costs as
-/// much as moving real mass. What is dropped, over every cell and step of a long path,
-/// stays below 1e-9 of a visit.
-const NEGLIGIBLE_MASS: f64 = 1e-18;
-
 impl SoftGoal {
     /// The backward pass towards `goal` with at most `horizon` steps, for any start in
     /// the window; `goal` must lie in it.
@@ -406,17 +404,19 @@ impl SoftGoal {
             priced: &priced,
             row_lengths: &row_lengths,
         };
-        let (mut least_edge, mut dearest_edge) = (f64::INFINITY, 0.0f64);
-        for (r, c) in (0..rows).flat_map(|r| (0..cols).map(move |c| (r, c))) {
-            let x = r * cols + c;
-            for (m, y) in window.moves_from(r, c) {
-                let e = steps.cost(x, r, m, y);
-                if e.is_finite() {
-                    least_edge = least_edge.min(e);
-                    dearest_edge = dearest_edge.max(e);
-                }
-            }
+        // Bounds on the steps' costs for the queue's buckets: the shortest move times
+        // the cheapest cell, the longest times the dearest.
+        let (mut cheapest, mut dearest) = (f64::INFINITY, 0.0f64);
+        for &price in priced.iter().filter(|p| p.is_finite()) {
+            cheapest = cheapest.min(price);
+            dearest = dearest.max(price);
         }
+        let (mut shortest, mut longest) = (f64::INFINITY, 0.0f64);
+        for &length in row_lengths.iter().flatten().filter(|&&l| l > 0.0) {
+            shortest = shortest.min(length);
+            longest = longest.max(length);
+        }
+        let (least_edge, dearest_edge) = (shortest * cheapest, longest * dearest);
         let goal = window.index(goal_cell);
         let potential = match Buckets::new(least_edge, dearest_edge) {
             Some(buckets) => steps.cost_to_goal(goal, buckets),
@@ -427,17 +427,25 @@ impl SoftGoal {
         // row of one move at a time.
         let mut weight = vec![f64::INFINITY; n * 8];
         for (m, &(dr, dc)) in MOVES.iter().enumerate() {
-            for r in 0..rows {
+            for (r, lengths) in row_lengths.iter().enumerate() {
                 let Some(to) = r.checked_add_signed(dr as isize).filter(|&to| to < rows) else {
                     continue;
                 };
-                let columns = (dc < 0) as usize..cols - (dc > 0) as usize;
-                for c in columns {
-                    let (x, y) = (r * cols + c, to * cols + c.wrapping_add_signed(dc as isize));
-                    let excess = (steps.cost(x, r, m, y) + potential[y]) - potential[x];
-                    if potential[x].is_finite() && excess.is_finite() {
-                        weight[m * n + x] = excess;
-                    }
+                // The row's cells whose move m stays in the window, and their neighbours.
+                let (first, len) = ((dc < 0) as usize, cols - (dc != 0) as usize);
+                let x = r * cols + first..r * cols + first + len;
+                let y = (to * cols + first).wrapping_add_signed(dc as isize)..;
+                let half_length = lengths[m] * 0.5;
+                let out = &mut weight[m * n..][x.clone()];
+                let ends = priced[x.clone()].iter().zip(&priced[y.clone()]);
+                let drops = potential[x.clone()].iter().zip(&potential[y]);
+                for (out, ((&px, &py), (&hx, &hy))) in out.iter_mut().zip(ends.zip(drops)) {
+                    let excess = (step_cost(half_length, px, py) + hy) - hx;
+                    *out = if hx.is_finite() && excess.is_finite() {
+                        excess
+                    } else {
+                        f64::INFINITY
+                    };
                 }
             }
         }
@@ -506,31 +514,34 @@ impl SoftGoal {
             exponent: 0,
         });
         let mut exponent = 0;
+        let mut row = vec![0.0; width as usize];
         for k in 1..=self.horizon {
             let rect = self.region(k);
             let mut changed = false;
             let start = self.memory.len();
-            self.memory.resize(start + rect.len(), 0.0);
-            let data = &mut self.memory[start..];
-            let mut rest = &mut *data;
             // The goal's Z stays 1 (paths end there), in the previous layer's scale.
             let at_goal = power_of_two(-exponent);
             for cells in rect.rows(width) {
-                let (out, after) = rest.split_at_mut(cells.len());
-                rest = after;
+                // Summed in a row's scratch (in the first level of cache) and appended:
+                // the layers' memory is written once, never cleared first.
+                let out = &mut row[..cells.len()];
                 let weights = std::array::from_fn(|m| &self.weight[m * n..][cells.clone()]);
                 let ahead = offsets.map(|offset| previous.row(&cells, offset));
                 partition_row(weights, ahead, out);
                 if cells.contains(&self.goal) {
                     out[self.goal - cells.start] = at_goal;
                 }
-                let old = previous.row(&cells, 0);
-                changed |= out
-                    .iter()
-                    .zip(old)
-                    .any(|(&z, &old)| z != old && (z - old).abs() > SETTLED * z.max(old));
+                if !changed {
+                    let old = previous.row(&cells, 0);
+                    changed = out
+                        .iter()
+                        .zip(old)
+                        .any(|(&z, &old)| z != old && (z - old).abs() > SETTLED * z.max(old));
+                }
+                self.memory.extend_from_slice(out);
             }
-            let largest = data.iter().copied().fold(0.0, f64::max);
+            let data = &mut self.memory[start..];
+            let largest = largest_of(data);
             let drift = if largest > 0.0 {
                 binary_exponent(largest)
             } else {
@@ -580,19 +591,23 @@ impl SoftGoal {
 
     /// Soft cost-to-go from `cell` with at most `steps` steps (capped at the horizon).
     pub fn value_within(&self, cell: Cell, steps: usize) -> f64 {
+        match self.partition_at(cell, steps) {
+            Some((z, exponent)) => self.potential[self.window.index(cell)] - ln_scaled(z, exponent),
+            None => f64::INFINITY,
+        }
+    }
+
+    /// Z_steps(cell) e^h(cell) as a value and its layer's exponent, where it is positive
+    /// (`cell` in the window and, for passes restricted to one start, that start).
+    fn partition_at(&self, cell: Cell, steps: usize) -> Option<(f64, i32)> {
         if !self.window.contains(cell) || self.start.is_some_and(|s| s != cell) {
-            return f64::INFINITY;
+            return None;
         }
         let layer = self.layer(steps.min(self.horizon));
-        let x = self.window.index(cell);
-        match layer
+        let z = self.data(layer)[layer
             .rect
-            .offset(x, self.window.cols)
-            .map(|i| self.data(layer)[i])
-        {
-            Some(z) if z > 0.0 => self.potential[x] - ln_scaled(z, layer.exponent),
-            _ => f64::INFINITY,
-        }
+            .offset(self.window.index(cell), self.window.cols)?];
+        (z > 0.0).then_some((z, layer.exponent))
     }
 
     /// Expected visitation of paths from `start` under the distribution.
@@ -622,164 +637,128 @@ impl SoftGoal {
         let steps = steps.min(self.horizon);
         let n = self.window.len();
         let width = self.window.cols;
-        if self.value_within(start, steps) == f64::INFINITY {
+        let Some((z_start, z_exponent)) = self.partition_at(start, steps) else {
             return Visitation {
                 visits: vec![0.0; n],
                 incidence: vec![0.0; n],
             };
-        }
-        // Z_left−1, which the moves out of a cell with `left` steps left weigh, and
-        // which layer it holds.
-        let mut ahead = Scratch::new(&self.window);
-        let mut ahead_k = None;
-        let offsets = ahead.offsets();
-        // Mass and visits with the layers' border, so that a move's flow out of a row's
-        // cells lands side by side (moves off the window carry none).
-        let padded = ahead.values.len();
-        let (mut mass, mut moved) = (vec![0.0; padded], vec![0.0; padded]);
-        let mut visits = vec![0.0; padded];
-        // Each move's flow out of each cell summed over the steps, move m's at
-        // m · padded + the cell's position: the incidence follows from it at the end.
-        let mut flows = vec![0.0; 8 * padded];
-        let (origin, goal) = (ahead.at(self.window.index(start)), ahead.at(self.goal));
-        mass[origin] = 1.0;
-        visits[origin] = 1.0;
-        let mut totals = vec![0.0; width as usize];
-        // Once the layer ahead is the settled one the policy does not depend on the
-        // steps left: its move probabilities are computed once, row by row.
-        let mut settled_policy: Option<(Rect, Vec<f64>)> = None;
-        // A row's move probabilities, move by move.
-        let mut probabilities = vec![0.0; 8 * width as usize];
-        let weights_of = |cells: &std::ops::Range<usize>| -> [&[f64]; 8] {
-            std::array::from_fn(|m| &self.weight[m * n..][cells.clone()])
         };
-        for (taken, left) in (1..=steps).rev().enumerate() {
-            let stationary = left > self.settled;
-            let want_ahead = (left - 1).min(self.settled);
-            if ahead_k != Some(want_ahead) {
-                let layer = self.layer(want_ahead);
-                ahead.load(layer.rect, self.data(layer));
-                ahead_k = Some(want_ahead);
-            }
-            if stationary && settled_policy.is_none() {
-                let rect = self.layer(left).rect;
-                let mut p = vec![0.0; rect.len() * 8];
-                for (cells, p) in rect.rows(width).zip(p.chunks_exact_mut(8 * rect.cols())) {
-                    let neighbours = offsets.map(|offset| ahead.row(&cells, offset));
-                    move_probabilities_row(
-                        weights_of(&cells),
-                        neighbours,
-                        &mut totals[..cells.len()],
-                        p,
-                    );
-                }
-                settled_policy = Some((rect, p));
-            }
-            let policy = settled_policy.as_ref().filter(|_| stationary);
-            // Mass after `taken` steps lies within `taken` moves of the start, and after
-            // this step within one more, on cells from which the goal is still in reach
-            // (Z_left−1 > 0): only there do `moved` and `visits` change, and only there
-            // does the next step read its mass.
-            let reach = Rect::ball(&self.window, start, taken + 1).intersect(self.region(left - 1));
-            for row in reach.rows(width) {
-                let first = ahead.at(row.start);
-                moved[first..first + row.len()].fill(0.0);
-            }
-            let cells = Rect::ball(&self.window, start, taken).intersect(self.region(left));
-            for row in cells.rows(width) {
-                // The row's cells that hold mass to move, from the first to the last (a
-                // scan of the row's mass, side by side in memory).
-                let row_mass = &mass[ahead.at(row.start)..][..row.len()];
-                let holds = |(i, &m): (usize, &f64)| {
-                    (m >= NEGLIGIBLE_MASS && row.start + i != self.goal).then_some(i)
-                };
-                let Some(first) = row_mass.iter().enumerate().find_map(holds) else {
-                    continue;
-                };
-                let last = row_mass
+        // Z_left−1, the partition functions ahead of a step with `left` steps left.
+        let mut ahead = Scratch::new(&self.window);
+        let offsets = ahead.offsets();
+        // The forward partition functions (the summed weight of the paths from the start
+        // that reach a cell after `taken` steps without having reached the goal), over
+        // 2^forward_exponent, with the layers' border: a move's arrivals from a row's
+        // cells land side by side, and moves off the window carry none.
+        let padded = ahead.values.len();
+        let (mut forward, mut arrived) = (vec![0.0; padded], vec![0.0; padded]);
+        let mut forward_exponent = 0;
+        let (mut visits, mut incidence) = (vec![0.0; padded], vec![0.0; padded]);
+        let (origin, goal) = (ahead.at(self.window.index(start)), ahead.at(self.goal));
+        forward[origin] = 1.0;
+        visits[origin] = 1.0;
+        // Each window row's columns that paths reach (empty where none): the passes
+        // read and write those alone, as far from the likely routes most cells hold
+        // nothing.
+        let rows = self.window.rows as usize;
+        let mut spans = vec![0..0; rows];
+        let (mut reached, mut next_spans) = (vec![0..0; rows], vec![0..0; rows]);
+        let (start_row, start_col) = (
+            (start.row - self.window.row0) as usize,
+            (start.col - self.window.col0) as usize,
+        );
+        if origin != goal {
+            spans[start_row] = start_col..start_col + 1;
+        }
+        let mut outgoing = vec![0.0; width as usize];
+        for left in (1..=steps).rev() {
+            let layer = self.layer(left - 1);
+            ahead.load(layer.rect, self.data(layer));
+            // A path's share of them all: its weight times Z_left−1 where it arrives,
+            // over Z_steps(start); with the scales, `forward` · Z_left−1 · `share`.
+            let share = scaled_inverse(forward_exponent + layer.exponent - z_exponent, z_start);
+            // Where the paths may arrive: the spans of the row and its two neighbours,
+            // one column wider.
+            for (r, reach) in reached.iter_mut().enumerate() {
+                let around = &spans[r.saturating_sub(1)..(r + 2).min(rows)];
+                let first = around
                     .iter()
-                    .enumerate()
-                    .rev()
-                    .find_map(holds)
-                    .unwrap_or(first);
-                let span = row.start + first..row.start + last + 1;
-                let len = span.len();
-                let probabilities = &mut probabilities[..8 * len];
-                let (row, col) = (span.start / width as usize, span.start % width as usize);
-                // The settled policy where it holds the span (it covers every cell the
-                // rest of the pass reaches); its rows are move by move over the rect's
-                // columns, as the kernel wrote them.
-                let settled = policy.filter(|(rect, _)| {
-                    (rect.r0 as usize..rect.r1 as usize).contains(&row)
-                        && rect.c0 as usize <= col
-                        && col + len <= rect.c1 as usize
-                });
-                match settled {
-                    Some((rect, settled)) => {
-                        let cols = rect.cols();
-                        let first = (row - rect.r0 as usize) * 8 * cols + col - rect.c0 as usize;
-                        for (m, out) in probabilities.chunks_exact_mut(len).enumerate() {
-                            out.copy_from_slice(&settled[first + m * cols..][..len]);
-                        }
-                    }
-                    None => {
-                        let neighbours = offsets.map(|offset| ahead.row(&span, offset));
-                        move_probabilities_row(
-                            weights_of(&span),
-                            neighbours,
-                            &mut totals[..len],
-                            probabilities,
-                        );
-                    }
-                }
-                // Mass too small to move stays put (and the goal's rests there).
-                let source = ahead.at(span.start);
-                for (i, m) in mass[source..source + len].iter_mut().enumerate() {
-                    if *m < NEGLIGIBLE_MASS || span.start + i == self.goal {
-                        for p in probabilities[i..].iter_mut().step_by(len) {
-                            *p = 0.0;
-                        }
-                    }
-                }
-                // Move by move, every cell of the span at once: each cell's flow lands
-                // on a different neighbour.
+                    .filter(|s| !s.is_empty())
+                    .map(|s| s.start)
+                    .min();
+                let last = around.iter().map(|s| s.end).max().unwrap_or(0);
+                *reach = match first {
+                    Some(first) => first.saturating_sub(1)..(last + 1).min(width as usize),
+                    None => 0..0,
+                };
+                let at = ahead.at(r * width as usize);
+                arrived[at + reach.start..at + reach.end].fill(0.0);
+            }
+            for (r, span) in spans.iter().enumerate().filter(|(_, s)| !s.is_empty()) {
+                let (source, len) = (ahead.at(r * width as usize + span.start), span.len());
+                let cells = r * width as usize + span.start..r * width as usize + span.end;
+                let outgoing = &mut outgoing[..len];
+                outgoing.fill(0.0);
+                // Move by move, every cell of the span at once: each cell's paths land on
+                // a different neighbour.
                 for (m, &offset) in offsets.iter().enumerate() {
                     let target = source.wrapping_add_signed(offset);
-                    let from = mass[source..source + len]
-                        .iter()
-                        .zip(&probabilities[m * len..(m + 1) * len]);
-                    let to = moved[target..target + len]
-                        .iter_mut()
-                        .zip(&mut flows[m * padded + source..][..len]);
-                    for ((&mass, &p), (arrived, total)) in from.zip(to) {
-                        let flow = mass * p;
-                        *arrived += flow;
-                        *total += flow;
+                    flow_row(
+                        &forward[source..source + len],
+                        &self.weight[m * n..][cells.clone()],
+                        &ahead.values[target..target + len],
+                        self.half_lengths[r][m] * share,
+                        &mut arrived[target..target + len],
+                        &mut incidence[target..target + len],
+                        outgoing,
+                    );
+                }
+                for (incidence, &out) in incidence[source..source + len].iter_mut().zip(&*outgoing)
+                {
+                    *incidence += out;
+                }
+            }
+            // Arrivals are visits; a negligible share is not moved on.
+            let mut largest = [0.0f64; 4];
+            for (r, (reach, span)) in reached.iter().zip(&mut next_spans).enumerate() {
+                let at = ahead.at(r * width as usize);
+                let cells = at + reach.start..at + reach.end;
+                arrive_row(
+                    &mut arrived[cells.clone()],
+                    &mut visits[cells.clone()],
+                    &ahead.values[cells.clone()],
+                    share,
+                    &mut largest,
+                );
+                if (at..at + width as usize).contains(&goal) {
+                    arrived[goal] = 0.0;
+                }
+                let row = &arrived[cells];
+                *span = match row.iter().position(|&a| a != 0.0) {
+                    Some(first) => {
+                        let last = row.iter().rposition(|&a| a != 0.0).unwrap_or(first);
+                        reach.start + first..reach.start + last + 1
                     }
-                }
+                    None => 0..0,
+                };
             }
-            // Arrivals are visits; mass already at the goal rests there uncounted.
-            for row in reach.rows(width) {
-                let first = ahead.at(row.start);
-                let cells = first..first + row.len();
-                for (v, &arrived) in visits[cells.clone()].iter_mut().zip(&moved[cells]) {
-                    *v += arrived;
-                }
+            std::mem::swap(&mut forward, &mut arrived);
+            std::mem::swap(&mut spans, &mut next_spans);
+            let largest = largest.into_iter().fold(0.0, f64::max);
+            if largest == 0.0 {
+                break;
             }
-            moved[goal] += mass[goal];
-            std::mem::swap(&mut mass, &mut moved);
-        }
-        // Each step's half length goes to both of its ends.
-        let mut incidence = vec![0.0; padded];
-        for (row, half_lengths) in self.half_lengths.iter().enumerate() {
-            let first = ahead.at(row * width as usize);
-            for (m, &offset) in offsets.iter().enumerate() {
-                let target = first.wrapping_add_signed(offset);
-                for i in 0..width as usize {
-                    let half = flows[m * padded + first + i] * half_lengths[m];
-                    incidence[first + i] += half;
-                    incidence[target + i] += half;
+            let drift = binary_exponent(largest);
+            if drift.abs() > DRIFT {
+                // Two exact halves: 2^−drift alone may not be a float.
+                let (half, rest) = (power_of_two(-drift / 2), power_of_two(-drift + drift / 2));
+                for (r, span) in spans.iter().enumerate() {
+                    let at = ahead.at(r * width as usize);
+                    forward[at + span.start..at + span.end]
+                        .iter_mut()
+                        .for_each(|a| *a = *a * half * rest);
                 }
+                forward_exponent += drift;
             }
         }
         // Without the border.
@@ -830,7 +809,11 @@ impl StepCosts<'_> {
     /// The step from `x` (in window row `row`) by move `m` to its neighbour `y`.
     #[inline(always)]
     fn cost(&self, x: usize, row: usize, m: usize, y: usize) -> f64 {
-        self.row_lengths[row][m] * 0.5 * (self.priced[x] + self.priced[y])
+        step_cost(
+            self.row_lengths[row][m] * 0.5,
+            self.priced[x],
+            self.priced[y],
+        )
     }
 
     /// h: the least cost from each window cell to `goal` (index), by Dijkstra backwards
@@ -863,6 +846,12 @@ impl StepCosts<'_> {
         }
         least
     }
+}
+
+/// A step's cost: half its length times the sum of its two cells' prices.
+#[inline(always)]
+fn step_cost(half_length: f64, from: f64, to: f64) -> f64 {
+    half_length * (from + to)
 }
 
 /// The move back of each of `MOVES`.

@@ -176,7 +176,9 @@ impl RegressionTree {
 /// Up to `bins − 1` split candidates: midpoints between distinct quantiles.
 fn bin_edges(values: impl Iterator<Item = f64>, bins: usize) -> Vec<f64> {
     let mut sorted: Vec<f64> = values.filter(|v| v.is_finite()).collect();
-    sorted.sort_by(f64::total_cmp);
+    // Values equal under the total order have the same bits: a stable sort would put
+    // nothing in another order.
+    sorted.sort_unstable_by(f64::total_cmp);
     sorted.dedup();
     if sorted.len() <= 1 {
         return Vec::new();
