@@ -118,16 +118,6 @@ impl Window {
         (r >= 0 && c >= 0 && r < self.rows as i64 && c < cols).then(|| (r * cols + c) as usize)
     }
 
-    /// The moves out of the cell at window row `r`, column `c` that stay in the window,
-    /// with the neighbour each reaches (no division, for the loops over every cell).
-    fn moves_from(&self, r: usize, c: usize) -> impl Iterator<Item = (usize, usize)> {
-        let (rows, cols) = (self.rows as isize, self.cols as isize);
-        MOVES.iter().enumerate().filter_map(move |(m, &(dr, dc))| {
-            let (r, c) = (r as isize + dr as isize, c as isize + dc as isize);
-            (r >= 0 && c >= 0 && r < rows && c < cols).then(|| (m, (r * cols + c) as usize))
-        })
-    }
-
     /// The window's neighbour of `index` by move `m`, with the move's length.
     #[cfg(test)]
     fn step(&self, index: usize, m: usize, lengths: &StepLengths) -> Option<(usize, f64)> {
@@ -305,20 +295,31 @@ impl Scratch {
         &self.values[first..first + cells.len()]
     }
 
-    /// Hold the layer of `rect` and `data` instead, touching only the two layers' cells.
-    fn load(&mut self, rect: Rect, mut data: &[f64]) {
+    /// The values of window indices `cells` (one row's), to write.
+    fn row_mut(&mut self, cells: &std::ops::Range<usize>) -> &mut [f64] {
+        let first = self.at(cells.start);
+        &mut self.values[first..first + cells.len()]
+    }
+
+    /// Hold a layer on `rect` instead, its rows to be written with `row_mut`: the old
+    /// layer's cells are cleared.
+    fn begin(&mut self, rect: Rect) {
         let width = self.cols as u32;
         for row in self.rect.rows(width) {
             let first = self.at(row.start);
             self.values[first..first + row.len()].fill(0.0);
         }
-        for row in rect.rows(width) {
+        self.rect = rect;
+    }
+
+    /// Hold the layer of `rect` and `data` instead, touching only the two layers' cells.
+    fn load(&mut self, rect: Rect, mut data: &[f64]) {
+        self.begin(rect);
+        for row in rect.rows(self.cols as u32) {
             let (this, rest) = data.split_at(row.len());
-            let first = self.at(row.start);
-            self.values[first..first + row.len()].copy_from_slice(this);
+            self.row_mut(&row).copy_from_slice(this);
             data = rest;
         }
-        self.rect = rect;
     }
 }
 
@@ -500,7 +501,8 @@ impl SoftGoal {
     #[inline(always)]
     fn backward_rows(&mut self) {
         let (width, n) = (self.window.cols, self.window.len());
-        let mut previous = Scratch::new(&self.window);
+        // Z_k−1 and Z_k with the layers' border, swapped after each layer.
+        let (mut previous, mut current) = (Scratch::new(&self.window), Scratch::new(&self.window));
         let offsets = previous.offsets();
         // Room for every layer up to the horizon, so that growing never copies them
         // (room a settled pass leaves unused is never touched).
@@ -514,19 +516,20 @@ impl SoftGoal {
             exponent: 0,
         });
         let mut exponent = 0;
-        let mut row = vec![0.0; width as usize];
         for k in 1..=self.horizon {
             let rect = self.region(k);
             let mut changed = false;
             let start = self.memory.len();
             // The goal's Z stays 1 (paths end there), in the previous layer's scale.
             let at_goal = power_of_two(-exponent);
+            // Summed straight into the layer's bordered copy, which the next layer reads,
+            // and appended from there: the layers' memory is written once, never
+            // cleared first.
+            current.begin(rect);
             for cells in rect.rows(width) {
-                // Summed in a row's scratch (in the first level of cache) and appended:
-                // the layers' memory is written once, never cleared first.
-                let out = &mut row[..cells.len()];
                 let weights = std::array::from_fn(|m| &self.weight[m * n..][cells.clone()]);
                 let ahead = offsets.map(|offset| previous.row(&cells, offset));
+                let out = current.row_mut(&cells);
                 partition_row(weights, ahead, out);
                 if cells.contains(&self.goal) {
                     out[self.goal - cells.start] = at_goal;
@@ -551,10 +554,11 @@ impl SoftGoal {
                 // Two exact halves: 2^−drift alone may not be a float.
                 let (half, rest) = (power_of_two(-drift / 2), power_of_two(-drift + drift / 2));
                 data.iter_mut().for_each(|z| *z = *z * half * rest);
+                current.load(rect, data);
                 exponent += drift;
                 changed = true;
             }
-            previous.load(rect, data);
+            std::mem::swap(&mut previous, &mut current);
             self.layers.push(Layer {
                 rect,
                 start,
@@ -806,45 +810,59 @@ struct StepCosts<'a> {
 }
 
 impl StepCosts<'_> {
-    /// The step from `x` (in window row `row`) by move `m` to its neighbour `y`.
-    #[inline(always)]
-    fn cost(&self, x: usize, row: usize, m: usize, y: usize) -> f64 {
-        step_cost(
-            self.row_lengths[row][m] * 0.5,
-            self.priced[x],
-            self.priced[y],
-        )
-    }
-
     /// h: the least cost from each window cell to `goal` (index), by Dijkstra backwards
     /// from the goal (∞ where there is no way). Each cell's h is the least of its steps'
     /// sums, whatever order the queue pops cells of equal keys.
     fn cost_to_goal(&self, goal: usize, mut open: impl MinQueue) -> Vec<f64> {
-        let n = self.window.len();
-        let cols = self.window.cols as usize;
-        let mut least = vec![f64::INFINITY; n];
-        let mut done = vec![false; n];
-        least[goal] = 0.0;
-        open.push(0.0, goal as u32);
+        let (rows, cols) = (self.window.rows as usize, self.window.cols as usize);
+        // The prices with a border of ∞ round the window, so that a cell's eight
+        // neighbours lie at fixed offsets without bounds tests (steps onto the border
+        // cost ∞ and are never taken).
+        let stride = cols + 2;
+        let mut priced = vec![f64::INFINITY; (rows + 2) * stride];
+        for (r, row) in self.priced.chunks_exact(cols).enumerate() {
+            priced[(r + 1) * stride + 1..][..cols].copy_from_slice(row);
+        }
+        let at = |x: usize| (x / cols + 1) * stride + x % cols + 1;
+        let offsets = MOVES.map(|(dr, dc)| dr as isize * stride as isize + dc as isize);
+        // For a cell of window row r, half the length of the step into it from its
+        // neighbour by move `back` (0 from off the window's rows), as `cost` has it.
+        let halves: Vec<[f64; 8]> = (0..rows)
+            .map(|r| {
+                std::array::from_fn(|back| {
+                    let from = r.checked_add_signed(MOVES[back].0 as isize);
+                    match from.filter(|&from| from < rows) {
+                        Some(from) => self.row_lengths[from][OPPOSITE[back]] * 0.5,
+                        None => 0.0,
+                    }
+                })
+            })
+            .collect();
+        let mut least = vec![f64::INFINITY; priced.len()];
+        let mut done = vec![false; priced.len()];
+        least[at(goal)] = 0.0;
+        open.push(0.0, at(goal) as u32);
         while let Some(y) = open.pop() {
             let y = y as usize;
             if std::mem::replace(&mut done[y], true) {
                 continue;
             }
-            let to_goal = least[y];
-            let (row, col) = (y / cols, y % cols);
-            for (back, x) in self.window.moves_from(row, col) {
-                // x reaches y by the move opposite to `back`.
-                let m = OPPOSITE[back];
-                let through =
-                    self.cost(x, (row as isize + MOVES[back].0 as isize) as usize, m, y) + to_goal;
+            let (to_goal, price) = (least[y], priced[y]);
+            let halves = &halves[y / stride - 1];
+            for (&offset, &half) in offsets.iter().zip(halves) {
+                // x reaches y by the move opposite to this one.
+                let x = y.wrapping_add_signed(offset);
+                let through = step_cost(half, priced[x], price) + to_goal;
                 if !done[x] && through < least[x] {
                     open.decrease(x as u32, least[x], through);
                     least[x] = through;
                 }
             }
         }
-        least
+        // Without the border.
+        (0..rows)
+            .flat_map(|r| least[(r + 1) * stride + 1..][..cols].iter().copied())
+            .collect()
     }
 }
 
