@@ -35,13 +35,13 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::metrics::{Agreement, evaluate_example, summarize};
-use super::model::{CostLink, LogCostModel, WeakLearner};
+use super::model::{CostLink, LogCostModel, TreeSums, WeakLearner};
 use super::soft_paths::{SoftGoal, Window, path_incidence};
 use crate::error::first_error_in_order;
 use crate::features::{distance_transform, is_distance, scale_in_cells};
 use crate::grid::{Cell, CellPath, FeatureStack, GeoRef, Grid};
 use crate::learn::{Candidates, RegressionTree, RidgeAccumulator, TreeConfig};
-use crate::plan::{Moves, StepLengths, dijkstra, loss_augmented, path_cost, shortest_path};
+use crate::plan::{Moves, StepLengths, augmented_cost, dijkstra, path_cost, shortest_path};
 
 /// The most MaxEnt's log-cost may change on any cell in one round.
 const MAXENT_LOG_COST_STEP: f64 = 10.0;
@@ -424,12 +424,67 @@ pub struct TrainedMember {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ExampleStatistics {
     data: RidgeAccumulator,
-    points: Vec<(Vec<f64>, f64, f64)>,
+    points: TreePoints,
     direction: Vec<f64>,
     /// The demonstration's steps, which MMP and MaxEnt divide their steps by.
     steps: usize,
     loss: f64,
     disagreeing_cells: usize,
+}
+
+/// One example's points for a round's regression tree: its cells' scaled features,
+/// stored column by column as the tree bins them, and each cell's target and weight.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+struct TreePoints {
+    /// Feature `j` of point `i` at `j * targets.len() + i`.
+    columns: Vec<f64>,
+    targets: Vec<f64>,
+    weights: Vec<f64>,
+}
+
+impl TreePoints {
+    /// The points at `cells` (row-major indices into `stack`'s map), features scaled
+    /// as `model` scales them.
+    fn of(
+        model: &LogCostModel,
+        stack: &FeatureStack,
+        cells: &[usize],
+        targets: Vec<f64>,
+        weights: Vec<f64>,
+    ) -> Self {
+        let mut columns = Vec::with_capacity(stack.dim() * cells.len());
+        for (plane, scale) in stack.planes().zip(&model.scale) {
+            columns.extend(cells.iter().map(|&i| f64::from(plane[i]) / scale));
+        }
+        TreePoints {
+            columns,
+            targets,
+            weights,
+        }
+    }
+
+    fn len(&self) -> usize {
+        self.targets.len()
+    }
+
+    /// Every example's points together, column by column, in example order.
+    fn concatenated(all: &[&TreePoints], dims: usize) -> TreePoints {
+        let rows: usize = all.iter().map(|p| p.len()).sum();
+        let mut columns = vec![0.0; dims * rows];
+        (columns.par_chunks_mut(rows.max(1)).enumerate()).for_each(|(j, column)| {
+            let mut at = 0;
+            for points in all {
+                let n = points.len();
+                column[at..at + n].copy_from_slice(&points.columns[j * n..(j + 1) * n]);
+                at += n;
+            }
+        });
+        TreePoints {
+            columns,
+            targets: all.iter().flat_map(|p| &p.targets).copied().collect(),
+            weights: all.iter().flat_map(|p| &p.weights).copied().collect(),
+        }
+    }
 }
 
 /// Per cell of the example's map, the share of the learned cost its loss takes off:
@@ -500,7 +555,30 @@ impl CompactShares {
         }
     }
 
+    /// The loss-augmented costmap: each cell's cost less `loss` times its share of
+    /// it, floored at `LOSS_FLOOR` (row by row: the stored spans, and the full share
+    /// of 1 on either side, in loops that vectorise).
+    fn augmented(&self, costs: &Grid<f32>, loss: f32) -> Grid<f32> {
+        let mut data = Vec::with_capacity(costs.data.len());
+        // A share of 1: loss · 1 · c is loss · c to the bit.
+        let full = |c: f32| augmented_cost(c, loss * c, LOSS_FLOOR);
+        for (row, (first, stored)) in costs.data.chunks(self.width.max(1)).zip(&self.rows) {
+            let shares = &self.values[stored.clone()];
+            let first = if shares.is_empty() { row.len() } else { *first };
+            let (before, rest) = row.split_at(first);
+            let (span, after) = rest.split_at(shares.len());
+            data.extend(before.iter().map(|&c| full(c)));
+            data.extend(
+                (span.iter().zip(shares))
+                    .map(|(&c, &share)| augmented_cost(c, loss * share * c, LOSS_FLOOR)),
+            );
+            data.extend(after.iter().map(|&c| full(c)));
+        }
+        Grid::from_vec(costs.geo.clone(), data)
+    }
+
     /// Every cell's share, in cell order: the dense vector this was made from.
+    #[cfg(test)]
     fn iter(&self) -> impl Iterator<Item = f32> + '_ {
         self.rows.iter().flat_map(move |(first, stored)| {
             let (before, after) = if stored.is_empty() {
@@ -708,6 +786,8 @@ impl<F: FnMut(&Progress)> MemberRun<'_, '_, F> {
         for learner in learners {
             self.model.push(learner);
         }
+        // The trees' part of each map's costmap, from round to round.
+        let mut tree_sums = vec![TreeSums::default(); stacks.len()];
         let mut best: Option<(f64, usize)> = None;
         let improves =
             |best: Option<(f64, usize)>, agreement: f64| best.is_none_or(|(b, _)| agreement > b);
@@ -729,7 +809,9 @@ impl<F: FnMut(&Progress)> MemberRun<'_, '_, F> {
             }
             let statistics = match (&mut self.remote, self.prepared) {
                 (Some(remote), _) => remote(&self.model)?,
-                (None, Some(prepared)) => prepared.plan(&self.model, stacks, config)?,
+                (None, Some(prepared)) => {
+                    prepared.plan_growing(&self.model, stacks, config, &mut tree_sums)?
+                }
                 (None, None) => unreachable!("examples are prepared when planned here"),
             };
             if statistics.len() != training.len() {
@@ -745,9 +827,15 @@ impl<F: FnMut(&Progress)> MemberRun<'_, '_, F> {
             self.progress.learners.push(round.learner.clone());
             self.model.push(round.learner);
             let model = &self.model;
+            let costmaps: Vec<Grid<f32>> = match holdout.is_empty() && validation.is_empty() {
+                true => Vec::new(),
+                false => (stacks.iter().zip(&mut tree_sums))
+                    .map(|(s, sums)| model.costmap_growing(s, sums))
+                    .collect(),
+            };
             let agreement_on = |examples: &[Example]| {
                 (!examples.is_empty())
-                    .then(|| evaluate(model, stacks, map_names, examples, references))
+                    .then(|| evaluate_on(&costmaps, map_names, examples, references))
                     .transpose()
                     .map(|e| e.map(|evaluations| summarize(&evaluations)))
             };
@@ -865,13 +953,26 @@ impl PreparedExamples {
         stacks: &[FeatureStack],
         config: &LearchConfig,
     ) -> Result<Vec<ExampleStatistics>, String> {
+        let mut sums = vec![TreeSums::default(); stacks.len()];
+        self.plan_growing(model, stacks, config, &mut sums)
+    }
+
+    /// [`PreparedExamples::plan`] with each map's trees' sums kept in `sums` (one per
+    /// stack) from the rounds before, for a model that grows round by round.
+    pub fn plan_growing(
+        &self,
+        model: &LogCostModel,
+        stacks: &[FeatureStack],
+        config: &LearchConfig,
+        sums: &mut [TreeSums],
+    ) -> Result<Vec<ExampleStatistics>, String> {
         // Each map's costmap once, for the maps these examples use.
         let mut used = vec![false; stacks.len()];
         for ex in &self.examples {
             used[ex.map] = true;
         }
-        let costmaps: Vec<Option<Grid<f32>>> = (stacks.par_iter().zip(&used))
-            .map(|(s, &used)| used.then(|| model.costmap(s)))
+        let costmaps: Vec<Option<Grid<f32>>> = (stacks.iter().zip(&used).zip(sums))
+            .map(|((s, &used), sums)| used.then(|| model.costmap_growing(s, sums)))
             .collect();
         // Taken longest first, one example a task; returned in example order.
         let mut statistics: Vec<(usize, Result<ExampleStatistics, String>)> = self
@@ -974,16 +1075,18 @@ pub fn fit_round(
         }
         (GridMethod::Learch | GridMethod::Maxent, _) => {
             let dims = model.feature_names.len();
-            let points = statistics.iter().flat_map(|g| &g.points);
-            let (mut x, mut y, mut w) = (Vec::new(), Vec::new(), Vec::new());
-            for (row, target, weight) in points {
-                x.extend_from_slice(row);
-                y.push(*target);
-                w.push(*weight);
-            }
+            let all: Vec<&TreePoints> = statistics.iter().map(|g| &g.points).collect();
+            let points = TreePoints::concatenated(&all, dims);
             let (candidates, gains) =
                 split_candidates(&model.feature_names, stacks, config, t, member);
-            let tree = RegressionTree::fit_on(&x, dims, &y, &w, &config.tree, &candidates, &gains);
+            let tree = RegressionTree::fit_on(
+                &points.columns,
+                &points.targets,
+                &points.weights,
+                &config.tree,
+                &candidates,
+                &gains,
+            );
             WeakLearner::tree(step, tree)
         }
     };
@@ -1199,7 +1302,17 @@ pub fn evaluate(
     examples: &[Example],
     references: Option<&[Grid<f32>]>,
 ) -> Result<Vec<super::ExampleEvaluation>, String> {
-    let costmaps: Vec<Grid<f32>> = stacks.par_iter().map(|s| model.costmap(s)).collect();
+    let costmaps: Vec<Grid<f32>> = stacks.iter().map(|s| model.costmap(s)).collect();
+    evaluate_on(&costmaps, map_names, examples, references)
+}
+
+/// [`evaluate`] on the model's `costmaps`, one per map.
+fn evaluate_on(
+    costmaps: &[Grid<f32>],
+    map_names: &[String],
+    examples: &[Example],
+    references: Option<&[Grid<f32>]>,
+) -> Result<Vec<super::ExampleEvaluation>, String> {
     let evaluations = examples
         .par_iter()
         .map(|ex| {
@@ -1287,11 +1400,7 @@ fn planned_gradient(
         *visits.entry(geo.index(cell)).or_default() -= 1;
     }
     let augmented = if loss > 0.0 {
-        // The loss off the demonstration, as a share of each cell's cost.
-        let per_cell: Vec<f32> = (shares.iter().zip(&costs.data))
-            .map(|(share, &cost)| loss as f32 * share * cost)
-            .collect();
-        std::borrow::Cow::Owned(loss_augmented(costs, &per_cell, LOSS_FLOOR))
+        std::borrow::Cow::Owned(shares.augmented(costs, loss as f32))
     } else {
         std::borrow::Cow::Borrowed(costs)
     };
@@ -1313,7 +1422,7 @@ fn planned_gradient(
         *visits.entry(geo.index(cell)).or_default() += 1;
     }
     let mut data = RidgeAccumulator::new(stack.dim());
-    let mut points = Vec::new();
+    let (mut point_cells, mut targets, mut weights) = (Vec::new(), Vec::new(), Vec::new());
     let mut direction = Vec::new();
     let mut raw = vec![0.0f32; stack.dim()];
     let mut x = vec![0.0; stack.dim()];
@@ -1334,22 +1443,22 @@ fn planned_gradient(
             if difference.abs() < SHARED_STEPS {
                 continue;
             }
-            stack.cell_into(i, &mut raw);
-            model.scaled(&raw, &mut x);
             let (target, weight) = (difference.signum(), difference.abs());
-            match config.weak_learner {
-                WeakLearnerKind::Ridge => data.add(&x, target, weight),
-                WeakLearnerKind::Tree => points.push((x.clone(), target, weight)),
-                WeakLearnerKind::Alternate => {
-                    data.add(&x, target, weight);
-                    points.push((x.clone(), target, weight));
-                }
+            if config.weak_learner != WeakLearnerKind::Tree {
+                stack.cell_into(i, &mut raw);
+                model.scaled(&raw, &mut x);
+                data.add(&x, target, weight);
+            }
+            if config.weak_learner != WeakLearnerKind::Ridge {
+                point_cells.push(i);
+                targets.push(target);
+                weights.push(weight);
             }
         }
     }
     Ok(ExampleStatistics {
         data,
-        points,
+        points: TreePoints::of(model, stack, &point_cells, targets, weights),
         direction,
         steps: steps(&ex.path),
         loss: ((demo_cost - route.cost) / demo_cost.max(f64::MIN_POSITIVE)).max(0.0),
@@ -1427,20 +1536,15 @@ fn maxent_gradient(
             (geo.index(window.cell(i)), difference * cost_at(i))
         })
         .collect();
-    let mut points = Vec::new();
+    let mut points = TreePoints::default();
     if config.weak_learner != WeakLearnerKind::Ridge {
         // The functional gradient, as LEARCH's points: its sign the target, its size
         // the weight (cells whose share is negligible left out).
-        let mut raw = vec![0.0f32; stack.dim()];
-        let mut x = vec![0.0; stack.dim()];
-        for &(i, g) in &gradient {
-            if g.abs() < MAXENT_TREE_MIN_WEIGHT {
-                continue;
-            }
-            stack.cell_into(i, &mut raw);
-            model.scaled(&raw, &mut x);
-            points.push((x.clone(), g.signum(), g.abs()));
-        }
+        let kept = || (gradient.iter()).filter(|(_, g)| g.abs() >= MAXENT_TREE_MIN_WEIGHT);
+        let cells: Vec<usize> = kept().map(|&(i, _)| i).collect();
+        let targets = kept().map(|(_, g)| g.signum()).collect();
+        let weights = kept().map(|(_, g)| g.abs()).collect();
+        points = TreePoints::of(model, stack, &cells, targets, weights);
     }
     let direction = weighted_features(model, stack, gradient.into_iter());
     let demo_cost = path_cost(costs, &ex.path);
@@ -1974,6 +2078,27 @@ mod tests {
         let compact = CompactShares::new(&dense, width);
         assert_eq!(compact.values.len(), 1 + 1 + 3 + 5);
         assert_eq!(compact.iter().collect::<Vec<_>>(), dense);
+        // Augmented row by row as the dense shares augment every cell, blocked and
+        // free cells included.
+        let geo = GeoRef::square(width as u32, 5, 1.0, [0.0, 0.0], "m");
+        let data = (0..25)
+            .map(|i| match i {
+                7 => f32::INFINITY,
+                13 => 0.0,
+                _ => 0.37 * i as f32 + 0.01,
+            })
+            .collect();
+        let costs = Grid::from_vec(geo, data);
+        let loss = 0.3f32;
+        let per_cell: Vec<f32> = (dense.iter().zip(&costs.data))
+            .map(|(&share, &cost)| loss * share * cost)
+            .collect();
+        let dense_augmented = crate::plan::loss_augmented(&costs, &per_cell, LOSS_FLOOR);
+        let bits = |g: &Grid<f32>| g.data.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+        assert_eq!(
+            bits(&compact.augmented(&costs, loss)),
+            bits(&dense_augmented)
+        );
     }
 
     #[test]

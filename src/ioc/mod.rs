@@ -16,4 +16,4 @@ pub use learch::{
     train_with,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
-pub use model::{CostLink, LogCostModel, WeakLearner};
+pub use model::{CostLink, LogCostModel, TreeSums, WeakLearner};

@@ -3,6 +3,7 @@
 //! exp (LEARCH, MaxEnt: costs stay positive whatever s is) or 1 + s floored at a small
 //! positive cost (MMP's linear cost).
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::grid::{FeatureStack, Grid};
@@ -201,26 +202,59 @@ impl LogCostModel {
     /// Evaluates link(s) on every cell of a feature stack, plane by plane (the same
     /// sum, in the same order, as `log_cost`).
     pub fn costmap(&self, stack: &FeatureStack) -> Grid<f32> {
-        let mut log_cost = vec![0.0f64; stack.geo.cell_count()];
-        for (&w, plane) in self.raw_weights.iter().zip(stack.planes()) {
-            for (s, &f) in log_cost.iter_mut().zip(plane) {
-                *s += f64::from(f) * w;
-            }
-        }
-        if self.trees().next().is_some() {
-            let (mut raw, mut x) = (vec![0.0f32; stack.dim()], vec![0.0; stack.dim()]);
-            for (i, s) in log_cost.iter_mut().enumerate() {
-                stack.cell_into(i, &mut raw);
-                self.scaled(&raw, &mut x);
-                *s += self
-                    .trees()
-                    .map(|(step, tree)| step * tree.predict(&x))
-                    .sum::<f64>();
-            }
-        }
-        let data = log_cost.iter().map(|&s| self.link.cost(s) as f32).collect();
-        Grid::from_vec(stack.geo.clone(), data)
+        self.costmap_growing(stack, &mut TreeSums::default())
     }
+
+    /// [`LogCostModel::costmap`] with the trees' part of s kept in `sums` between calls:
+    /// the trees `sums` has not seen are added to it, the others are not evaluated again.
+    /// `sums` must come from earlier calls on this stack with the models this one grew
+    /// from by [`LogCostModel::push`] (a boosting run's rounds), or be new.
+    pub fn costmap_growing(&self, stack: &FeatureStack, sums: &mut TreeSums) -> Grid<f32> {
+        let cells = stack.geo.cell_count();
+        let new_trees: Vec<(f64, &RegressionTree)> = self.trees().skip(sums.trees).collect();
+        if sums.values.len() != cells {
+            debug_assert_eq!(sums.trees, 0, "tree sums of another stack");
+            sums.values = vec![0.0; cells];
+        }
+        sums.trees += new_trees.len();
+        let mut costs = vec![0.0f32; cells];
+        // Blocks of cells in parallel: every cell's sum is added in the same order
+        // whatever the threads.
+        (costs.par_chunks_mut(COSTMAP_BLOCK))
+            .zip(sums.values.par_chunks_mut(COSTMAP_BLOCK))
+            .enumerate()
+            .for_each(|(block, (costs, tree_sums))| {
+                let first = block * COSTMAP_BLOCK;
+                let mut log_cost = vec![0.0f64; costs.len()];
+                for (&w, plane) in self.raw_weights.iter().zip(stack.planes()) {
+                    for (s, &f) in log_cost.iter_mut().zip(&plane[first..]) {
+                        *s += f64::from(f) * w;
+                    }
+                }
+                for (k, tree_sum) in tree_sums.iter_mut().enumerate() {
+                    let scaled = |j: usize| f64::from(stack.plane(j)[first + k]) / self.scale[j];
+                    for (step, tree) in &new_trees {
+                        *tree_sum += step * tree.predict_by(scaled);
+                    }
+                }
+                for ((cost, s), tree_sum) in costs.iter_mut().zip(&log_cost).zip(&*tree_sums) {
+                    *cost = self.link.cost(s + tree_sum) as f32;
+                }
+            });
+        Grid::from_vec(stack.geo.clone(), costs)
+    }
+}
+
+/// Cells a task of [`LogCostModel::costmap`] evaluates.
+const COSTMAP_BLOCK: usize = 4096;
+
+/// The trees' part of a model's log-cost on every cell of one feature stack, summed
+/// over its first `trees` trees: what [`LogCostModel::costmap_growing`] keeps between
+/// the rounds of a boosting run, which add one tree at a time.
+#[derive(Debug, Clone, Default)]
+pub struct TreeSums {
+    trees: usize,
+    values: Vec<f64>,
 }
 
 #[cfg(test)]
@@ -241,5 +275,56 @@ mod tests {
             .map(|l| l.step * (l.weights[0] * z[0] + l.weights[1] * z[1]))
             .sum();
         assert!((model.log_cost(&raw) - by_learners).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_growing_costmap_is_the_costmap_to_the_bit() {
+        use crate::grid::GeoRef;
+        use crate::learn::TreeConfig;
+        // 9000 cells: more than one block of cells.
+        let geo = GeoRef::square(100, 90, 1.0, [0.0, 0.0], "m");
+        let cells = geo.cell_count();
+        let wave = |i: usize, k: f64| ((i as f64) * k).sin() as f32;
+        let data = (0..cells)
+            .map(|i| wave(i, 0.37))
+            .chain((0..cells).map(|i| wave(i, 0.011)));
+        let stack = FeatureStack {
+            geo,
+            names: vec!["a".into(), "b".into()],
+            data: data.collect(),
+        };
+        let mut model = LogCostModel::zero(stack.names.clone(), vec![1.5, 0.5]);
+        let mut sums = TreeSums::default();
+        for round in 0..6 {
+            // Trees and ridge steps in turn, each on another target.
+            let learner = if round % 2 == 0 {
+                let columns: Vec<f64> = (stack.data.iter().map(|&f| f64::from(f))).collect();
+                let targets: Vec<f64> = (0..cells)
+                    .map(|i| f64::from(wave(i, 0.05 * round as f64 + 0.1)))
+                    .collect();
+                let config = TreeConfig::default();
+                let tree = RegressionTree::fit_on(
+                    &columns,
+                    &targets,
+                    &vec![1.0; cells],
+                    &config,
+                    &[crate::learn::Candidates::Binned; 2],
+                    &[1.0; 2],
+                );
+                WeakLearner::tree(0.3, tree)
+            } else {
+                WeakLearner::ridge(0.2, vec![0.4, -1.0 / round as f64])
+            };
+            model.push(learner);
+            let bits = |g: &Grid<f32>| g.data.iter().map(|c| c.to_bits()).collect::<Vec<_>>();
+            let grown = model.costmap_growing(&stack, &mut sums);
+            let fresh = model.costmap(&stack);
+            assert_eq!(bits(&grown), bits(&fresh), "round {round}");
+            let cell = 4321;
+            let mut raw = [0.0f32; 2];
+            stack.cell_into(cell, &mut raw);
+            let direct = model.link.cost(model.log_cost(&raw)) as f32;
+            assert!((fresh.data[cell] - direct).abs() <= 1e-6 * direct);
+        }
     }
 }

@@ -77,6 +77,12 @@ impl RegressionTree {
     }
 
     pub fn predict(&self, row: &[f64]) -> f64 {
+        self.predict_by(|j| row[j])
+    }
+
+    /// [`RegressionTree::predict`] with feature `j`'s value `value(j)`, read only for
+    /// the features the path through the tree tests.
+    pub fn predict_by(&self, value: impl Fn(usize) -> f64) -> f64 {
         let mut node = &self.root;
         loop {
             match node {
@@ -87,7 +93,7 @@ impl RegressionTree {
                     left,
                     right,
                 } => {
-                    node = if row[*feature] <= *threshold {
+                    node = if value(*feature) <= *threshold {
                         left
                     } else {
                         right
@@ -105,10 +111,14 @@ impl RegressionTree {
         weights: &[f64],
         config: &TreeConfig,
     ) -> RegressionTree {
+        let rows = targets.len();
+        debug_assert_eq!(features.len(), rows * dims);
+        let columns: Vec<f64> = (0..dims)
+            .flat_map(|j| (0..rows).map(move |i| features[i * dims + j]))
+            .collect();
         let candidates = vec![Candidates::Binned; dims];
         Self::fit_on(
-            features,
-            dims,
+            &columns,
             targets,
             weights,
             config,
@@ -117,12 +127,13 @@ impl RegressionTree {
         )
     }
 
-    /// [`RegressionTree::fit`] with each feature's split thresholds as `candidates`
-    /// says and its splits' gains times its factor in `gain_factors` (1 for a
-    /// feature split on freely).
+    /// [`RegressionTree::fit`] on features stored column by column (`columns`: one
+    /// feature's values of every row after another's, a feature for each of
+    /// `candidates`), with each feature's split thresholds as `candidates` says and its
+    /// splits' gains times its factor in `gain_factors` (1 for a feature split on
+    /// freely).
     pub fn fit_on(
-        features: &[f64],
-        dims: usize,
+        columns: &[f64],
         targets: &[f64],
         weights: &[f64],
         config: &TreeConfig,
@@ -130,31 +141,25 @@ impl RegressionTree {
         gain_factors: &[f64],
     ) -> RegressionTree {
         let rows = targets.len();
-        debug_assert_eq!(features.len(), rows * dims);
-        debug_assert_eq!(candidates.len(), dims);
-        debug_assert_eq!(gain_factors.len(), dims);
+        debug_assert_eq!(columns.len(), rows * candidates.len());
+        debug_assert_eq!(gain_factors.len(), candidates.len());
+        let column = |j: usize| &columns[j * rows..(j + 1) * rows];
         // A feature with no split candidates is never split on. Columns are sorted and
         // binned in parallel: on the terrain learners they are most of a round's serial
         // work, between the examples' parallel passes.
-        let edges: Vec<Vec<f64>> = (0..dims)
-            .into_par_iter()
-            .map(|j| {
-                let column = (0..rows).map(|i| features[i * dims + j]);
-                match candidates[j] {
-                    Candidates::Unused => Vec::new(),
-                    Candidates::Binned => bin_edges(column, config.bins),
-                    Candidates::Exact => bin_edges(column, usize::from(u16::MAX)),
-                }
+        let edges: Vec<Vec<f64>> = (candidates.par_iter().enumerate())
+            .map(|(j, candidates)| match candidates {
+                Candidates::Unused => Vec::new(),
+                Candidates::Binned => bin_edges(column(j), config.bins),
+                Candidates::Exact => bin_edges(column(j), usize::from(u16::MAX)),
             })
             .collect();
         // Bin index of every value, column by column (none for a feature never split on).
-        let binned: Vec<Vec<u16>> = edges
-            .par_iter()
-            .enumerate()
+        let binned: Vec<Vec<u16>> = (edges.par_iter().enumerate())
             .map(|(j, edges)| match edges.is_empty() {
                 true => Vec::new(),
-                false => (0..rows)
-                    .map(|i| edges.partition_point(|&e| e < features[i * dims + j]) as u16)
+                false => (column(j).iter())
+                    .map(|&v| edges.partition_point(|&e| e < v) as u16)
                     .collect(),
             })
             .collect();
@@ -174,11 +179,15 @@ impl RegressionTree {
 }
 
 /// Up to `bins − 1` split candidates: midpoints between distinct quantiles.
-fn bin_edges(values: impl Iterator<Item = f64>, bins: usize) -> Vec<f64> {
-    let mut sorted: Vec<f64> = values.filter(|v| v.is_finite()).collect();
-    // Values equal under the total order have the same bits: a stable sort would put
-    // nothing in another order.
-    sorted.sort_unstable_by(f64::total_cmp);
+fn bin_edges(values: &[f64], bins: usize) -> Vec<f64> {
+    // Sorted as integers in f64's total order (equal keys are equal bits, so no order
+    // of equals is lost), a third the time of comparing the floats.
+    let mut keys: Vec<u64> = (values.iter())
+        .filter(|v| v.is_finite())
+        .map(|&v| total_order_key(v))
+        .collect();
+    keys.sort_unstable();
+    let mut sorted: Vec<f64> = keys.into_iter().map(from_total_order_key).collect();
     sorted.dedup();
     if sorted.len() <= 1 {
         return Vec::new();
@@ -193,6 +202,23 @@ fn bin_edges(values: impl Iterator<Item = f64>, bins: usize) -> Vec<f64> {
         .collect();
     edges.dedup();
     edges
+}
+
+/// An integer whose order is `f64::total_cmp`'s: negative values' bits flipped,
+/// positive values' sign bit set.
+fn total_order_key(v: f64) -> u64 {
+    let bits = v.to_bits();
+    match bits >> 63 {
+        1 => !bits,
+        _ => bits | 1 << 63,
+    }
+}
+
+fn from_total_order_key(key: u64) -> f64 {
+    f64::from_bits(match key >> 63 {
+        1 => key & !(1 << 63),
+        _ => !key,
+    })
 }
 
 struct Fitter<'a> {
@@ -336,8 +362,9 @@ mod tests {
             ..TreeConfig::default()
         };
         let root_feature = |gains: [f64; 2]| {
+            let columns = by_column(&x, 2);
             let tree =
-                RegressionTree::fit_on(&x, 2, &y, &w, &config, &[Candidates::Binned; 2], &gains);
+                RegressionTree::fit_on(&columns, &y, &w, &config, &[Candidates::Binned; 2], &gains);
             match tree.root {
                 Node::Split { feature, .. } => feature,
                 Node::Leaf { .. } => panic!("no split"),
@@ -347,6 +374,44 @@ mod tests {
         // Damped a little, the better feature still wins; damped much, it loses.
         assert_eq!(root_feature([1.0, 0.95]), 1);
         assert_eq!(root_feature([1.0, 0.3]), 0);
+    }
+
+    /// Row-major features, `dims` wide, column by column.
+    fn by_column(rows: &[f64], dims: usize) -> Vec<f64> {
+        (0..dims)
+            .flat_map(|j| rows.iter().skip(j).step_by(dims).copied())
+            .collect()
+    }
+
+    #[test]
+    fn total_order_keys_sort_as_total_cmp_and_round_trip() {
+        let mut values = vec![
+            0.0,
+            -0.0,
+            1.0,
+            -1.0,
+            f64::MIN_POSITIVE,
+            -f64::MIN_POSITIVE,
+            5e-324,
+            -5e-324,
+            f64::MAX,
+            f64::MIN,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            0.1,
+            -2.5e10,
+        ];
+        for &v in &values {
+            assert_eq!(
+                from_total_order_key(total_order_key(v)).to_bits(),
+                v.to_bits()
+            );
+        }
+        let mut by_keys = values.clone();
+        by_keys.sort_unstable_by_key(|&v| total_order_key(v));
+        values.sort_by(f64::total_cmp);
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&by_keys), bits(&values));
     }
 
     fn uses(node: &Node, feature: usize) -> bool {
@@ -377,8 +442,7 @@ mod tests {
         let free = RegressionTree::fit(&x, 2, &y, &w, &config);
         assert!(uses(&free.root, 0));
         let held = RegressionTree::fit_on(
-            &x,
-            2,
+            &by_column(&x, 2),
             &y,
             &w,
             &config,
@@ -398,20 +462,13 @@ mod tests {
             max_depth: 1,
             ..TreeConfig::default()
         };
-        let threshold = |candidates| match RegressionTree::fit_on(
-            &x,
-            1,
-            &y,
-            &w,
-            &config,
-            &[candidates],
-            &[1.0],
-        )
-        .root
-        {
-            Node::Split { threshold, .. } => threshold,
-            Node::Leaf { .. } => panic!("no split"),
-        };
+        let threshold =
+            |candidates| match RegressionTree::fit_on(&x, &y, &w, &config, &[candidates], &[1.0])
+                .root
+            {
+                Node::Split { threshold, .. } => threshold,
+                Node::Leaf { .. } => panic!("no split"),
+            };
         assert_eq!(threshold(Candidates::Exact), 3.5);
         assert!(threshold(Candidates::Binned) > 4.0);
     }

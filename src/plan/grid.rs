@@ -74,9 +74,19 @@ pub fn loss_augmented(costs: &Grid<f32>, loss: &[f32], floor: f32) -> Grid<f32> 
         .data
         .iter()
         .zip(loss)
-        .map(|(&c, &l)| if passable(c) { (c - l).max(floor) } else { c })
+        .map(|(&c, &l)| augmented_cost(c, l, floor))
         .collect();
     Grid::from_vec(costs.geo.clone(), data)
+}
+
+/// One cell of [`loss_augmented`]: `cost` less `loss`, floored at `floor` where passable.
+#[inline]
+pub fn augmented_cost(cost: f32, loss: f32, floor: f32) -> f32 {
+    if passable(cost) {
+        (cost - loss).max(floor)
+    } else {
+        cost
+    }
 }
 
 /// How many times the paths visit each cell (row-major).

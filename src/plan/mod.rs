@@ -12,8 +12,8 @@ mod relax;
 mod steps;
 
 pub use grid::{
-    Connectivity, CostField, GridPlanner, Moves, Route, astar, cost_to_go, dijkstra, edge_cost,
-    loss_augmented, path_cost, shortest_path, visitation,
+    Connectivity, CostField, GridPlanner, Moves, Route, astar, augmented_cost, cost_to_go,
+    dijkstra, edge_cost, loss_augmented, path_cost, shortest_path, visitation,
 };
 pub use mdp::{Backup, TabularMdp, Values, value_iteration, value_iteration_from};
 pub use relax::RowSteps;
