@@ -10,7 +10,7 @@ use std::sync::Mutex;
 
 use imitate::Error;
 use imitate::grid::{Cell, FeatureStack, GeoRef, Grid};
-use imitate::ioc::{ExampleStatistics, LearchConfig, LogCostModel, PreparedExamples};
+use imitate::ioc::{ExampleStatistics, LearchConfig, LogCostModel, PreparedExamples, TreeSums};
 use imitate::plan::{Connectivity, GridPlanner, Moves, unit_step_metres};
 use imitate::stage::StageReport;
 use imitate::stage::ingest::{IngestParams, LogPart};
@@ -286,6 +286,8 @@ struct LearchShard {
     stacks: Vec<FeatureStack>,
     prepared: PreparedExamples,
     config: LearchConfig,
+    /// Each map's trees' part of the costmap, kept from round to round.
+    tree_sums: Mutex<Vec<TreeSums>>,
 }
 
 #[pymethods]
@@ -301,6 +303,7 @@ impl LearchShard {
         let examples = inputs.training[start..stop].to_vec();
         let prepared = py.detach(|| PreparedExamples::new(&inputs.stacks, examples, &config));
         Ok(LearchShard {
+            tree_sums: Mutex::new(vec![TreeSums::default(); inputs.stacks.len()]),
             stacks: inputs.stacks,
             prepared,
             config,
@@ -313,7 +316,15 @@ impl LearchShard {
         let model: LogCostModel =
             serde_json::from_str(model).map_err(|e| UsageError::new_err(format!("model: {e}")))?;
         let statistics = py
-            .detach(|| self.prepared.plan(&model, &self.stacks, &self.config))
+            .detach(|| {
+                // A plan that panicked may have left its sums half added: start again.
+                let mut sums = self.tree_sums.lock().unwrap_or_else(|poisoned| {
+                    let mut sums = poisoned.into_inner();
+                    sums.fill(TreeSums::default());
+                    sums
+                });
+                (self.prepared).plan_growing(&model, &self.stacks, &self.config, &mut sums)
+            })
             .map_err(ImitateError::new_err)?;
         serde_json::to_string(&statistics)
             .map_err(|e| ImitateError::new_err(format!("statistics: {e}")))

@@ -205,18 +205,24 @@ impl LogCostModel {
         self.costmap_growing(stack, &mut TreeSums::default())
     }
 
-    /// [`LogCostModel::costmap`] with the trees' part of s kept in `sums` between calls:
-    /// the trees `sums` has not seen are added to it, the others are not evaluated again.
-    /// `sums` must come from earlier calls on this stack with the models this one grew
-    /// from by [`LogCostModel::push`] (a boosting run's rounds), or be new.
+    /// [`LogCostModel::costmap`] with the trees' part of s kept in `sums` between calls
+    /// on one stack: where this model's first trees are those `sums` holds (a boosting
+    /// run's next round), only the others are evaluated and added; otherwise `sums`
+    /// starts again from this model's trees.
     pub fn costmap_growing(&self, stack: &FeatureStack, sums: &mut TreeSums) -> Grid<f32> {
         let cells = stack.geo.cell_count();
-        let new_trees: Vec<(f64, &RegressionTree)> = self.trees().skip(sums.trees).collect();
-        if sums.values.len() != cells {
-            debug_assert_eq!(sums.trees, 0, "tree sums of another stack");
-            sums.values = vec![0.0; cells];
+        let trees: Vec<(f64, &RegressionTree)> = self.trees().collect();
+        let extends = sums.values.len() == cells
+            && sums.trees.len() <= trees.len()
+            && (sums.trees.iter().zip(&trees))
+                .all(|((a, ta), (b, tb))| a.to_bits() == b.to_bits() && ta == *tb);
+        if !extends {
+            *sums = TreeSums {
+                trees: Vec::new(),
+                values: vec![0.0; cells],
+            };
         }
-        sums.trees += new_trees.len();
+        let new_trees = &trees[sums.trees.len()..];
         let mut costs = vec![0.0f32; cells];
         // Blocks of cells in parallel: every cell's sum is added in the same order
         // whatever the threads.
@@ -233,7 +239,7 @@ impl LogCostModel {
                 }
                 for (k, tree_sum) in tree_sums.iter_mut().enumerate() {
                     let scaled = |j: usize| f64::from(stack.plane(j)[first + k]) / self.scale[j];
-                    for (step, tree) in &new_trees {
+                    for (step, tree) in new_trees {
                         *tree_sum += step * tree.predict_by(scaled);
                     }
                 }
@@ -241,6 +247,8 @@ impl LogCostModel {
                     *cost = self.link.cost(s + tree_sum) as f32;
                 }
             });
+        // Recorded once their terms are in the sums.
+        (sums.trees).extend(new_trees.iter().map(|&(step, tree)| (step, tree.clone())));
         Grid::from_vec(stack.geo.clone(), costs)
     }
 }
@@ -249,11 +257,11 @@ impl LogCostModel {
 const COSTMAP_BLOCK: usize = 4096;
 
 /// The trees' part of a model's log-cost on every cell of one feature stack, summed
-/// over its first `trees` trees: what [`LogCostModel::costmap_growing`] keeps between
-/// the rounds of a boosting run, which add one tree at a time.
+/// over `trees` (each with its step): what [`LogCostModel::costmap_growing`] keeps
+/// between the rounds of a boosting run, which add one tree at a time.
 #[derive(Debug, Clone, Default)]
 pub struct TreeSums {
-    trees: usize,
+    trees: Vec<(f64, RegressionTree)>,
     values: Vec<f64>,
 }
 
@@ -320,6 +328,12 @@ mod tests {
             let grown = model.costmap_growing(&stack, &mut sums);
             let fresh = model.costmap(&stack);
             assert_eq!(bits(&grown), bits(&fresh), "round {round}");
+            // A model that does not extend the sums' (another member's, a contrast)
+            // starts them again.
+            let other = model.with_contrast(0.5);
+            let mut reused = sums.clone();
+            let other_grown = other.costmap_growing(&stack, &mut reused);
+            assert_eq!(bits(&other_grown), bits(&other.costmap(&stack)));
             let cell = 4321;
             let mut raw = [0.0f32; 2];
             stack.cell_into(cell, &mut raw);
