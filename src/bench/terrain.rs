@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::ioc_methods::{
@@ -64,6 +65,22 @@ pub enum Teacher {
     /// linearly to 9 times the cheapest at its 90th percentile. The window is the
     /// teacher's, not the bank's: the bank's spreads are over fixed windows.
     Texture,
+    /// One band alone (the middle one: bands ÷ 2, counting from 0): 6 times the
+    /// cheapest above its 65th percentile, a level the bank marks on no layer.
+    Band,
+    /// Inflation, as a planner's costmap inflates its obstacles: 7 times the cheapest
+    /// on the brightness's darkest fifth, falling off as e^(−d / 4 cells) with the
+    /// ground distance d from it. Neither the quantile nor the fall-off is the bank's.
+    Inflation,
+    /// Bright and steep at once: the `slope` teacher's ramp of the brightness's
+    /// gradient, times 8, only above its median brightness (a product of two causes).
+    Interaction,
+    /// A regional cost: the brightness blurred over 6 cells on the ground, free up to
+    /// its median and rising linearly to 9 times the cheapest at its 90th percentile.
+    Regional,
+    /// A sum of two causes, as a costmap sums its layers: 3 above the 80th percentile
+    /// of the brightness, plus 3 times the `slope` teacher's ramp of its gradient.
+    Sum,
 }
 
 /// The texture teacher's window, in cells: odd, 5 to 21, drawn from the seed.
@@ -89,7 +106,9 @@ pub struct TerrainArgs {
     /// GeoTIFF rasters (every band a layer).
     #[arg(required = true, value_name = "RASTER")]
     pub rasters: Vec<PathBuf>,
-    /// Teachers to run (repeat the flag); default: every one but `classes`.
+    /// Teachers to run (repeat the flag); default: the first eight, `threshold` to
+    /// `texture` (`classes`, `band`, `inflation`, `interaction`, `regional` and `sum`
+    /// on request).
     #[arg(long = "teacher", value_enum)]
     pub teachers: Vec<Teacher>,
     /// Methods to run (repeat the flag): learch-ridge, learch-tree, learch-alternate,
@@ -192,6 +211,7 @@ fn pooled(map: Map, cells: u32) -> Map {
         .map(|layer| {
             let classes = layer.classes().is_some();
             let values = (0..pw * ph)
+                .into_par_iter()
                 .map(|i| {
                     let (r, c) = (i / pw, i % pw);
                     let block = (r * factor..((r + 1) * factor).min(h)).flat_map(|rr| {
@@ -301,6 +321,21 @@ fn cells_to(
     distance
 }
 
+/// The gradient magnitude of the brightness `z` per metre, as its rank between its
+/// median (0) and 90th percentile (1), clamped to [0, 1].
+fn steepness_ramp(map: &Map, z: &[f32]) -> Vec<f32> {
+    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    let mut steepness = vec![0.0; z.len()];
+    let spacing = map.geo.cell_metres_by_row();
+    gradient(z, w, h, &spacing, false, &mut steepness);
+    let (s50, s90) = (quantile(&steepness, 0.5), quantile(&steepness, 0.9));
+    let span = (s90 - s50).max(f32::EPSILON);
+    steepness
+        .iter()
+        .map(|&s| ((s - s50) / span).clamp(0.0, 1.0))
+        .collect()
+}
+
 /// The teacher's cost per cell: ≥ 1 on data cells, 12 on cells without data.
 fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
     let (w, h) = (map.geo.width as usize, map.geo.height as usize);
@@ -382,18 +417,11 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
                 )
             })
             .collect(),
-        Teacher::Slope => {
-            let mut steepness = vec![0.0; z.len()];
-            let spacing = map.geo.cell_metres_by_row();
-            gradient(&z, w, h, &spacing, false, &mut steepness);
-            let (s50, s90) = (quantile(&steepness, 0.5), quantile(&steepness, 0.9));
-            let span = (s90 - s50).max(f32::EPSILON);
-            steepness
-                .iter()
-                .zip(&z)
-                .map(|(&s, &v)| data(v, 1.0 + 8.0 * ((s - s50) / span).clamp(0.0, 1.0).powi(2)))
-                .collect()
-        }
+        Teacher::Slope => steepness_ramp(map, &z)
+            .iter()
+            .zip(&z)
+            .map(|(&s, &v)| data(v, 1.0 + 8.0 * s.powi(2)))
+            .collect(),
         Teacher::Shore => {
             let q10 = quantile(&z, 0.1);
             let distance = cells_to(&z, |v| v < q10, w, h, sides);
@@ -410,6 +438,49 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
             let mut spread = vec![0.0; z.len()];
             local_std(&filled, w, h, texture_window(seed), &mut spread);
             ramp(&spread)
+        }
+        Teacher::Band => {
+            let band = &map.layers[map.layers.len() / 2].values;
+            let q65 = quantile(band, 0.65);
+            band.iter()
+                .zip(&z)
+                .map(|(&b, &v)| data(v, 1.0 + 5.0 * f32::from(b > q65)))
+                .collect()
+        }
+        Teacher::Inflation => {
+            let q20 = quantile(&z, 0.2);
+            let distance = cells_to(&z, |v| v < q20, w, h, sides);
+            z.iter()
+                .zip(&distance)
+                .map(|(&v, &d)| data(v, 1.0 + 6.0 * (-d / 4.0).exp()))
+                .collect()
+        }
+        Teacher::Interaction | Teacher::Sum => {
+            let steep = steepness_ramp(map, &z);
+            let q80 = quantile(&z, 0.8);
+            steep
+                .iter()
+                .zip(&z)
+                .map(|(&s, &v)| {
+                    let cost = if teacher == Teacher::Interaction {
+                        1.0 + 8.0 * s * f32::from(v > q50)
+                    } else {
+                        1.0 + 3.0 * f32::from(v > q80) + 3.0 * s
+                    };
+                    data(v, cost)
+                })
+                .collect()
+        }
+        Teacher::Regional => {
+            let filled: Vec<f32> = z
+                .iter()
+                .map(|&v| if v.is_nan() { q50 } else { v })
+                .collect();
+            let mut mean = vec![0.0; filled.len()];
+            // σ of 6 mean sides on the ground, in cells per axis.
+            let sigma = sides.map(|side| 6.0 / side);
+            gaussian_blur(&filled, w, h, sigma, &mut mean);
+            ramp(&mean)
         }
         Teacher::Classes => {
             let codes = class_codes(map, &z);
@@ -493,6 +564,11 @@ fn teacher_name(teacher: Teacher) -> &'static str {
         Teacher::Shore => "shore",
         Teacher::Classes => "classes",
         Teacher::Texture => "texture",
+        Teacher::Band => "band",
+        Teacher::Inflation => "inflation",
+        Teacher::Interaction => "interaction",
+        Teacher::Regional => "regional",
+        Teacher::Sum => "sum",
     }
 }
 
@@ -848,6 +924,77 @@ mod tests {
         }
         assert_eq!(cost[cy * w + cx + 4], 7.0);
         assert_eq!(cost[(cy + 3) * w + cx], 1.0);
+    }
+
+    #[test]
+    fn the_inflation_teacher_falls_off_from_the_darkest_fifth() {
+        // Brightness 0..100 along a strip: the darkest fifth is its first 20 cells
+        // (cost 7), and a cell k cells beyond it costs 1 + 6 e^(−k/4).
+        let map = strip(100, 1);
+        let cost = teacher_cost(&map, Teacher::Inflation, 7);
+        let dark = (0..100)
+            .filter(|&i| map.layers[0].values[i] < quantile(&map.layers[0].values, 0.2))
+            .count();
+        assert!((19..=21).contains(&dark), "{dark} dark cells");
+        assert!(cost[..dark].iter().all(|&c| c == 7.0), "{cost:?}");
+        for k in 1..20 {
+            let expected = 1.0 + 6.0 * (-(k as f32) / 4.0).exp();
+            assert!(
+                (cost[dark - 1 + k] - expected).abs() < 1e-5,
+                "{k}: {cost:?}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_band_teacher_reads_the_middle_band_alone() {
+        // Three bands: the first and last rise along the strip, the middle one falls,
+        // so the dear cells are the first 35, where the middle band is above its 65th
+        // percentile.
+        let mut map = strip(100, 1);
+        let rising = map.layers[0].values.clone();
+        let falling: Vec<f32> = rising.iter().map(|v| 99.0 - v).collect();
+        map.layers = vec![
+            Layer::new("band1", rising.clone()),
+            Layer::new("band2", falling),
+            Layer::new("band3", rising),
+        ];
+        let cost = teacher_cost(&map, Teacher::Band, 7);
+        let dear = cost.iter().take_while(|&&c| c == 6.0).count();
+        assert!((33..=36).contains(&dear), "{cost:?}");
+        assert!(cost[dear..].iter().all(|&c| c == 1.0), "{cost:?}");
+    }
+
+    #[test]
+    fn steep_and_bright_teachers_multiply_or_add_their_causes() {
+        // A ramp whose slope doubles halfway: steep only on its bright half, so the
+        // product is dear there alone; the sum also charges the brightest fifth.
+        let mut map = strip(100, 1);
+        for (i, v) in map.layers[0].values.iter_mut().enumerate() {
+            *v = if i < 50 {
+                i as f32
+            } else {
+                50.0 + 2.0 * (i - 50) as f32
+            };
+        }
+        let product = teacher_cost(&map, Teacher::Interaction, 7);
+        let sum = teacher_cost(&map, Teacher::Sum, 7);
+        assert!(product[..49].iter().all(|&c| c == 1.0), "{product:?}");
+        assert!(product[60..99].iter().all(|&c| c == 9.0), "{product:?}");
+        assert!(sum[..49].iter().all(|&c| c == 1.0), "{sum:?}");
+        assert!(sum[60..80].iter().all(|&c| c == 4.0), "{sum:?}");
+        assert!(sum[81..99].iter().all(|&c| c == 7.0), "{sum:?}");
+    }
+
+    #[test]
+    fn the_regional_teacher_follows_the_blurred_brightness() {
+        // On a strip the blur keeps a ramp's order (but at its ends): free on the
+        // dark half, dearest on the bright tenth, rising between.
+        let map = strip(100, 1);
+        let cost = teacher_cost(&map, Teacher::Regional, 7);
+        assert!(cost[10..45].iter().all(|&c| c == 1.0), "{cost:?}");
+        assert!(cost[92..].iter().all(|&c| c == 9.0), "{cost:?}");
+        assert!(cost[55..88].windows(2).all(|p| p[0] < p[1]), "{cost:?}");
     }
 
     #[test]

@@ -20,6 +20,7 @@
 use std::io::Cursor;
 use std::path::Path;
 
+use rayon::prelude::*;
 use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
@@ -475,22 +476,26 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
                     ((f64::from(v) * scale + offset) * heights) as f32
                 }
             };
-            for row in 0..height as usize {
-                let source_row = if north_up {
-                    height as usize - 1 - row
-                } else {
-                    row
-                };
-                for col in 0..width as usize {
-                    let v = values[sample(band, source_row, col)];
-                    layer[row * width as usize + col] =
-                        if is_nodata(v) || is_masked(band, source_row, col) {
+            // Rows in parallel: a large raster's cells are a few seconds on one core,
+            // and the fresh pages they land on are cleared by whichever core writes.
+            layer
+                .par_chunks_mut(width as usize)
+                .enumerate()
+                .for_each(|(row, cells)| {
+                    let source_row = if north_up {
+                        height as usize - 1 - row
+                    } else {
+                        row
+                    };
+                    for (col, cell) in cells.iter_mut().enumerate() {
+                        let v = values[sample(band, source_row, col)];
+                        *cell = if is_nodata(v) || is_masked(band, source_row, col) {
                             f32::NAN
                         } else {
                             physical(v)
                         };
-                }
-            }
+                    }
+                });
             // Infinities (a ratio's division by zero) are no measurement of the ground:
             // nodata, as NaN is.
             let infinite = layer.iter().filter(|v| v.is_infinite()).count();

@@ -4,6 +4,7 @@
 
 use std::io::{Read, Seek};
 
+use rayon::prelude::*;
 use tiff::decoder::{Decoder, DecodingResult};
 use tiff::tags::Tag;
 
@@ -113,18 +114,23 @@ fn to_f32(
 ) -> Result<Vec<f32>, String> {
     Ok(match decoded {
         DecodingResult::U8(v) if bits < 8 => unpack(&v, bits, width * depth, rows)?,
-        DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::U64(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::I64(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::F16(v) => v.into_iter().map(f32::from).collect(),
+        DecodingResult::U8(v) => widened(&v, f32::from),
+        DecodingResult::U16(v) => widened(&v, f32::from),
+        DecodingResult::U32(v) => widened(&v, |x| x as f32),
+        DecodingResult::U64(v) => widened(&v, |x| x as f32),
+        DecodingResult::I8(v) => widened(&v, f32::from),
+        DecodingResult::I16(v) => widened(&v, f32::from),
+        DecodingResult::I32(v) => widened(&v, |x| x as f32),
+        DecodingResult::I64(v) => widened(&v, |x| x as f32),
+        DecodingResult::F16(v) => widened(&v, f32::from),
         DecodingResult::F32(v) => v,
-        DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
+        DecodingResult::F64(v) => widened(&v, |x| x as f32),
     })
+}
+
+/// Samples converted to `f32` in parallel (a large image's hundreds of millions).
+fn widened<T: Copy + Sync>(samples: &[T], convert: impl Fn(T) -> f32 + Sync) -> Vec<f32> {
+    samples.par_iter().map(|&x| convert(x)).collect()
 }
 
 /// `rows` rows of `per_row` unsigned samples of `bits` bits each (1 to 32: GDAL's
