@@ -10,18 +10,7 @@ use std::path::{Path, PathBuf};
 
 /// A 5 x 4 costmap of ones with a wall in column 2, open only in the top row.
 fn walled(dir: &std::path::Path) -> std::path::PathBuf {
-    let geo = GeoRef {
-        width: 5,
-        height: 4,
-        resolution: 2.0,
-        resolution_y: None,
-        origin: [10.0, 20.0],
-        frame: "map".into(),
-        degrees: false,
-        web_mercator: false,
-        ground_scale: None,
-        tiff_crs: None,
-    };
+    let geo = GeoRef::square(5, 4, 2.0, [10.0, 20.0], "map");
     let mut costs = Grid::filled(geo, 1.0f32);
     for row in 0..3 {
         costs.set(imitate::grid::Cell::new(row, 2), f32::INFINITY);
@@ -163,18 +152,7 @@ fn output_into_a_closed_pipe_ends_quietly() {
 #[test]
 fn unreachable_goals_fail_with_exit_code_1() {
     let dir = tempfile::tempdir().unwrap();
-    let geo = GeoRef {
-        width: 3,
-        height: 1,
-        resolution: 1.0,
-        resolution_y: None,
-        origin: [0.0, 0.0],
-        frame: "map".into(),
-        degrees: false,
-        web_mercator: false,
-        ground_scale: None,
-        tiff_crs: None,
-    };
+    let geo = GeoRef::unit(3, 1);
     let costs = Grid::from_vec(geo, vec![1.0, f32::INFINITY, 1.0]);
     write_costmap(&dir.path().join("walled.parquet"), "cut", &costs).unwrap();
     let out = plan(dir.path(), &["--cells", "--start", "0,0", "--goal", "0,2"]);

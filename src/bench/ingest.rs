@@ -39,18 +39,7 @@ const SECOND: u64 = 1_000_000_000;
 /// /odom, until the file holds `megabytes`. Grid cells are random occupancies (0–100,
 /// with 5 % unknown), which zstd cannot shrink much: the file size is mostly grid bytes.
 fn generate(path: &Path, megabytes: u64) -> Result<()> {
-    let geo = GeoRef {
-        width: GRID,
-        height: GRID,
-        resolution: 0.05,
-        resolution_y: None,
-        origin: [-12.8, -12.8],
-        frame: "map".into(),
-        degrees: false,
-        web_mercator: false,
-        ground_scale: None,
-        tiff_crs: None,
-    };
+    let geo = GeoRef::square(GRID, GRID, 0.05, [-12.8, -12.8], "map");
     let mut rng = ChaCha8Rng::seed_from_u64(0);
     // zstd takes about 17 % off random occupancies: write enough grids for the size.
     let grids = (megabytes * 1_000_000).div_ceil(u64::from(GRID * GRID) * 83 / 100);

@@ -1027,18 +1027,7 @@ mod tests {
     fn map() -> Map {
         Map {
             name: "m".into(),
-            geo: GeoRef {
-                width: 2,
-                height: 1,
-                resolution: 1.0,
-                resolution_y: None,
-                origin: [0.0, 0.0],
-                frame: "map".into(),
-                degrees: false,
-                web_mercator: false,
-                ground_scale: None,
-                tiff_crs: None,
-            },
+            geo: GeoRef::unit(2, 1),
             layers: vec![
                 Layer::new("a", vec![1.0, 2.0]),
                 Layer::new("b", vec![3.0, 4.0]),

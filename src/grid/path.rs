@@ -79,18 +79,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn geo(w: u32, h: u32) -> GeoRef {
-        GeoRef {
-            width: w,
-            height: h,
-            resolution: 1.0,
-            resolution_y: None,
-            origin: [0.0, 0.0],
-            frame: "map".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        }
+        GeoRef::unit(w, h)
     }
 
     #[test]

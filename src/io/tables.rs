@@ -787,18 +787,7 @@ mod tests {
     use crate::grid::{Cell, Pose};
 
     fn geo() -> GeoRef {
-        GeoRef {
-            width: 3,
-            height: 2,
-            resolution: 0.25,
-            resolution_y: None,
-            origin: [1.0, 2.0],
-            frame: "odom".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        }
+        GeoRef::square(3, 2, 0.25, [1.0, 2.0], "odom")
     }
 
     #[test]

@@ -120,18 +120,7 @@ mod tests {
 
     #[test]
     fn a_plan_along_the_demonstration_agrees_fully() {
-        let geo = GeoRef {
-            width: 8,
-            height: 8,
-            resolution: 1.0,
-            resolution_y: None,
-            origin: [0.0, 0.0],
-            frame: "m".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        };
+        let geo = GeoRef::square(8, 8, 1.0, [0.0, 0.0], "m");
         let costs = Grid::filled(geo, 1.0f32);
         let demo: Vec<Cell> = (0..8).map(|i| Cell::new(i, i)).collect();
         let e = evaluate_example("e", "m", &costs, &demo, Some(&costs)).unwrap();

@@ -416,18 +416,7 @@ mod tests {
     use crate::grid::GeoRef;
 
     fn grid(values: Vec<f32>) -> Grid<f32> {
-        let geo = GeoRef {
-            width: 3,
-            height: 1,
-            resolution: 1.0,
-            resolution_y: None,
-            origin: [0.0, 0.0],
-            frame: "m".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        };
+        let geo = GeoRef::square(3, 1, 1.0, [0.0, 0.0], "m");
         Grid::from_vec(geo, values)
     }
 

@@ -128,18 +128,7 @@ mod tests {
     use crate::grid::GeoRef;
 
     fn grid(values: Vec<f32>) -> Grid<f32> {
-        let geo = GeoRef {
-            width: 2,
-            height: 2,
-            resolution: 1.0,
-            resolution_y: None,
-            origin: [0.0, 0.0],
-            frame: "m".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        };
+        let geo = GeoRef::square(2, 2, 1.0, [0.0, 0.0], "m");
         Grid::from_vec(geo, values)
     }
 

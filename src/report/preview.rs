@@ -98,18 +98,7 @@ mod tests {
 
     #[test]
     fn north_is_up_and_paths_are_drawn() {
-        let geo = GeoRef {
-            width: 4,
-            height: 3,
-            resolution: 1.0,
-            resolution_y: None,
-            origin: [0.0, 0.0],
-            frame: "m".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        };
+        let geo = GeoRef::square(4, 3, 1.0, [0.0, 0.0], "m");
         // Cost grows to the north.
         let costs = Grid::from_vec(
             geo.clone(),

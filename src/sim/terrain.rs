@@ -114,18 +114,13 @@ pub fn generate_world(config: &WorldConfig) -> Result<SyntheticWorld, String> {
 
 fn terrain(name: &str, config: &WorldConfig, rng: &mut ChaCha8Rng) -> Map {
     let (w, h) = (config.width as usize, config.height as usize);
-    let geo = GeoRef {
-        width: config.width,
-        height: config.height,
-        resolution: config.resolution,
-        resolution_y: None,
-        origin: [0.0, 0.0],
-        frame: "map".into(),
-        degrees: false,
-        web_mercator: false,
-        ground_scale: None,
-        tiff_crs: None,
-    };
+    let geo = GeoRef::square(
+        config.width,
+        config.height,
+        config.resolution,
+        [0.0, 0.0],
+        "map",
+    );
     let height_field = fractal_noise(w, h, rng);
     let mut vegetation = fractal_noise(w, h, rng);
     let mut water: Vec<f32> = height_field.iter().map(|&e| f32::from(e < 0.3)).collect();

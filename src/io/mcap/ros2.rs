@@ -844,18 +844,7 @@ mod tests {
     }
 
     fn sample_map() -> Map {
-        let geo = GeoRef {
-            width: 5,
-            height: 3,
-            resolution: 0.5,
-            resolution_y: None,
-            origin: [10.0, -2.0],
-            frame: "map".into(),
-            degrees: false,
-            web_mercator: false,
-            ground_scale: None,
-            tiff_crs: None,
-        };
+        let geo = GeoRef::square(5, 3, 0.5, [10.0, -2.0], "map");
         let layer = |k: f32| Layer::new(format!("l{k}"), (0..15).map(|i| i as f32 * k).collect());
         Map {
             name: "m".into(),
