@@ -274,36 +274,16 @@ fn mean_of(map: &Map, layers: &[usize]) -> Vec<f32> {
 
 /// Turns the spec into named planes over the given layers; errors name what is wrong.
 fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout, String> {
-    let mut used: Vec<usize> = Vec::new();
-    let layer = |name: &str, used: &mut Vec<usize>| -> Result<usize, String> {
-        let i = map.layer_index(name).ok_or_else(|| {
-            format!(
-                "map '{}' has no layer '{name}' (it has: {})",
-                map.name,
-                map.layer_names().join(", ")
-            )
-        })?;
-        if !used.contains(&i) {
-            used.push(i);
-        }
-        Ok(i)
+    let mut out = LayoutBuilder {
+        map,
+        used: Vec::new(),
+        layout: Layout {
+            names: Vec::new(),
+            planes: Vec::new(),
+            nodata: Vec::new(),
+            derived: Vec::new(),
+        },
     };
-    let mut names: Vec<String> = Vec::new();
-    let mut planes: Vec<Plane> = Vec::new();
-    let mut derived: Vec<Vec<f32>> = Vec::new();
-    fn push(
-        name: String,
-        plane: Plane,
-        names: &mut Vec<String>,
-        planes: &mut Vec<Plane>,
-    ) -> Result<(), String> {
-        if names.contains(&name) {
-            return Err(format!("feature '{name}' is asked for twice"));
-        }
-        names.push(name);
-        planes.push(plane);
-        Ok(())
-    }
     // A layer the spec gives its own class operator keeps that one (the bank's
     // indicators would repeat its names).
     let own_classes = |name: &str| {
@@ -324,8 +304,8 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
         (None, false) => Vec::new(),
     };
     for name in &plain {
-        let i = layer(name, &mut used)?;
-        push(name.clone(), Plane::Copy(i), &mut names, &mut planes)?;
+        let i = out.layer(name)?;
+        out.push(name.clone(), Plane::Copy(i))?;
     }
     let [metres_x, metres_y] = map.geo.cell_metres();
     let diagonal_metres =
@@ -344,31 +324,24 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
     for op in bank_ops.iter().chain(&spec.ops) {
         match op {
             Op::Normalize { layer: l } => {
-                let i = layer(l, &mut used)?;
-                push(
-                    format!("{l}/robust"),
-                    Plane::Normalize(i),
-                    &mut names,
-                    &mut planes,
-                )?;
+                let i = out.layer(l)?;
+                out.push(format!("{l}/robust"), Plane::Normalize(i))?;
             }
             Op::Blur {
                 layer: l,
                 sigmas,
                 cells,
             } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 for &k in cells {
                     if !(k.is_finite() && k > 0.0) {
                         return Err(format!(
                             "blur of '{l}': sigma {k} must be a positive number of cells"
                         ));
                     }
-                    push(
+                    out.push(
                         format!("{l}/blur_{}c", format_number(k)),
                         Plane::Blur(i, [k, k]),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
                 for &sigma in sigmas {
@@ -377,72 +350,46 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                             "blur of '{l}': sigma {sigma} must be a positive number of metres"
                         ));
                     }
-                    push(
+                    out.push(
                         format!("{l}/blur_{}m", format_number(sigma)),
                         Plane::Blur(i, [sigma / metres_x, sigma / metres_y]),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
             }
             Op::Gradient { layer: l } => {
-                let i = layer(l, &mut used)?;
-                push(
-                    format!("{l}/gradient"),
-                    Plane::Gradient(i, false),
-                    &mut names,
-                    &mut planes,
-                )?;
+                let i = out.layer(l)?;
+                out.push(format!("{l}/gradient"), Plane::Gradient(i, false))?;
             }
             Op::Slope { layer: l } => {
-                let i = layer(l, &mut used)?;
-                push(
-                    format!("{l}/slope_deg"),
-                    Plane::Gradient(i, true),
-                    &mut names,
-                    &mut planes,
-                )?;
+                let i = out.layer(l)?;
+                out.push(format!("{l}/slope_deg"), Plane::Gradient(i, true))?;
             }
             Op::Roughness { layer: l, windows } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 for &w in windows {
                     check_window(l, w)?;
-                    push(
-                        format!("{l}/roughness_{w}c"),
-                        Plane::Roughness(i, w),
-                        &mut names,
-                        &mut planes,
-                    )?;
+                    out.push(format!("{l}/roughness_{w}c"), Plane::Roughness(i, w))?;
                 }
             }
             Op::Laplacian { layer: l } => {
-                let i = layer(l, &mut used)?;
-                push(
-                    format!("{l}/laplacian"),
-                    Plane::Laplacian(i),
-                    &mut names,
-                    &mut planes,
-                )?;
+                let i = out.layer(l)?;
+                out.push(format!("{l}/laplacian"), Plane::Laplacian(i))?;
             }
             Op::OneHot { layer: l, classes } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 for &c in classes {
-                    push(
+                    out.push(
                         format!("{l}/class_{}", format_number(c)),
                         Plane::Equals(i, c),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
             }
             Op::Threshold { layer: l, above } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 for &t in above {
-                    push(
+                    out.push(
                         format!("{l}/above_{}", format_number(t)),
                         Plane::Above(i, t),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
             }
@@ -454,7 +401,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 max,
                 max_cells,
             } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 let (target, label) = match (class, above, below) {
                     (Some(c), None, None) => {
                         (Target::Equals(*c), format!("class_{}", format_number(c)))
@@ -472,15 +419,14 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     }
                 };
                 let cap = distance_cap(&format!("distance on '{l}'"), *max, *max_cells)?;
-                push(
+                out.push(
                     format!("{l}/distance_to_{label}_m"),
                     Plane::Distance(i, target, cap),
-                    &mut names,
-                    &mut planes,
                 )?;
             }
             Op::Product { a, b } => {
                 let find = |n: &str| {
+                    let names = &out.layout.names;
                     names.iter().position(|x| x == n).ok_or_else(|| {
                         format!(
                             "product: no feature '{n}' before it (features so far: {})",
@@ -489,6 +435,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     })
                 };
                 let (ia, ib) = (find(a)?, find(b)?);
+                let planes = &out.layout.planes;
                 if matches!(planes[ia], Plane::Product(..))
                     || matches!(planes[ib], Plane::Product(..))
                 {
@@ -496,21 +443,11 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                         "product of '{a}' and '{b}': products of products are not supported"
                     ));
                 }
-                push(
-                    format!("{a}*{b}"),
-                    Plane::Product(ia, ib),
-                    &mut names,
-                    &mut planes,
-                )?;
+                out.push(format!("{a}*{b}"), Plane::Product(ia, ib))?;
             }
             Op::NormalizedDifference { a, b } => {
-                let (ia, ib) = (layer(a, &mut used)?, layer(b, &mut used)?);
-                push(
-                    format!("nd({a},{b})"),
-                    Plane::NormalizedDifference(ia, ib),
-                    &mut names,
-                    &mut planes,
-                )?;
+                let (ia, ib) = (out.layer(a)?, out.layer(b)?);
+                out.push(format!("nd({a},{b})"), Plane::NormalizedDifference(ia, ib))?;
             }
             Op::Brightness {
                 layers,
@@ -527,14 +464,9 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 let cap = distance_cap("brightness", None, *distance_max_cells)?;
                 let indices = layers
                     .iter()
-                    .map(|l| layer(l, &mut used))
+                    .map(|l| out.layer(l))
                     .collect::<Result<Vec<_>, _>>()?;
-                push(
-                    "brightness".into(),
-                    Plane::Brightness(indices.clone()),
-                    &mut names,
-                    &mut planes,
-                )?;
+                out.push("brightness".into(), Plane::Brightness(indices.clone()))?;
                 let distances = [
                     (Side::Above, *distance_above),
                     (Side::Below, *distance_below),
@@ -548,24 +480,17 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 }
                 // The mean (NaN where a layer has no data) as an input of its own,
                 // after the map's layers, for the gradient, indicators and distances.
-                let source = map.layers.len() + derived.len();
-                derived.push(mean_of(map, &indices));
-                let values = &derived[derived.len() - 1];
+                let source = map.layers.len() + out.layout.derived.len();
+                let mean = mean_of(map, &indices);
+                let values = &mean;
                 if *gradient {
-                    push(
-                        "brightness/gradient".into(),
-                        Plane::Gradient(source, false),
-                        &mut names,
-                        &mut planes,
-                    )?;
+                    out.push("brightness/gradient".into(), Plane::Gradient(source, false))?;
                 }
                 for &w in roughness {
                     check_window("brightness", w)?;
-                    push(
+                    out.push(
                         format!("brightness/roughness_{w}c"),
                         Plane::Roughness(source, w),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
                 for &q in quantiles.iter().chain(distance_above).chain(distance_below) {
@@ -574,29 +499,26 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     }
                 }
                 for &q in quantiles {
-                    push(
+                    out.push(
                         format!("brightness/above_{}", quantile_name(q)),
                         Plane::Above(source, quantile_of(values, q)),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
                 for (side, q) in distances {
                     let Some(q) = q else { continue };
-                    push(
+                    out.push(
                         format!(
                             "brightness/distance_to_{}_{}_m",
                             side_name(side),
                             quantile_name(q)
                         ),
                         Plane::Distance(source, Target::beyond(side, quantile_of(values, q)), cap),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
+                out.layout.derived.push(mean);
             }
             Op::Relief { layer: l, cells } | Op::Contrast { layer: l, cells } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 let what = if matches!(op, Op::Relief { .. }) {
                     "relief"
                 } else {
@@ -608,15 +530,13 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                             "{what} of '{l}': sigma {k} must be a positive number of cells"
                         ));
                     }
-                    push(
+                    out.push(
                         format!("{l}/{what}_{}c", format_number(k)),
                         if what == "relief" {
                             Plane::Relief(i, [k, k])
                         } else {
                             Plane::Contrast(i, [k, k])
                         },
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
             }
@@ -625,7 +545,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 classes,
                 shares,
             } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 for &k in shares {
                     if !(k.is_finite() && k > 0.0) {
                         return Err(format!(
@@ -635,47 +555,36 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 }
                 for &c in classes {
                     let class = format!("{l}/class_{}", format_number(c));
-                    push(class.clone(), Plane::Equals(i, c), &mut names, &mut planes)?;
+                    out.push(class.clone(), Plane::Equals(i, c))?;
                     for &k in shares {
-                        push(
+                        out.push(
                             format!("{class}/share_{}c", format_number(k)),
                             Plane::Share(i, c, [k, k]),
-                            &mut names,
-                            &mut planes,
                         )?;
                     }
-                    push(
+                    out.push(
                         format!("{l}/distance_to_class_{}_m", format_number(c)),
                         Plane::Distance(i, Target::Equals(c), diagonal_metres),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
             }
             Op::Aspect { layer: l } => {
-                let i = layer(l, &mut used)?;
-                push(
-                    format!("{l}/aspect_deg"),
-                    Plane::Aspect(i),
-                    &mut names,
-                    &mut planes,
-                )?;
+                let i = out.layer(l)?;
+                out.push(format!("{l}/aspect_deg"), Plane::Aspect(i))?;
             }
             Op::Quantile {
                 layer: l,
                 quantiles,
             } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 for &q in quantiles {
                     if !(0.0..=1.0).contains(&q) {
                         return Err(format!("quantile of '{l}': {q} is not within 0 to 1"));
                     }
                     let t = quantile_of(&map.layers[i].values, q);
-                    push(
+                    out.push(
                         format!("{l}/above_{}", quantile_name(q)),
                         Plane::Above(i, t),
-                        &mut names,
-                        &mut planes,
                     )?;
                 }
             }
@@ -686,7 +595,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 max,
                 max_cells,
             } => {
-                let i = layer(l, &mut used)?;
+                let i = out.layer(l)?;
                 let cap = distance_cap(&format!("distance of '{l}'"), *max, *max_cells)?;
                 if !(0.0..=1.0).contains(q) {
                     return Err(format!(
@@ -694,22 +603,19 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     ));
                 }
                 let t = quantile_of(&map.layers[i].values, *q);
-                push(
+                out.push(
                     format!(
                         "{l}/distance_to_{}_{}_m",
                         side_name(*side),
                         quantile_name(*q)
                     ),
                     Plane::Distance(i, Target::beyond(*side, t), cap),
-                    &mut names,
-                    &mut planes,
                 )?;
             }
         }
     }
     // Layers with no data get an indicator.
-    let mut nodata = Vec::new();
-    for &i in &used {
+    for i in out.used.clone() {
         let values = &map.layers[i].values;
         if let Some(j) = values.iter().position(|v| v.is_infinite()) {
             return Err(format!(
@@ -721,31 +627,54 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
             ));
         }
         if dataset.nodata.contains(&map.layers[i].name) || values.iter().any(|v| v.is_nan()) {
-            nodata.push(i);
-            push(
-                format!("{}/nodata", map.layers[i].name),
-                Plane::Nodata(i),
-                &mut names,
-                &mut planes,
-            )?;
+            out.layout.nodata.push(i);
+            out.push(format!("{}/nodata", map.layers[i].name), Plane::Nodata(i))?;
         }
     }
     if spec.bias {
-        push(BIAS.into(), Plane::Bias, &mut names, &mut planes)?;
+        out.push(BIAS.into(), Plane::Bias)?;
     }
-    if names.is_empty() {
+    if out.layout.names.is_empty() {
         return Err("the feature spec selects no features".into());
     }
-    Ok(Layout {
-        names,
-        planes,
-        nodata,
-        derived,
-    })
+    Ok(out.layout)
 }
 
-/// Builds the feature stack of one map; the error names what is missing or invalid.
-/// A map on its own is its own dataset ([`DatasetLayers::of`]).
+/// A `Layout` as `plan` builds it, and the map's layers it has read so far.
+struct LayoutBuilder<'a> {
+    map: &'a Map,
+    used: Vec<usize>,
+    layout: Layout,
+}
+
+impl LayoutBuilder<'_> {
+    /// The index of the map's layer `name`, noted as read.
+    fn layer(&mut self, name: &str) -> Result<usize, String> {
+        let map = self.map;
+        let i = map.layer_index(name).ok_or_else(|| {
+            format!(
+                "map '{}' has no layer '{name}' (it has: {})",
+                map.name,
+                map.layer_names().join(", ")
+            )
+        })?;
+        if !self.used.contains(&i) {
+            self.used.push(i);
+        }
+        Ok(i)
+    }
+
+    /// Adds the output plane `name`; a name asked for twice is an error.
+    fn push(&mut self, name: String, plane: Plane) -> Result<(), String> {
+        if self.layout.names.contains(&name) {
+            return Err(format!("feature '{name}' is asked for twice"));
+        }
+        self.layout.names.push(name);
+        self.layout.planes.push(plane);
+        Ok(())
+    }
+}
+
 /// A roughness window must be an odd number of cells, so that it centres on its cell.
 fn check_window(layer: &str, window: usize) -> Result<(), String> {
     if window.is_multiple_of(2) {
@@ -756,6 +685,8 @@ fn check_window(layer: &str, window: usize) -> Result<(), String> {
     Ok(())
 }
 
+/// Builds the feature stack of one map; the error names what is missing or invalid.
+/// A map on its own is its own dataset ([`DatasetLayers::of`]).
 pub fn compute(map: &Map, spec: &FeatureSpec) -> Result<FeatureStack, String> {
     compute_in_dataset(map, spec, &DatasetLayers::of(std::slice::from_ref(map)))
 }
