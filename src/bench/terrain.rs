@@ -20,7 +20,9 @@ use super::ioc_methods::{
 };
 use crate::cli::emit;
 use crate::error::{Error, Result};
-use crate::features::{Bank, FeatureSpec, compute, gaussian_blur, gradient, local_std};
+use crate::features::{
+    Bank, FeatureSpec, compute, gaussian_blur, gaussian_blur_by_row, gradient, local_std,
+};
 use crate::grid::{GeoRef, Grid, Layer, Map};
 use crate::io::geotiff::read_geotiff;
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
@@ -289,15 +291,28 @@ fn brightness(map: &Map) -> Vec<f32> {
         .collect()
 }
 
-/// A cell's sides (x, y) in units of its mean side √(dx·dy) on the ground. The
+/// A cell's sides (x, y) in units of the middle row's mean side √(dx·dy) on the
+/// ground, row by row where they change with latitude (one pair elsewhere). The
 /// teachers' neighbourhoods are round on the ground, as a real cost's are (a margin of
 /// so many metres), not in the raster's rows and columns: on cells that are not square
 /// (a geographic raster away from the equator: Rhine 0.66, Jacksboro 0.81) a radius
-/// of 3 cells spans fewer of them along their longer side.
-fn cell_sides(geo: &GeoRef) -> [f64; 2] {
+/// of 3 cells spans fewer of them along their longer side, and on a world image in
+/// degrees more columns toward the poles.
+fn cell_sides(geo: &GeoRef) -> Vec<[f64; 2]> {
     let [sx, sy] = geo.cell_metres();
     let mean = (sx * sy).sqrt();
-    [sx / mean, sy / mean]
+    geo.cell_metres_by_row()
+        .iter()
+        .map(|[x, y]| [x / mean, y / mean])
+        .collect()
+}
+
+/// A Gaussian's σ of `sides` mean sides on the ground, in cells per axis and row.
+fn sigmas_on_the_ground(sides: &[[f64; 2]], mean_sides: f64) -> Vec<[f64; 2]> {
+    sides
+        .iter()
+        .map(|side| side.map(|s| mean_sides / s))
+        .collect()
 }
 
 /// Whether a distance in mean sides is within `cells` of them; half a percent more, so
@@ -313,7 +328,7 @@ fn cells_to(
     target: impl Fn(f32) -> bool,
     w: usize,
     h: usize,
-    sides: [f64; 2],
+    sides: &[[f64; 2]],
 ) -> Vec<f32> {
     let mask: Vec<bool> = z.iter().map(|&v| target(v)).collect();
     let mut distance = vec![0.0f32; z.len()];
@@ -385,9 +400,8 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
                     .map(|&v| if v.is_nan() { q50 } else { v })
                     .collect();
                 let mut mean = vec![0.0; filled.len()];
-                // σ of 3 mean sides on the ground, in cells per axis.
-                let sigma = sides.map(|side| 3.0 / side);
-                gaussian_blur(&filled, w, h, sigma, &mut mean);
+                let sigmas = sigmas_on_the_ground(&sides, 3.0);
+                gaussian_blur_by_row(&filled, w, h, &sigmas, &mut mean);
                 filled
                     .iter()
                     .zip(&mean)
@@ -397,7 +411,7 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
             ramp(&ratio)
         }
         Teacher::Margin => {
-            let distance = cells_to(&z, |v| v > q90, w, h, sides);
+            let distance = cells_to(&z, |v| v > q90, w, h, &sides);
             z.iter()
                 .zip(&distance)
                 .map(|(&v, &d)| {
@@ -424,7 +438,7 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
             .collect(),
         Teacher::Shore => {
             let q10 = quantile(&z, 0.1);
-            let distance = cells_to(&z, |v| v < q10, w, h, sides);
+            let distance = cells_to(&z, |v| v < q10, w, h, &sides);
             z.iter()
                 .zip(&distance)
                 .map(|(&v, &d)| data(v, 1.0 + 6.0 * f32::from(within(d, 3.0))))
@@ -449,7 +463,7 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
         }
         Teacher::Inflation => {
             let q20 = quantile(&z, 0.2);
-            let distance = cells_to(&z, |v| v < q20, w, h, sides);
+            let distance = cells_to(&z, |v| v < q20, w, h, &sides);
             z.iter()
                 .zip(&distance)
                 .map(|(&v, &d)| data(v, 1.0 + 6.0 * (-d / 4.0).exp()))
@@ -477,9 +491,8 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
                 .map(|&v| if v.is_nan() { q50 } else { v })
                 .collect();
             let mut mean = vec![0.0; filled.len()];
-            // σ of 6 mean sides on the ground, in cells per axis.
-            let sigma = sides.map(|side| 6.0 / side);
-            gaussian_blur(&filled, w, h, sigma, &mut mean);
+            let sigmas = sigmas_on_the_ground(&sides, 6.0);
+            gaussian_blur_by_row(&filled, w, h, &sigmas, &mut mean);
             ramp(&mean)
         }
         Teacher::Classes => {

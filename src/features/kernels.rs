@@ -61,21 +61,29 @@ impl<T: Copy + Default> RowCache<T> {
     }
 }
 
+/// The entry of `per_row` for `row`: one entry stands for every row.
+fn of_row<T>(per_row: &[T], row: usize) -> &T {
+    &per_row[if per_row.len() == 1 { 0 } else { row }]
+}
+
 /// Separable correlation with symmetric kernels: `taps_x` along rows, then `taps_y`
-/// along columns (they differ where cells are not square).
+/// along columns (they differ where cells are not square), each one kernel for every
+/// row or one per row (where the cells' ground size changes with latitude, each output
+/// row takes its own).
 fn separable(
     input: &[f32],
     width: usize,
     height: usize,
-    taps_x: &[f32],
-    taps_y: &[f32],
+    taps_x: &[Vec<f32>],
+    taps_y: &[Vec<f32>],
     out: &mut [f32],
 ) {
-    let (r, ry) = (taps_x.len() - 1, taps_y.len() - 1);
-    let taps = taps_x;
+    let radius = |taps: &[Vec<f32>]| taps.iter().map(|t| t.len() - 1).max().unwrap_or(0);
+    let (r, ry) = (radius(taps_x), radius(taps_y));
     let mut padded = vec![0.0f32; width + 2 * r];
     let mut across_row = |row: usize, dst: &mut [f32]| {
         pad_row(&input[row * width..(row + 1) * width], r, &mut padded);
+        let taps = of_row(taps_x, row);
         // Tap by tap across the whole row, so the inner loop vectorises.
         for (d, &v) in dst.iter_mut().zip(&padded[r..r + width]) {
             *d = taps[0] * v;
@@ -92,6 +100,7 @@ fn separable(
     let mut cache = RowCache::new(width, 2 * ry + 1);
     let mut line = vec![0.0f32; width];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        let taps_y = of_row(taps_y, row);
         dst.copy_from_slice(cache.get(row, &mut across_row));
         for v in dst.iter_mut() {
             *v *= taps_y[0];
@@ -111,12 +120,32 @@ fn separable(
 /// Gaussian blur with standard deviations `[σx, σy]` in cells (kernel radius 4σ, as
 /// scipy); the two differ when a metric σ is taken on cells that are not square.
 pub fn gaussian_blur(input: &[f32], width: usize, height: usize, sigma: [f64; 2], out: &mut [f32]) {
-    let taps_x = gaussian_taps(sigma[0]);
-    let taps_y = if sigma[1] == sigma[0] {
-        taps_x.clone()
-    } else {
-        gaussian_taps(sigma[1])
-    };
+    gaussian_blur_by_row(input, width, height, &[sigma], out);
+}
+
+/// [`gaussian_blur`] with `[σx, σy]` in cells for every row (one pair for them all):
+/// a σ in metres on a raster whose cells narrow with latitude spans more of them
+/// toward the poles. Each row is blurred along itself with its own σx, and each row
+/// of the result gathers the rows around it with its own σy.
+pub fn gaussian_blur_by_row(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    sigmas: &[[f64; 2]],
+    out: &mut [f32],
+) {
+    let taps_x: Vec<Vec<f32>> = sigmas.iter().map(|s| gaussian_taps(s[0])).collect();
+    let taps_y: Vec<Vec<f32>> = sigmas
+        .iter()
+        .zip(&taps_x)
+        .map(|(s, x)| {
+            if s[1] == s[0] {
+                x.clone()
+            } else {
+                gaussian_taps(s[1])
+            }
+        })
+        .collect();
     separable(input, width, height, &taps_x, &taps_y, out);
 }
 
@@ -130,12 +159,12 @@ pub fn gaussian_blur_of_data(
     input: &[f32],
     width: usize,
     height: usize,
-    sigma: [f64; 2],
+    sigmas: &[[f64; 2]],
     fill: f32,
     out: &mut [f32],
 ) {
     if !input.iter().any(|v| v.is_nan()) {
-        return gaussian_blur(input, width, height, sigma, out);
+        return gaussian_blur_by_row(input, width, height, sigmas, out);
     }
     let values: Vec<f32> = input
         .iter()
@@ -146,8 +175,8 @@ pub fn gaussian_blur_of_data(
         .map(|&v| f32::from(u8::from(!v.is_nan())))
         .collect();
     let mut weight = vec![0.0f32; input.len()];
-    gaussian_blur(&values, width, height, sigma, out);
-    gaussian_blur(&data, width, height, sigma, &mut weight);
+    gaussian_blur_by_row(&values, width, height, sigmas, out);
+    gaussian_blur_by_row(&data, width, height, sigmas, &mut weight);
     for ((o, &w), v) in out.iter_mut().zip(&weight).zip(input) {
         *o = if v.is_nan() { fill } else { *o / w };
     }
@@ -264,15 +293,6 @@ fn difference(
     }
 }
 
-/// The cell size (x, y) in metres of row `row`: `spacing` holds one pair for every row
-/// (geographic rasters, whose cells narrow towards the poles) or one for them all.
-fn row_spacing(spacing: &[[f64; 2]], row: usize) -> [f64; 2] {
-    match spacing {
-        [one] => *one,
-        rows => rows[row],
-    }
-}
-
 /// Calls `each(dx, dy)` with the derivatives ∂z/∂x and ∂z/∂y (per metre; `spacing` is
 /// the cell size (x, y) in metres, per row or for all) of every cell, writing what it
 /// returns: the one traversal behind the gradient, slope and aspect.
@@ -286,7 +306,7 @@ fn from_derivatives(
 ) {
     let line = |r: usize| &input[r * width..(r + 1) * width];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
-        let spacing = row_spacing(spacing, row);
+        let spacing = *of_row(spacing, row);
         let (here, below, above) = (
             line(row),
             line(row.saturating_sub(1)),
@@ -367,7 +387,7 @@ pub fn laplacian(
     };
     let mut padded = vec![0.0f32; width + 2];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
-        let [sx, sy] = row_spacing(spacing, row);
+        let [sx, sy] = *of_row(spacing, row);
         let (scale, scale_y) = (1.0 / (sx * sx), 1.0 / (sy * sy));
         let here = line(row as isize);
         pad_row(here, 1, &mut padded);
@@ -399,44 +419,43 @@ pub fn laplacian(
 /// Exact Euclidean distance (metres) from every cell to the nearest target cell, by
 /// Felzenszwalb and Huttenlocher's linear-time algorithm: distances along columns,
 /// then the lower envelope of parabolas along rows. `spacing` is the cell size (x, y)
-/// in metres. Capped at `cap`, which is also the value everywhere when there is no
-/// target at all.
+/// in metres, one pair for every row or one for them all: where the cells narrow with
+/// latitude, a row's east-west lengths are its own and north-south lengths sum the
+/// rows crossed (the ground distance on the query cell's tangent plane). Capped at
+/// `cap`, which is also the value everywhere when there is no target at all.
 pub fn distance_transform(
     target: &[bool],
     width: usize,
     height: usize,
-    spacing: [f64; 2],
+    spacing: &[[f64; 2]],
     cap: f64,
     out: &mut [f32],
 ) {
-    // Column distances count rows; in units of a column's width a row is this long.
-    let row_length = spacing[1] / spacing[0];
-    let resolution = spacing[0];
-    // Pass 1: squared distance along each column, as whole-row sweeps down then up.
-    let far = f64::INFINITY;
-    let mut along = vec![far; width * height];
-    for row in 0..height {
-        for col in 0..width {
-            let i = row * width + col;
-            along[i] = if target[i] {
-                0.0
-            } else if row > 0 {
-                along[i - width] + 1.0
-            } else {
-                far
-            };
-        }
+    // Northings of the rows' centres in units of the first row's height: whole rows
+    // (exact) where every row is alike.
+    let unit = spacing[0][1];
+    let mut northing = vec![0.0f64; height];
+    for row in 1..height {
+        northing[row] = if spacing.len() == 1 {
+            row as f64
+        } else {
+            northing[row - 1] + 0.5 * (spacing[row - 1][1] + spacing[row][1]) / unit
+        };
     }
-    for row in (0..height.saturating_sub(1)).rev() {
-        for col in 0..width {
-            let i = row * width + col;
-            along[i] = along[i].min(along[i + width] + 1.0);
-        }
-    }
+    // Pass 1: distance along each column to its nearest target row, in those units,
+    // as whole-row sweeps down then up.
+    let mut along = vec![f64::INFINITY; width * height];
+    let rows = 0..height;
+    column_sweep(&mut along, target, width, &northing, rows.clone(), 1.0);
+    column_sweep(&mut along, target, width, &northing, rows.rev(), -1.0);
     // Pass 2: per row, the lower envelope of parabolas (c - q)² + g(q)².
     let mut vertices = vec![0usize; width];
     let mut bounds = vec![0.0f64; width + 1];
     for row in 0..height {
+        // Column distances count rows; in units of this row's cell width a row is
+        // this long.
+        let [resolution, _] = *of_row(spacing, row);
+        let row_length = unit / resolution;
         let g = &along[row * width..(row + 1) * width];
         let f = |q: usize| {
             let rows = if row_length == 1.0 {
@@ -486,6 +505,34 @@ pub fn distance_transform(
             let v = vertices[j];
             let squared = (c as f64 - v as f64).powi(2) + f(v);
             *d = (squared.sqrt() * resolution).min(cap) as f32;
+        }
+    }
+}
+
+/// One sweep of the distance transform's first pass over `rows` (northward for
+/// `sign` 1, southward for −1): each column keeps the northing of the last target row
+/// it met, and every cell's distance along its column becomes at most the distance to
+/// it (infinite before any).
+fn column_sweep(
+    along: &mut [f64],
+    target: &[bool],
+    width: usize,
+    northing: &[f64],
+    rows: impl Iterator<Item = usize>,
+    sign: f64,
+) {
+    let mut nearest = vec![-sign * f64::INFINITY; width];
+    for row in rows {
+        let (y, cells) = (northing[row], row * width..(row + 1) * width);
+        for ((d, t), &is_target) in along[cells.clone()]
+            .iter_mut()
+            .zip(nearest.iter_mut())
+            .zip(&target[cells])
+        {
+            if is_target {
+                *t = y;
+            }
+            *d = d.min(sign * (y - *t));
         }
     }
 }
@@ -583,7 +630,7 @@ mod tests {
         let (w, h) = (13, 9);
         let target: Vec<bool> = (0..w * h).map(|i| i % 17 == 3 || i == 50).collect();
         let mut out = vec![0.0; w * h];
-        distance_transform(&target, w, h, [0.5; 2], 100.0, &mut out);
+        distance_transform(&target, w, h, &[[0.5; 2]], 100.0, &mut out);
         for (i, &found) in out.iter().enumerate() {
             let (r, c) = ((i / w) as f64, (i % w) as f64);
             let best = (0..w * h)
@@ -596,8 +643,82 @@ mod tests {
                 0.5 * best
             );
         }
-        distance_transform(&vec![false; w * h], w, h, [1.0; 2], 7.0, &mut out);
+        distance_transform(&vec![false; w * h], w, h, &[[1.0; 2]], 7.0, &mut out);
         assert!(out.iter().all(|&d| d == 7.0));
+    }
+
+    /// Cell sizes of a raster of half-degree cells from 50° N, row by row, on a sphere
+    /// (2° rows, each narrower than the one south of it, by its latitude's cosine),
+    /// and a little taller too, as on the ellipsoid.
+    fn narrowing_rows(h: usize) -> Vec<[f64; 2]> {
+        (0..h)
+            .map(|r| {
+                let latitude = (51.0 + 2.0 * r as f64).to_radians();
+                [55_660.0 * latitude.cos(), 55_660.0 + 10.0 * r as f64]
+            })
+            .collect()
+    }
+
+    #[test]
+    fn distances_measure_each_row_at_its_latitude() {
+        // The brute force on the query cell's tangent plane: its own row's east-west
+        // cell width, the rows' heights summed north-south.
+        let (w, h) = (11, 11);
+        let spacing = narrowing_rows(h);
+        let mut northing = vec![0.0; h];
+        for r in 1..h {
+            northing[r] = northing[r - 1] + 0.5 * (spacing[r - 1][1] + spacing[r][1]);
+        }
+        let target: Vec<bool> = (0..w * h).map(|i| i % 13 == 5 || i == 64).collect();
+        let mut out = vec![0.0; w * h];
+        distance_transform(&target, w, h, &spacing, 1e9, &mut out);
+        for (i, &found) in out.iter().enumerate() {
+            let (r, c) = (i / w, (i % w) as f64);
+            let best = (0..w * h)
+                .filter(|&j| target[j])
+                .map(|j| {
+                    let east = spacing[r][0] * (c - (j % w) as f64);
+                    east.hypot(northing[r] - northing[j / w])
+                })
+                .fold(f64::INFINITY, f64::min);
+            let error = (f64::from(found) - best).abs() / best.max(1.0);
+            assert!(error < 1e-6, "cell {i}: {found} vs {best}");
+        }
+        // Rows alike give what the one pair gives, to the bit.
+        let mut one = vec![0.0; w * h];
+        distance_transform(&target, w, h, &[spacing[3]], 1e9, &mut one);
+        distance_transform(&target, w, h, &vec![spacing[3]; h], 1e9, &mut out);
+        assert_eq!(one, out);
+    }
+
+    #[test]
+    fn metric_blurs_widen_with_latitude() {
+        // σ of 40 km in cells of each row, and no blur down the columns: every row is
+        // its own 1-D Gaussian, wider in columns the narrower its cells.
+        let (w, h) = (64, 11);
+        let spacing = narrowing_rows(h);
+        let sigmas: Vec<[f64; 2]> = spacing.iter().map(|s| [40e3 / s[0], 0.1]).collect();
+        let mut impulse = vec![0.0f32; w * h];
+        for r in 0..h {
+            impulse[r * w + w / 2] = 1.0;
+        }
+        let mut out = vec![0.0; w * h];
+        gaussian_blur_by_row(&impulse, w, h, &sigmas, &mut out);
+        let mut widths = Vec::new();
+        for r in 0..h {
+            let mut alone = vec![0.0; w];
+            gaussian_blur(&impulse[r * w..(r + 1) * w], w, 1, sigmas[r], &mut alone);
+            assert_eq!(&out[r * w..(r + 1) * w], alone, "row {r}");
+            let mass: f32 = alone.iter().sum();
+            assert!((mass - 1.0).abs() < 1e-5);
+            let spread: f32 = alone
+                .iter()
+                .enumerate()
+                .map(|(c, &v)| v * (c as f32 - (w / 2) as f32).powi(2))
+                .sum();
+            widths.push(spread.sqrt());
+        }
+        assert!(widths.windows(2).all(|p| p[1] > p[0]), "{widths:?}");
     }
 
     #[test]
@@ -622,7 +743,7 @@ mod tests {
         let target: Vec<bool> = (0..w * h).map(|i| i % 23 == 5).collect();
         let mut out = vec![0.0; w * h];
         let (sx, sy) = (0.5, 1.25);
-        distance_transform(&target, w, h, [sx, sy], 100.0, &mut out);
+        distance_transform(&target, w, h, &[[sx, sy]], 100.0, &mut out);
         for (i, &found) in out.iter().enumerate() {
             let (r, c) = ((i / w) as f64, (i % w) as f64);
             let best = (0..w * h)
@@ -700,7 +821,7 @@ mod tests {
         // the fill.
         local_std(&flat, w, h, 5, &mut out);
         assert!(out.iter().all(|&v| v == 0.0), "{out:?}");
-        gaussian_blur_of_data(&flat, w, h, [1.5; 2], -1.0, &mut out);
+        gaussian_blur_of_data(&flat, w, h, &[[1.5; 2]], -1.0, &mut out);
         for (v, o) in flat.iter().zip(&out) {
             let expected = if v.is_nan() { -1.0 } else { 50.0 };
             assert!((o - expected).abs() < 1e-4, "{out:?}");
@@ -713,7 +834,7 @@ mod tests {
         assert!(inside.map(|i| out[i]).all(|v| v.abs() < 1e-4), "{out:?}");
         // No data at all: the fill, and no roughness.
         let empty = vec![f32::NAN; w * h];
-        gaussian_blur_of_data(&empty, w, h, [1.0; 2], -1.0, &mut out);
+        gaussian_blur_of_data(&empty, w, h, &[[1.0; 2]], -1.0, &mut out);
         assert!(out.iter().all(|&v| v == -1.0));
         local_std(&empty, w, h, 3, &mut out);
         assert!(out.iter().all(|&v| v == 0.0));
@@ -753,7 +874,7 @@ mod tests {
             let full: Vec<f32> = cells.iter().map(|v| v.unwrap_or(1.0)).collect();
             let (mut plain, mut of_data) = (vec![0.0; w * h], vec![0.0; w * h]);
             gaussian_blur(&full, w, h, [1.0; 2], &mut plain);
-            gaussian_blur_of_data(&full, w, h, [1.0; 2], 0.0, &mut of_data);
+            gaussian_blur_of_data(&full, w, h, &[[1.0; 2]], 0.0, &mut of_data);
             proptest::prop_assert_eq!(plain, of_data);
         }
     }

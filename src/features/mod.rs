@@ -10,8 +10,8 @@ pub use bank::Bank;
 pub use scale::{is_distance, scale_in_cells};
 
 pub use kernels::{
-    aspect, distance_transform, gaussian_blur, gaussian_blur_of_data, gradient, laplacian,
-    local_std, robust_normalize,
+    aspect, distance_transform, gaussian_blur, gaussian_blur_by_row, gaussian_blur_of_data,
+    gradient, laplacian, local_std, robust_normalize,
 };
 
 use rayon::prelude::*;
@@ -170,8 +170,9 @@ enum Plane {
     Copy(usize),
     Nodata(usize),
     Normalize(usize),
-    /// σ in cells along x and y.
-    Blur(usize, [f64; 2]),
+    /// σ in cells along x and y, for every row or one pair for them all (a σ in
+    /// metres where the cells' ground size changes with latitude).
+    Blur(usize, Vec<[f64; 2]>),
     Gradient(usize, bool),
     Roughness(usize, usize),
     Laplacian(usize),
@@ -341,7 +342,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     }
                     out.push(
                         format!("{l}/blur_{}c", format_number(k)),
-                        Plane::Blur(i, [k, k]),
+                        Plane::Blur(i, vec![[k, k]]),
                     )?;
                 }
                 for &sigma in sigmas {
@@ -352,7 +353,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     }
                     out.push(
                         format!("{l}/blur_{}m", format_number(sigma)),
-                        Plane::Blur(i, [sigma / metres_x, sigma / metres_y]),
+                        Plane::Blur(i, metric_sigmas(map, sigma)),
                     )?;
                 }
             }
@@ -802,6 +803,26 @@ fn gathered(
         .collect()
 }
 
+/// A Gaussian's σ of `metres` on the ground in cells along x and y, row by row where
+/// the cells' ground size changes with latitude (one pair elsewhere). Toward a pole
+/// the cells narrow and σ spans ever more of them; it stops at the raster's side,
+/// beyond which a blur is nearly the whole row's mean.
+fn metric_sigmas(map: &Map, metres: f64) -> Vec<[f64; 2]> {
+    let sides = [map.geo.width, map.geo.height].map(f64::from);
+    let varies = map.geo.varies_by_row();
+    map.geo
+        .cell_metres_by_row()
+        .iter()
+        .map(|cell| {
+            let mut sigma = [metres / cell[0], metres / cell[1]];
+            if varies {
+                sigma = [sigma[0].min(sides[0]), sigma[1].min(sides[1])];
+            }
+            sigma
+        })
+        .collect()
+}
+
 /// [`compute`] for one map of a dataset: a `<layer>/nodata` indicator for each of the
 /// dataset's no-data layers the spec uses, whether or not this map has no-data cells
 /// in it, and the bank's class features from the dataset's classes.
@@ -816,13 +837,9 @@ pub fn compute_in_dataset(
         nodata,
         derived,
     } = plan(map, spec, dataset)?;
-    let (w, h, res) = (
-        map.geo.width as usize,
-        map.geo.height as usize,
-        map.geo.cell_metres(),
-    );
-    // Derivatives use each row's own cell size (it varies with latitude in degrees);
-    // neighbourhood operators (blurs, distances) the raster's middle latitude.
+    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
+    // Derivatives, distances and blurs in metres use each row's own cell size (it
+    // varies with latitude in degrees and Web Mercator).
     let by_row = map.geo.cell_metres_by_row();
     let n = w * h;
     // Layers with no data, filled; the others are read in place.
@@ -865,7 +882,7 @@ pub fn compute_in_dataset(
                 }
             }
             Plane::Normalize(i) => robust_normalize(input(i), out),
-            Plane::Blur(i, sigma_cells) => {
+            Plane::Blur(i, ref sigma_cells) => {
                 gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, spec.nodata_fill, out)
             }
             Plane::Gradient(i, degrees) => gradient(unfilled(i), w, h, &by_row, degrees, out),
@@ -884,7 +901,7 @@ pub fn compute_in_dataset(
             Plane::Distance(i, target, cap) => {
                 // A void is no target, whatever the fill value says.
                 let mask: Vec<bool> = unfilled(i).iter().map(|&v| target.holds(v)).collect();
-                distance_transform(&mask, w, h, res, cap, out);
+                distance_transform(&mask, w, h, &by_row, cap, out);
             }
             Plane::NormalizedDifference(a, b) => {
                 for ((o, &x), &y) in out.iter_mut().zip(input(a)).zip(input(b)) {
@@ -903,13 +920,13 @@ pub fn compute_in_dataset(
             }
             // A cell against the mean of the data around it; 0 on a cell without data.
             Plane::Relief(i, sigma_cells) => {
-                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, 0.0, out);
+                gaussian_blur_of_data(unfilled(i), w, h, &[sigma_cells], 0.0, out);
                 for (o, &v) in out.iter_mut().zip(unfilled(i)) {
                     *o = if v.is_nan() { 0.0 } else { v - *o };
                 }
             }
             Plane::Contrast(i, sigma_cells) => {
-                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, 0.0, out);
+                gaussian_blur_of_data(unfilled(i), w, h, &[sigma_cells], 0.0, out);
                 for (o, &v) in out.iter_mut().zip(unfilled(i)) {
                     *o = if v.is_nan() {
                         0.0
@@ -1148,6 +1165,53 @@ mod tests {
         );
         assert_eq!(stack.plane(0), [1.0, 0.0]);
         assert_eq!(stack.plane(1), [0.0, 1.0]);
+    }
+
+    #[test]
+    fn metric_neighbourhoods_of_a_raster_in_degrees_follow_each_rows_latitude() {
+        // 10° cells from the equator to 80° N, the westmost column the target: five
+        // columns east of it lie five of that row's cells away on the ground, and a
+        // blur of 2000 km reaches further across the narrow northern cells.
+        let (w, h) = (20, 9);
+        let geo = GeoRef {
+            degrees: true,
+            ..GeoRef::square(w, h, 10.0, [0.0, -5.0], "EPSG:4326")
+        };
+        let values = (0..w * h)
+            .map(|i| f32::from(u8::from(i % w == 0)))
+            .collect();
+        let map = Map {
+            name: "world".into(),
+            geo: geo.clone(),
+            layers: vec![Layer::new("a", values)],
+        };
+        let ops = vec![
+            Op::Distance {
+                layer: "a".into(),
+                class: None,
+                above: Some(0.5),
+                below: None,
+                max: None,
+                max_cells: None,
+            },
+            Op::Blur {
+                layer: "a".into(),
+                sigmas: vec![2e6],
+                cells: vec![],
+            },
+        ];
+        let stack = compute(&map, &spec(Some(vec![]), ops)).unwrap();
+        let by_row = geo.cell_metres_by_row();
+        let (distance, blur) = (stack.plane(0), stack.plane(1));
+        for (row, [east, _]) in by_row.iter().enumerate() {
+            let found = f64::from(distance[row * w as usize + 5]);
+            assert!(
+                (found / (5.0 * east) - 1.0).abs() < 1e-6,
+                "row {row}: {found}"
+            );
+        }
+        let reach = |row: usize| blur[row * w as usize + 3] / blur[row * w as usize];
+        assert!(reach(8) > 2.0 * reach(0), "{} {}", reach(8), reach(0));
     }
 
     #[test]

@@ -145,8 +145,8 @@ impl GeoRef {
 
     /// Cell size (x, y) in metres on the ground. In a geographic or Web Mercator frame
     /// it is measured at the raster's middle row (rasters spanning many degrees of
-    /// latitude are stretched away from it: `scale_variation` says how much; planners
-    /// and derivatives use `cell_metres_by_row`).
+    /// latitude are stretched away from it: `scale_variation` says how much; planners,
+    /// derivatives, distances and metric blurs use `cell_metres_by_row`).
     pub fn cell_metres(&self) -> [f64; 2] {
         self.cell_metres_at(0.5 * f64::from(self.height))
     }

@@ -394,9 +394,10 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         if variation > 0.05 {
             tracing::warn!(
                 "{}: a {} raster spanning latitudes {south:.2}° to {north:.2}°: \
-                 steps, slopes and aspects are measured at each row's latitude, but blurs \
-                 and distances at the middle latitude, and east-west lengths differ by up \
-                 to {:.0} % at its edges; reproject it (gdalwarp) for exact neighbourhoods",
+                 steps, slopes, distances and blurs in metres are measured at each row's \
+                 latitude, but neighbourhoods counted in cells (the bank's blurs, relief \
+                 and roughness windows) span up to {:.0} % fewer or more metres east-west \
+                 at its edges; reproject it (gdalwarp) for even neighbourhoods",
                 path.display(),
                 if geo.degrees {
                     "geographic"

@@ -105,7 +105,7 @@ pub(super) fn loss_shares(stack: &FeatureStack, ex: &Example, config: &LearchCon
                 &on_path,
                 w,
                 h,
-                [1.0; 2],
+                &[[1.0; 2]],
                 f64::from(geo.width + geo.height),
                 &mut distance,
             );
