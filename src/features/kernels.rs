@@ -96,8 +96,9 @@ fn separable(
         }
     };
     // Rows near an edge reflect onto rows within the same window, so 2r + 1 slots
-    // always hold every row a window needs at once.
-    let mut cache = RowCache::new(width, 2 * ry + 1);
+    // always hold every row a window needs at once; a window taller than the raster
+    // (a σ in metres toward a pole) needs no more slots than it has rows.
+    let mut cache = RowCache::new(width, (2 * ry + 1).min(height.max(1)));
     let mut line = vec![0.0f32; width];
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
         let taps_y = of_row(taps_y, row);
@@ -577,6 +578,36 @@ mod tests {
             "mass is kept away from the edges"
         );
         assert!(out[3 * w + 4] > out[3 * w + 5] && out[3 * w + 5] > out[3 * w + 6]);
+    }
+
+    #[test]
+    fn blurs_wider_than_the_raster_reflect_as_often_as_they_reach() {
+        // Windows many times the raster's side (and a row cache no taller than it):
+        // the separable pass against the plain double sum over reflected cells.
+        let (w, h) = (5, 4);
+        let input: Vec<f32> = (0..w * h).map(|i| ((i * 7) % 11) as f32).collect();
+        let sigma = [6.0, 9.0];
+        let mut out = vec![0.0; w * h];
+        gaussian_blur(&input, w, h, sigma, &mut out);
+        let (tx, ty) = (gaussian_taps(sigma[0]), gaussian_taps(sigma[1]));
+        fn offsets(taps: &[f32]) -> impl Iterator<Item = (isize, f32)> + '_ {
+            let r = taps.len() as isize - 1;
+            (-r..=r).map(move |k| (k, taps[k.unsigned_abs()]))
+        }
+        for (i, &found) in out.iter().enumerate() {
+            let (r, c) = ((i / w) as isize, (i % w) as isize);
+            let mut sum = 0.0f64;
+            for (k, wy) in offsets(&ty) {
+                for (l, wx) in offsets(&tx) {
+                    let cell = reflect(r + k, h) * w + reflect(c + l, w);
+                    sum += f64::from(wy) * f64::from(wx) * f64::from(input[cell]);
+                }
+            }
+            assert!(
+                (f64::from(found) - sum).abs() < 1e-4,
+                "cell {i}: {found} vs {sum}"
+            );
+        }
     }
 
     #[test]
