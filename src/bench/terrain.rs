@@ -21,7 +21,8 @@ use super::ioc_methods::{
 use crate::cli::emit;
 use crate::error::{Error, Result};
 use crate::features::{
-    Bank, FeatureSpec, compute, gaussian_blur, gaussian_blur_by_row, gradient, local_std,
+    Bank, FeatureSpec, compute, gaussian_blur, gaussian_blur_by_row, gradient, ground_windows,
+    local_std_by_row,
 };
 use crate::grid::{GeoRef, Grid, Layer, Map};
 use crate::io::geotiff::read_geotiff;
@@ -63,7 +64,8 @@ pub enum Teacher {
     Classes,
     /// Texture, as a ground robot pays for rough ground: the brightness's local
     /// standard deviation (an elevation's, on a DEM) over a window of 5 to 21 cells
-    /// drawn from the seed (`5 + 2 (seed mod 9)`), free up to its median and rising
+    /// drawn from the seed (`5 + 2 (seed mod 9)`; square on the ground, as the bank's
+    /// roughness windows, in the cells' mean side), free up to its median and rising
     /// linearly to 9 times the cheapest at its 90th percentile. The window is the
     /// teacher's, not the bank's: the bank's spreads are over fixed windows.
     Texture,
@@ -450,7 +452,8 @@ fn teacher_cost(map: &Map, teacher: Teacher, seed: u64) -> Vec<f32> {
                 .map(|&v| if v.is_nan() { q50 } else { v })
                 .collect();
             let mut spread = vec![0.0; z.len()];
-            local_std(&filled, w, h, texture_window(seed), &mut spread);
+            let windows = ground_windows(map, texture_window(seed));
+            local_std_by_row(&filled, w, h, &windows, &mut spread);
             ramp(&spread)
         }
         Teacher::Band => {

@@ -188,14 +188,31 @@ pub fn gaussian_blur_of_data(
 /// as a fill value, which would make every edge of a void rough ground (and, running
 /// through the sums, every cell after it); 0 on a cell without data, as the
 /// gradient is.
+pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out: &mut [f32]) {
+    local_std_by_row(input, width, height, &[[window, window]], out);
+}
+
+/// [`local_std`] over windows of `[columns, rows]` (odd) for every row, or one pair
+/// for them all: a window of so many metres on cells that are not square, or that
+/// narrow with latitude, spans its own count of cells along each axis and row. Each
+/// row is summed along itself over its own columns, and each row of the result gathers
+/// its own count of rows around it, as [`gaussian_blur_by_row`] does.
 /// Sums of x, x² and the cells with data run along rows, then down columns, in f64 so
 /// that E[x²] − E[x]² stays accurate; each row's sums are recomputed when it leaves
 /// the window instead of being stored, so memory is a few rows.
-pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out: &mut [f32]) {
-    let r = window / 2;
+pub fn local_std_by_row(
+    input: &[f32],
+    width: usize,
+    height: usize,
+    windows: &[[usize; 2]],
+    out: &mut [f32],
+) {
+    let max_rx = windows.iter().map(|w| w[0] / 2).max().unwrap_or(0);
     // (x, x², 1) of a cell with data, zeros of one without.
-    let mut padded = vec![[0.0f64; 3]; width + 2 * r];
+    let mut padded = vec![[0.0f64; 3]; width + 2 * max_rx];
     let mut row_sums = |row: usize, sums: &mut [[f64; 3]]| {
+        let window = of_row(windows, row)[0];
+        let r = window / 2;
         for (p, &v) in padded[r..r + width]
             .iter_mut()
             .zip(&input[row * width..(row + 1) * width])
@@ -232,16 +249,36 @@ pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out:
     }
     let mut column = vec![[0.0f64; 3]; width];
     let mut sums = vec![[0.0f64; 3]; width];
-    let mut add_row = |row: usize, sign: f64, column: &mut [[f64; 3]]| {
-        row_sums(row, &mut sums);
+    let mut add_row = |row: isize, sign: f64, column: &mut [[f64; 3]]| {
+        row_sums(reflect(row, height), &mut sums);
         for (c, s) in column.iter_mut().zip(&sums) {
             add(c, s, sign);
         }
     };
-    for k in -(r as isize)..=r as isize {
-        add_row(reflect(k, height), 1.0, &mut column);
-    }
+    // The rows summed in `column`, before reflection: top..=bottom. Each output row
+    // moves the window's ends to its own half-height, one row at a time (rows below
+    // enter before rows above leave, so a window of one height for every row is
+    // summed in the same order as a sliding one).
+    let ry = |row: usize| (of_row(windows, row)[1] / 2) as isize;
+    let (mut top, mut bottom) = (-ry(0), -ry(0) - 1);
     for (row, dst) in out.chunks_exact_mut(width).enumerate() {
+        let (new_top, new_bottom) = (row as isize - ry(row), row as isize + ry(row));
+        while bottom < new_bottom {
+            bottom += 1;
+            add_row(bottom, 1.0, &mut column);
+        }
+        while top < new_top {
+            add_row(top, -1.0, &mut column);
+            top += 1;
+        }
+        while top > new_top {
+            top -= 1;
+            add_row(top, 1.0, &mut column);
+        }
+        while bottom > new_bottom {
+            add_row(bottom, -1.0, &mut column);
+            bottom -= 1;
+        }
         let here = &input[row * width..(row + 1) * width];
         for ((d, &[s, q, n]), v) in dst.iter_mut().zip(&column).zip(here) {
             *d = if v.is_nan() {
@@ -251,19 +288,6 @@ pub fn local_std(input: &[f32], width: usize, height: usize, window: usize, out:
                 (q / n - mean * mean).max(0.0).sqrt() as f32
             };
         }
-        if row + 1 == height {
-            break;
-        }
-        add_row(
-            reflect(row as isize + r as isize + 1, height),
-            1.0,
-            &mut column,
-        );
-        add_row(
-            reflect(row as isize - r as isize, height),
-            -1.0,
-            &mut column,
-        );
     }
 }
 
@@ -907,6 +931,47 @@ mod tests {
             gaussian_blur(&full, w, h, [1.0; 2], &mut plain);
             gaussian_blur_of_data(&full, w, h, &[[1.0; 2]], 0.0, &mut of_data);
             proptest::prop_assert_eq!(plain, of_data);
+        }
+    }
+
+    proptest::proptest! {
+        /// With windows of their own per axis and row, each output row's roughness is
+        /// the spread of the data in its own rows around it, each read over that input
+        /// row's own columns (reflected at the edges), as `gaussian_blur_by_row`
+        /// gathers rows blurred each with its own σ.
+        #[test]
+        fn roughness_by_row_reads_each_rows_own_window(
+            cells in proptest::collection::vec(proptest::option::weighted(0.9, -100.0f32..100.0), 63),
+            windows in proptest::collection::vec((0usize..9, 0usize..5), 7),
+        ) {
+            let (w, h) = (9, 7);
+            let input: Vec<f32> = cells.iter().map(|v| v.unwrap_or(f32::NAN)).collect();
+            let windows: Vec<[usize; 2]> =
+                windows.iter().map(|&(x, y)| [2 * x + 1, 2 * y + 1]).collect();
+            let mut out = vec![0.0; w * h];
+            local_std_by_row(&input, w, h, &windows, &mut out);
+            for (i, &got) in out.iter().enumerate() {
+                let (row, col) = ((i / w) as isize, (i % w) as isize);
+                let ry = (windows[row as usize][1] / 2) as isize;
+                let data: Vec<f64> = (-ry..=ry)
+                    .flat_map(|dr| {
+                        let source = reflect(row + dr, h);
+                        let rx = (windows[source][0] / 2) as isize;
+                        (-rx..=rx).map(move |dc| source * w + reflect(col + dc, w))
+                    })
+                    .map(|j| input[j])
+                    .filter(|v| !v.is_nan())
+                    .map(f64::from)
+                    .collect();
+                let n = data.len() as f64;
+                let expected = if input[i].is_nan() {
+                    0.0
+                } else {
+                    let mean = data.iter().sum::<f64>() / n;
+                    (data.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
+                };
+                proptest::prop_assert!((f64::from(got) - expected).abs() < 1e-3, "cell {i}: {got} vs {expected}");
+            }
         }
     }
 

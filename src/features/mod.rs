@@ -11,7 +11,7 @@ pub use scale::{is_distance, scale_in_cells};
 
 pub use kernels::{
     aspect, distance_transform, gaussian_blur, gaussian_blur_by_row, gaussian_blur_of_data,
-    gradient, laplacian, local_std, robust_normalize,
+    gradient, laplacian, local_std, local_std_by_row, robust_normalize,
 };
 
 use rayon::prelude::*;
@@ -170,11 +170,12 @@ enum Plane {
     Copy(usize),
     Nodata(usize),
     Normalize(usize),
-    /// σ in cells along x and y, for every row or one pair for them all (a σ in
-    /// metres where the cells' ground size changes with latitude).
+    /// σ in cells along x and y, for every row or one pair for them all (where the
+    /// cells' ground size changes with latitude).
     Blur(usize, Vec<[f64; 2]>),
     Gradient(usize, bool),
-    Roughness(usize, usize),
+    /// Windows of `[columns, rows]` cells (odd), for every row or one pair for them all.
+    Roughness(usize, Vec<[usize; 2]>),
     Laplacian(usize),
     Equals(usize, f32),
     Above(usize, f32),
@@ -182,13 +183,13 @@ enum Plane {
     Product(usize, usize),
     NormalizedDifference(usize, usize),
     Brightness(Vec<usize>),
-    /// σ in cells along x and y.
-    Relief(usize, [f64; 2]),
-    /// σ in cells along x and y.
-    Contrast(usize, [f64; 2]),
-    /// The share of class `c` around each cell: a Gaussian of σ cells over its
-    /// indicator.
-    Share(usize, f32, [f64; 2]),
+    /// σ in cells along x and y, as `Blur`.
+    Relief(usize, Vec<[f64; 2]>),
+    /// σ in cells along x and y, as `Blur`.
+    Contrast(usize, Vec<[f64; 2]>),
+    /// The share of class `c` around each cell: a Gaussian of σ cells (along x and y,
+    /// as `Blur`) over its indicator.
+    Share(usize, f32, Vec<[f64; 2]>),
     Aspect(usize),
     Bias,
 }
@@ -342,7 +343,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     }
                     out.push(
                         format!("{l}/blur_{}c", format_number(k)),
-                        Plane::Blur(i, vec![[k, k]]),
+                        Plane::Blur(i, ground_sigmas(map, k)),
                     )?;
                 }
                 for &sigma in sigmas {
@@ -369,7 +370,10 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                 let i = out.layer(l)?;
                 for &w in windows {
                     check_window(l, w)?;
-                    out.push(format!("{l}/roughness_{w}c"), Plane::Roughness(i, w))?;
+                    out.push(
+                        format!("{l}/roughness_{w}c"),
+                        Plane::Roughness(i, ground_windows(map, w)),
+                    )?;
                 }
             }
             Op::Laplacian { layer: l } => {
@@ -491,7 +495,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     check_window("brightness", w)?;
                     out.push(
                         format!("brightness/roughness_{w}c"),
-                        Plane::Roughness(source, w),
+                        Plane::Roughness(source, ground_windows(map, w)),
                     )?;
                 }
                 for &q in quantiles.iter().chain(distance_above).chain(distance_below) {
@@ -534,9 +538,9 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     out.push(
                         format!("{l}/{what}_{}c", format_number(k)),
                         if what == "relief" {
-                            Plane::Relief(i, [k, k])
+                            Plane::Relief(i, ground_sigmas(map, k))
                         } else {
-                            Plane::Contrast(i, [k, k])
+                            Plane::Contrast(i, ground_sigmas(map, k))
                         },
                     )?;
                 }
@@ -560,7 +564,7 @@ fn plan(map: &Map, spec: &FeatureSpec, dataset: &DatasetLayers) -> Result<Layout
                     for &k in shares {
                         out.push(
                             format!("{class}/share_{}c", format_number(k)),
-                            Plane::Share(i, c, [k, k]),
+                            Plane::Share(i, c, ground_sigmas(map, k)),
                         )?;
                     }
                     out.push(
@@ -808,17 +812,74 @@ fn gathered(
 /// the cells narrow and σ spans ever more of them; it stops at the raster's side,
 /// beyond which a blur is nearly the whole row's mean.
 fn metric_sigmas(map: &Map, metres: f64) -> Vec<[f64; 2]> {
+    per_row_and_axis(map, |cell| [metres / cell[0], metres / cell[1]])
+}
+
+/// The cells' mean side √(dx·dy) on the ground at the middle row: the unit of every
+/// length an operator counts in cells.
+pub fn mean_cell_side(map: &Map) -> f64 {
+    let [x, y] = map.geo.cell_metres();
+    (x * y).sqrt()
+}
+
+/// A Gaussian's σ of `cells` cells in cells along x and y, row by row as
+/// [`metric_sigmas`]: a cell-counted length is `cells` mean sides ([`mean_cell_side`])
+/// on the ground, so that the bank's neighbourhoods are round on the ground where the
+/// cells are not square (a DEM in degrees away from the equator) and keep their ground
+/// size toward the poles; on square cells it is `cells` rows and columns exactly.
+fn ground_sigmas(map: &Map, cells: f64) -> Vec<[f64; 2]> {
+    if has_square_cells(map) {
+        return vec![[cells; 2]];
+    }
+    let mean = mean_cell_side(map);
+    per_row_and_axis(map, |cell| {
+        [cells * (mean / cell[0]), cells * (mean / cell[1])]
+    })
+}
+
+/// A square window of `window` cells (odd) as `[columns, rows]` (odd) for every row,
+/// on the ground as [`ground_sigmas`] takes a σ: its side of `window` mean sides spans
+/// the odd count of cells nearest to it along each axis, at most twice the raster's
+/// side.
+pub fn ground_windows(map: &Map, window: usize) -> Vec<[usize; 2]> {
+    if has_square_cells(map) {
+        return vec![[window; 2]];
+    }
+    let mean = mean_cell_side(map);
+    let sides = [map.geo.width, map.geo.height].map(|s| s as usize);
+    map.geo
+        .cell_metres_by_row()
+        .iter()
+        .map(|cell| {
+            [0, 1].map(|axis| {
+                let span = window as f64 * (mean / cell[axis]);
+                let half = ((span - 1.0) / 2.0).round().max(0.0) as usize;
+                2 * half.min(sides[axis]) + 1
+            })
+        })
+        .collect()
+}
+
+/// Whether every cell is the same square on the ground.
+fn has_square_cells(map: &Map) -> bool {
+    !map.geo.varies_by_row() && map.geo.is_square()
+}
+
+/// `sigma(cell)` (cells along x and y, from a cell's ground size) for every row where
+/// the cells' ground size changes with latitude, capped at the raster's sides there,
+/// and one pair elsewhere.
+fn per_row_and_axis(map: &Map, sigma: impl Fn([f64; 2]) -> [f64; 2]) -> Vec<[f64; 2]> {
     let sides = [map.geo.width, map.geo.height].map(f64::from);
     let varies = map.geo.varies_by_row();
     map.geo
         .cell_metres_by_row()
         .iter()
-        .map(|cell| {
-            let mut sigma = [metres / cell[0], metres / cell[1]];
+        .map(|&cell| {
+            let mut s = sigma(cell);
             if varies {
-                sigma = [sigma[0].min(sides[0]), sigma[1].min(sides[1])];
+                s = [s[0].min(sides[0]), s[1].min(sides[1])];
             }
-            sigma
+            s
         })
         .collect()
 }
@@ -886,7 +947,7 @@ pub fn compute_in_dataset(
                 gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, spec.nodata_fill, out)
             }
             Plane::Gradient(i, degrees) => gradient(unfilled(i), w, h, &by_row, degrees, out),
-            Plane::Roughness(i, window) => local_std(unfilled(i), w, h, window, out),
+            Plane::Roughness(i, ref windows) => local_std_by_row(unfilled(i), w, h, windows, out),
             Plane::Laplacian(i) => laplacian(unfilled(i), w, h, &by_row, out),
             Plane::Equals(i, c) => {
                 for (o, &v) in out.iter_mut().zip(input(i)) {
@@ -919,14 +980,14 @@ pub fn compute_in_dataset(
                 out.iter_mut().for_each(|o| *o *= scale);
             }
             // A cell against the mean of the data around it; 0 on a cell without data.
-            Plane::Relief(i, sigma_cells) => {
-                gaussian_blur_of_data(unfilled(i), w, h, &[sigma_cells], 0.0, out);
+            Plane::Relief(i, ref sigma_cells) => {
+                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, 0.0, out);
                 for (o, &v) in out.iter_mut().zip(unfilled(i)) {
                     *o = if v.is_nan() { 0.0 } else { v - *o };
                 }
             }
-            Plane::Contrast(i, sigma_cells) => {
-                gaussian_blur_of_data(unfilled(i), w, h, &[sigma_cells], 0.0, out);
+            Plane::Contrast(i, ref sigma_cells) => {
+                gaussian_blur_of_data(unfilled(i), w, h, sigma_cells, 0.0, out);
                 for (o, &v) in out.iter_mut().zip(unfilled(i)) {
                     *o = if v.is_nan() {
                         0.0
@@ -935,12 +996,12 @@ pub fn compute_in_dataset(
                     };
                 }
             }
-            Plane::Share(i, c, sigma_cells) => {
+            Plane::Share(i, c, ref sigma_cells) => {
                 let indicator: Vec<f32> = input(i)
                     .iter()
                     .map(|&v| f32::from(u8::from(v == c)))
                     .collect();
-                gaussian_blur(&indicator, w, h, sigma_cells, out);
+                gaussian_blur_by_row(&indicator, w, h, sigma_cells, out);
             }
             Plane::Aspect(i) => aspect(unfilled(i), w, h, &by_row, out),
             Plane::Bias => out.fill(1.0),
@@ -1212,6 +1273,91 @@ mod tests {
         }
         let reach = |row: usize| blur[row * w as usize + 3] / blur[row * w as usize];
         assert!(reach(8) > 2.0 * reach(0), "{} {}", reach(8), reach(0));
+    }
+
+    #[test]
+    fn neighbourhoods_counted_in_cells_are_round_on_the_ground() {
+        // Cells of 20 × 10 m: the mean side is √200 m, so a blur of 2 cells is σ √2
+        // columns and 2√2 rows, and a roughness window of 3 cells (42.4 m) spans 3
+        // columns (60 m; 1 or 5 would be further off) and 5 rows (50 m).
+        let (w, h) = (9usize, 12usize);
+        let geo = GeoRef {
+            resolution_y: Some(10.0),
+            ..GeoRef::square(w as u32, h as u32, 20.0, [0.0, 0.0], "EPSG:32633")
+        };
+        let values: Vec<f32> = (0..w * h).map(|i| ((i * 37) % 11) as f32).collect();
+        let map = Map {
+            name: "m".into(),
+            geo,
+            layers: vec![Layer::new("a", values.clone())],
+        };
+        let ops = vec![
+            Op::Blur {
+                layer: "a".into(),
+                sigmas: vec![],
+                cells: vec![2.0],
+            },
+            Op::Roughness {
+                layer: "a".into(),
+                windows: vec![3],
+            },
+            Op::Relief {
+                layer: "a".into(),
+                cells: vec![2.0],
+            },
+        ];
+        let stack = compute(&map, &spec(Some(vec![]), ops)).unwrap();
+        assert_eq!(ground_windows(&map, 3), [[3, 5]]);
+        let root2 = 2f64.sqrt();
+        let mut expected = vec![0.0; w * h];
+        gaussian_blur(&values, w, h, [root2, 2.0 * root2], &mut expected);
+        let close = |a: &[f32], b: &[f32]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-5);
+        assert!(close(stack.plane(0), &expected));
+        let relief: Vec<f32> = values.iter().zip(&expected).map(|(v, b)| v - b).collect();
+        assert!(close(stack.plane(2), &relief));
+        local_std_by_row(&values, w, h, &[[3, 5]], &mut expected);
+        assert_eq!(stack.plane(1), expected);
+        // On square cells a count of cells is that many rows and columns, to the bit.
+        let square = Map {
+            geo: GeoRef::square(w as u32, h as u32, 0.1, [0.0, 0.0], "EPSG:32633"),
+            ..map
+        };
+        assert_eq!(ground_sigmas(&square, 3.0), [[3.0, 3.0]]);
+        assert_eq!(ground_windows(&square, 7), [[7, 7]]);
+    }
+
+    #[test]
+    fn neighbourhoods_counted_in_cells_keep_their_ground_size_toward_the_poles() {
+        // 5° cells from the equator to 80° N: the mean side is the middle row's (40° N,
+        // 427 × 555 km: 487 km), and a window of 3 of them spans about 1460 km
+        // east-west in every row, 3 columns on the equator and ever more northward,
+        // and 3 rows (1665 km) in each.
+        let (w, h) = (40u32, 17u32);
+        let geo = GeoRef {
+            degrees: true,
+            ..GeoRef::square(w, h, 5.0, [0.0, -2.5], "EPSG:4326")
+        };
+        let map = Map {
+            name: "world".into(),
+            geo: geo.clone(),
+            layers: vec![Layer::new("a", vec![0.0; (w * h) as usize])],
+        };
+        let windows = ground_windows(&map, 3);
+        let sigmas = ground_sigmas(&map, 3.0);
+        let mean = mean_cell_side(&map);
+        for (row, [east, north]) in geo.cell_metres_by_row().iter().enumerate() {
+            let [columns, rows] = windows[row];
+            assert_eq!(rows, 3, "row {row}");
+            assert!(
+                (columns as f64 - 3.0 * mean / east).abs() <= 1.0,
+                "row {row}: {columns} columns of {east} m for {} m",
+                3.0 * mean
+            );
+            let [sx, sy] = sigmas[row];
+            assert!((sx * east / (3.0 * mean) - 1.0).abs() < 1e-12);
+            assert!((sy * north / (3.0 * mean) - 1.0).abs() < 1e-12);
+        }
+        assert!(windows[0][0] < windows[16][0] / 3, "{windows:?}");
     }
 
     #[test]

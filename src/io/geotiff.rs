@@ -384,29 +384,12 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
     }
     geo.tiff_crs = tiff_crs(&keys, doubles, ascii, units.scale);
     geo.validate().map_err(problem)?;
-    if let Some([south, north]) = geo.latitudes() {
-        if south < -90.0 - 1e-6 || north > 90.0 + 1e-6 {
-            return Err(problem(format!(
-                "the raster is in degrees but spans latitudes {south} to {north}"
-            )));
-        }
-        let variation = geo.scale_variation();
-        if variation > 0.05 {
-            tracing::warn!(
-                "{}: a {} raster spanning latitudes {south:.2}° to {north:.2}°: \
-                 steps, slopes, distances and blurs in metres are measured at each row's \
-                 latitude, but neighbourhoods counted in cells (the bank's blurs, relief \
-                 and roughness windows) span up to {:.0} % fewer or more metres east-west \
-                 at its edges; reproject it (gdalwarp) for even neighbourhoods",
-                path.display(),
-                if geo.degrees {
-                    "geographic"
-                } else {
-                    "Web Mercator"
-                },
-                100.0 * variation
-            );
-        }
+    if let Some([south, north]) = geo.latitudes()
+        && (south < -90.0 - 1e-6 || north > 90.0 + 1e-6)
+    {
+        return Err(problem(format!(
+            "the raster is in degrees but spans latitudes {south} to {north}"
+        )));
     }
 
     let is_nodata = |v: f32| match nodata_sample {
