@@ -18,8 +18,11 @@ pub const KIND: &str = "features";
 /// layers under `auto`. 5: the imagery bank's gradients (every band's and the
 /// brightness's); derivatives step around cells with no data. 8: the banks' per-class
 /// indicators on layers of many classes. 9: the roughness of elevation, of a map's
-/// only band and of the brightness over windows of 3 to 31 cells.
-const VERSION: u32 = 10;
+/// only band and of the brightness over windows of 3 to 31 cells. 10: neighbourhoods
+/// leave cells without data out. 11: distances and blurs in metres with each row's cell
+/// size in geographic frames, and neighbourhoods counted in cells in the cells' mean
+/// side on the ground, per axis and row.
+const VERSION: u32 = 11;
 
 fn default_bias() -> bool {
     true
