@@ -799,8 +799,10 @@ fn unreachable(ex: &Example) -> String {
 }
 
 /// Per-feature standard deviation over all cells of all maps, so that the ridge
-/// penalty treats features in metres and in [0, 1] alike; constant features (such as
-/// the bias) keep scale 1.
+/// penalty treats features in metres and in [0, 1] alike; a constant feature is
+/// scaled by its size (at least 1: the bias keeps scale 1), so that its scaled value is
+/// at most 1, as the bias's is (a distance capped everywhere is a constant of thousands
+/// of metres, which MMP's linear steps would otherwise weigh a thousandfold).
 fn feature_scales(stacks: &[FeatureStack]) -> Vec<f64> {
     // Two passes (mean, then squared deviations): a constant feature then has a spread
     // of exactly 0, where E[x²] − E[x]² leaves rounding noise that would pass for a
@@ -830,7 +832,7 @@ fn feature_scales(stacks: &[FeatureStack]) -> Vec<f64> {
             if sd > 1e-6 * mean.abs().max(1.0) {
                 sd
             } else {
-                1.0
+                mean.abs().max(1.0)
             }
         })
         .collect()
@@ -865,7 +867,7 @@ mod tests {
         };
         let world = generate_world(&config).unwrap();
         let spec = FeatureSpec {
-            layers: None,
+            layers: Some(world.maps[0].layer_names()),
             ops,
             bias: true,
             nodata_fill: 0.0,
@@ -1079,23 +1081,77 @@ mod tests {
     }
 
     #[test]
-    fn constant_features_get_unit_scale() {
+    fn constant_features_are_scaled_to_their_size() {
+        // A distance capped everywhere (its target is nowhere on the map) is a constant
+        // in metres: scaled to 1, as the bias is, not left at 1234.567, where a linear
+        // step on it would move every cell's cost a thousand times as far as on any
+        // other feature.
         let mut stack = FeatureStack {
             geo: crate::grid::GeoRef::unit(3, 3),
-            names: vec!["capped".into(), "varied".into()],
-            data: vec![1234.567f32; 18],
+            names: vec![
+                "capped".into(),
+                "varied".into(),
+                "never".into(),
+                "small".into(),
+            ],
+            data: vec![1234.567f32; 36],
         };
-        for (i, v) in stack.data[9..].iter_mut().enumerate() {
+        for (i, v) in stack.data[9..18].iter_mut().enumerate() {
             *v = i as f32;
         }
+        stack.data[18..27].fill(0.0);
+        stack.data[27..].fill(-0.25);
         let scales = feature_scales(&[stack]);
-        assert_eq!(scales[0], 1.0);
+        assert!((scales[0] - 1234.567).abs() < 1e-3, "{scales:?}");
         assert!((scales[1] - (60.0f64 / 9.0).sqrt()).abs() < 1e-12);
+        assert_eq!(scales[2..], [1.0, 1.0]);
     }
 
     #[test]
     fn mmp_learns_a_linear_cost_that_plans_like_the_demonstrations() {
-        let trained = learn_with(GridMethod::Mmp, 20);
+        assert_mmp_learns(&held_out_world());
+    }
+
+    #[test]
+    fn mmp_learns_beside_a_constant_feature_of_thousands() {
+        // A distance to ground the maps do not have is capped everywhere: a constant
+        // (the map's diagonal, in metres; squared, thousands) that must not swamp MMP's
+        // linear steps.
+        let distance = "water/distance_to_above_10_m";
+        let (stacks, names, examples, truth) = small_world_with(vec![
+            crate::features::Op::Distance {
+                layer: "water".into(),
+                class: None,
+                above: Some(10.0),
+                below: None,
+                max: None,
+                max_cells: None,
+            },
+            crate::features::Op::Product {
+                a: distance.into(),
+                b: distance.into(),
+            },
+        ]);
+        let squared = stacks[0]
+            .names
+            .iter()
+            .position(|n| n.contains('*'))
+            .unwrap();
+        let plane = stacks[0].plane(squared);
+        assert!(plane[0] > 4000.0 && plane.iter().all(|&d| d == plane[0]));
+        let (training, holdout) = hold_out_every(examples, 4);
+        assert_mmp_learns(&(stacks, names, training, holdout, truth));
+    }
+
+    /// MMP on `world` plans its held-out demonstrations' cells, and no cell's cost sits
+    /// at the floor.
+    fn assert_mmp_learns(world: &HeldOutWorld) {
+        let config = LearchConfig {
+            method: GridMethod::Mmp,
+            rounds: 20,
+            ..config()
+        };
+        let trained = train_measured(world, &config);
         assert_eq!(trained.model.link, CostLink::Linear);
         let (first, last) = (&trained.rounds[0], trained.rounds.last().unwrap());
         assert!(
@@ -1106,8 +1162,7 @@ mod tests {
         assert!(agreement.within_radius >= 0.85, "{agreement:?}");
         assert!(trained.model.learners.iter().all(|l| l.tree.is_none()));
         // Projected onto the positive costs: no cell ever sits at the floor.
-        let (stacks, ..) = held_out_world();
-        for stack in &stacks {
+        for stack in &world.0 {
             let lowest = trained
                 .model
                 .costmap(stack)
