@@ -35,8 +35,9 @@ pub const KIND: &str = "learch";
 /// mass. 9: LEARCH plans its examples with Dijkstra (other ties than A*'s). 10: cells
 /// weighed by their steps' lengths, trees widened in stages, ridge and trees in turn
 /// for 160 rounds by default. 11: trees split distances between any two of their
-/// values. 12: LEARCH with trees trains two members and averages their costs.
-const VERSION: u32 = 12;
+/// values. 12: LEARCH with trees trains two members and averages their costs. 13: a
+/// feature constant over every map is scaled by its size (MMP's and ridge's steps).
+const VERSION: u32 = 13;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
