@@ -559,6 +559,51 @@ fn evaluate_scores_a_costmap_on_a_fixed_set_as_a_command_and_as_a_stage() {
     let plain = read("out/plain");
     assert_eq!(plain["summary"]["within_radius"], summary["within_radius"]);
     assert!(plain["summary"].get("mean_optimal_cost_ratio").is_none());
+
+    // The true costs as GeoTIFF cost rasters, as a teacher's costs come: named after
+    // their maps they score the plans exactly as the tables do; under names of their
+    // own, four of the same grid cannot say which map each is for.
+    let mut named = Vec::new();
+    let mut unnamed = Vec::new();
+    for k in 0..4 {
+        let table = ws
+            .path()
+            .join(format!("testdata/world/truth/terrain-00{k}.parquet"));
+        let (_, truth) = imitate::io::tables::read_costmap(&table).unwrap();
+        for (file, list) in [
+            (format!("terrain-00{k}.tif"), &mut named),
+            (format!("teacher-{k}.tif"), &mut unnamed),
+        ] {
+            imitate::io::geotiff::write_geotiff(&ws.path().join(&file), &truth.geo, &truth.data)
+                .unwrap();
+            list.push(file);
+        }
+    }
+    let evaluate_with = |references: &[String], out: &str| {
+        let mut args = vec![
+            "evaluate",
+            "out/quickstart/costmap",
+            "--dataset",
+            "out/quickstart/dataset",
+            "--out",
+            out,
+        ];
+        for r in references {
+            args.extend(["--reference", r.as_str()]);
+        }
+        imitate(ws.path(), &args)
+    };
+    let out = evaluate_with(&named, "out/rasters");
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert_eq!(read("out/rasters")["summary"], evaluation["summary"]);
+    let out = evaluate_with(&unnamed, "out/unnamed");
+    assert_eq!(out.status.code(), Some(2), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("map 'terrain-000' has several references of its grid"),
+        "{}",
+        stderr(&out)
+    );
+    assert!(!ws.path().join("out/unnamed").exists());
 }
 
 #[test]

@@ -10,7 +10,7 @@ mod manifest;
 mod verify;
 
 pub use builder::{ArtifactBuilder, copy_artifact};
-pub use costs::load_costs;
+pub use costs::{References, load_costs};
 pub use guard::{check_relative, check_replaceable, written_by_imitate};
 pub use manifest::{
     FileEntry, InputDigest, Lineage, MANIFEST, Manifest, RUN_INFO, artifact_digest, digest_input,

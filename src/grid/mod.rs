@@ -210,6 +210,21 @@ impl GeoRef {
             .fold(0.0, f64::max)
     }
 
+    /// Whether `other` covers the same cells: the same size in cells, cell size and
+    /// origin (within a millionth of a cell) and the same kind of frame units, whatever
+    /// each calls its frame (a table's "map", a GeoTIFF's CRS).
+    pub fn same_grid(&self, other: &GeoRef) -> bool {
+        let [sx, sy] = self.cell_size();
+        let [ox, oy] = other.cell_size();
+        let close = |a: f64, b: f64, unit: f64| (a - b).abs() <= 1e-6 * unit.abs();
+        (self.width, self.height) == (other.width, other.height)
+            && close(sx, ox, sx)
+            && close(sy, oy, sy)
+            && close(self.origin[0], other.origin[0], sx)
+            && close(self.origin[1], other.origin[1], sy)
+            && (self.degrees, self.web_mercator) == (other.degrees, other.web_mercator)
+    }
+
     /// Whether the ground cells are square (within a relative 1e-9).
     pub fn is_square(&self) -> bool {
         let [mx, my] = self.cell_metres();
@@ -413,6 +428,25 @@ impl FeatureStack {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_same_grid_whatever_its_frame_is_called() {
+        let grid = GeoRef::square(4, 3, 0.5, [10.0, -2.0], "EPSG:32633");
+        assert!(grid.same_grid(&GeoRef::square(4, 3, 0.5, [10.0, -2.0], "map")));
+        // A millionth of a cell is rounding; more is another grid.
+        assert!(grid.same_grid(&GeoRef::square(4, 3, 0.5, [10.0 + 1e-8, -2.0], "map")));
+        for other in [
+            GeoRef::square(4, 4, 0.5, [10.0, -2.0], "map"),
+            GeoRef::square(4, 3, 0.25, [10.0, -2.0], "map"),
+            GeoRef::square(4, 3, 0.5, [10.5, -2.0], "map"),
+            GeoRef {
+                degrees: true,
+                ..grid.clone()
+            },
+        ] {
+            assert!(!grid.same_grid(&other), "{other:?}");
+        }
+    }
 
     fn geo() -> GeoRef {
         GeoRef::square(4, 3, 0.5, [10.0, -2.0], "map")

@@ -10,17 +10,15 @@
 //! The result is an artifact, so that CI keeps it and a pipeline reruns it only when
 //! the costmap, the set or the references changed.
 
-use std::collections::BTreeMap;
 use std::path::PathBuf;
 
 use serde::{Deserialize, Serialize};
 
 use super::{StageParams, StageReport, commit_artifact};
-use crate::artifact::{ArtifactBuilder, read_manifest};
+use crate::artifact::{ArtifactBuilder, References, read_manifest};
 use crate::error::{Error, Result};
-use crate::grid::Grid;
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
-use crate::io::tables::{read_costmap, read_paths};
+use crate::io::tables::read_paths;
 use crate::ioc::{ExampleEvaluation, evaluate_example, summarize};
 use crate::plan::{path_cost, shortest_path};
 use crate::report::costmap_artifact::CostmapArtifact;
@@ -39,8 +37,9 @@ pub struct EvaluateParams {
     /// A dataset artifact (from `ingest`) whose paths are the evaluation set.
     #[arg(long, value_name = "DIR")]
     pub dataset: PathBuf,
-    /// Reference costmaps (`costmap/1` Parquet files, one per map; repeat): plans and
-    /// paths are also costed under them.
+    /// Reference costmaps (repeat): plans and paths are also costed under them.
+    /// `costmap/1` tables or one-band GeoTIFFs of costs, each matched to the map of its
+    /// name (a GeoTIFF's is its file's), else to the only map of its grid.
     #[arg(long = "reference", value_name = "FILE")]
     #[serde(default)]
     pub references: Vec<PathBuf>,
@@ -131,11 +130,8 @@ fn evaluate(params: &EvaluateParams) -> Result<Evaluation> {
         .next()
         .map(|f| params.dataset.join(&f.path))
         .ok_or_else(|| Error::input(&params.dataset, "dataset lists no 'paths' file"))?;
-    let mut references: BTreeMap<String, (PathBuf, Grid<f32>)> = BTreeMap::new();
-    for path in &params.references {
-        let (name, grid) = read_costmap(path)?;
-        references.insert(name, (path.clone(), grid));
-    }
+    let references = References::load(&params.references)?;
+    let maps: Vec<&str> = artifact.costmaps.iter().map(|(n, _)| n.as_str()).collect();
     let mut paths = Vec::new();
     let mut unreachable = Vec::new();
     for p in read_paths(&paths_file)? {
@@ -157,21 +153,9 @@ fn evaluate(params: &EvaluateParams) -> Result<Evaluation> {
                 ),
             ));
         }
-        let reference = match references.get(&p.map) {
-            Some((path, grid)) if grid.geo != costs.geo => {
-                return Err(Error::input(
-                    path,
-                    format!("does not have the georeference of map '{}'", p.map),
-                ));
-            }
-            Some((_, grid)) => Some(grid),
-            None if references.is_empty() => None,
-            None => {
-                return Err(Error::Usage(format!(
-                    "evaluate: no reference costmap for map '{}' among the references given",
-                    p.map
-                )));
-            }
+        let reference = match references.is_empty() {
+            true => None,
+            false => Some(references.for_map(&p.map, &costs.geo, &maps)?),
         };
         let Some(plan) = evaluate_example(&p.episode, &p.map, costs, &p.cells, reference) else {
             unreachable.push(p.episode);

@@ -2,7 +2,6 @@
 //! artifact out: the learned cost function, the evaluated costmap of every map,
 //! previews, and metrics on held-out demonstrations.
 
-use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use rand::SeedableRng;
@@ -13,14 +12,13 @@ use serde::{Deserialize, Serialize};
 use super::{StageParams, StageReport, commit_artifact};
 use rayon::prelude::*;
 
-use crate::artifact::{ArtifactBuilder, read_manifest};
+use crate::artifact::{ArtifactBuilder, References, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
 use crate::grid::{FeatureStack, Grid};
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::io::png::write_png;
 use crate::io::tables::{
-    EpisodePath, read_costmap, read_features, read_features_header, read_paths, write_costmap,
-    write_paths,
+    EpisodePath, read_features, read_features_header, read_paths, write_costmap, write_paths,
 };
 use crate::ioc::{
     self, Example, ExampleEvaluation, GridMethod, LearchConfig, LossKind, StepSchedule,
@@ -204,8 +202,10 @@ pub struct LearchParams {
     #[arg(long, default_value_t = 0)]
     #[serde(default)]
     pub seed: u64,
-    /// Reference costmaps (`costmap/1` tables, matched to maps by name) to score plans
-    /// against, e.g. a synthetic world's true costs. Evaluation only.
+    /// Reference costmaps to score plans against, e.g. a synthetic world's true costs or
+    /// a teacher's cost raster: `costmap/1` tables or one-band GeoTIFFs of costs, each
+    /// matched to the map of its name (a GeoTIFF's is its file's), else to the only map
+    /// of its grid. Evaluation only.
     #[arg(long = "reference", value_name = "FILE")]
     #[serde(default)]
     pub references: Vec<PathBuf>,
@@ -728,37 +728,22 @@ fn read_checkpoint(path: &std::path::Path) -> Result<Option<ioc::Progress>> {
 }
 
 impl LearchParams {
-    /// Loads the reference costmaps, one per map, or `None` when none were given.
+    /// Loads the reference costmaps, one per map ([`References::for_map`]), or `None`
+    /// when none were given.
     fn load_references(
         &self,
         map_names: &[String],
         stacks: &[FeatureStack],
     ) -> Result<Option<Vec<Grid<f32>>>> {
-        if self.references.is_empty() {
+        let references = References::load(&self.references)?;
+        if references.is_empty() {
             return Ok(None);
         }
-        let mut by_name = BTreeMap::new();
-        for path in &self.references {
-            let (name, grid) = read_costmap(path)?;
-            by_name.insert(name, (path, grid));
-        }
+        let maps: Vec<&str> = map_names.iter().map(String::as_str).collect();
         map_names
             .iter()
             .zip(stacks)
-            .map(|(name, stack)| {
-                let (path, grid) = by_name.remove(name).ok_or_else(|| {
-                    Error::Usage(format!(
-                        "learch: no reference costmap for map '{name}' among the references given"
-                    ))
-                })?;
-                if grid.geo != stack.geo {
-                    return Err(Error::input(
-                        path,
-                        format!("does not have the georeference of map '{name}'"),
-                    ));
-                }
-                Ok(grid)
-            })
+            .map(|(name, stack)| Ok(references.for_map(name, &stack.geo, &maps)?.clone()))
             .collect::<Result<Vec<_>>>()
             .map(Some)
     }
