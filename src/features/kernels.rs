@@ -895,6 +895,13 @@ mod tests {
         assert!(out.iter().all(|&v| v == 0.0));
     }
 
+    /// The standard deviation of `data` (over its count, as roughness takes it).
+    fn spread(data: &[f64]) -> f64 {
+        let n = data.len() as f64;
+        let mean = data.iter().sum::<f64>() / n;
+        (data.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
+    }
+
     proptest::proptest! {
         /// The roughness of a cell with data is the standard deviation of the cells with
         /// data in its window (reflected at the edges), and a raster without voids blurs as
@@ -917,13 +924,7 @@ mod tests {
                     .filter(|v| !v.is_nan())
                     .map(f64::from)
                     .collect();
-                let n = data.len() as f64;
-                let expected = if input[i].is_nan() {
-                    0.0
-                } else {
-                    let mean = data.iter().sum::<f64>() / n;
-                    (data.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
-                };
+                let expected = if input[i].is_nan() { 0.0 } else { spread(&data) };
                 proptest::prop_assert!((f64::from(got) - expected).abs() < 1e-3, "cell {i}: {got} vs {expected}");
             }
             let full: Vec<f32> = cells.iter().map(|v| v.unwrap_or(1.0)).collect();
@@ -963,13 +964,7 @@ mod tests {
                     .filter(|v| !v.is_nan())
                     .map(f64::from)
                     .collect();
-                let n = data.len() as f64;
-                let expected = if input[i].is_nan() {
-                    0.0
-                } else {
-                    let mean = data.iter().sum::<f64>() / n;
-                    (data.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / n).sqrt()
-                };
+                let expected = if input[i].is_nan() { 0.0 } else { spread(&data) };
                 proptest::prop_assert!((f64::from(got) - expected).abs() < 1e-3, "cell {i}: {got} vs {expected}");
             }
         }

@@ -1275,6 +1275,26 @@ mod tests {
         assert!(reach(8) > 2.0 * reach(0), "{} {}", reach(8), reach(0));
     }
 
+    /// A blur of σ 2 cells, the roughness over 3 cells and the relief at σ 2 cells of
+    /// `layer`.
+    fn neighbourhood_ops(layer: &str) -> Vec<Op> {
+        vec![
+            Op::Blur {
+                layer: layer.into(),
+                sigmas: vec![],
+                cells: vec![2.0],
+            },
+            Op::Roughness {
+                layer: layer.into(),
+                windows: vec![3],
+            },
+            Op::Relief {
+                layer: layer.into(),
+                cells: vec![2.0],
+            },
+        ]
+    }
+
     #[test]
     fn neighbourhoods_counted_in_cells_are_round_on_the_ground() {
         // Cells of 20 × 10 m: the mean side is √200 m, so a blur of 2 cells is σ √2
@@ -1291,22 +1311,7 @@ mod tests {
             geo,
             layers: vec![Layer::new("a", values.clone())],
         };
-        let ops = vec![
-            Op::Blur {
-                layer: "a".into(),
-                sigmas: vec![],
-                cells: vec![2.0],
-            },
-            Op::Roughness {
-                layer: "a".into(),
-                windows: vec![3],
-            },
-            Op::Relief {
-                layer: "a".into(),
-                cells: vec![2.0],
-            },
-        ];
-        let stack = compute(&map, &spec(Some(vec![]), ops)).unwrap();
+        let stack = compute(&map, &spec(Some(vec![]), neighbourhood_ops("a"))).unwrap();
         assert_eq!(ground_windows(&map, 3), [[3, 5]]);
         let root2 = 2f64.sqrt();
         let mut expected = vec![0.0; w * h];
@@ -1546,20 +1551,8 @@ mod tests {
         for cell in [3 * w + 4, 3 * w + 5] {
             m.layers[0].values[cell] = f32::NAN;
         }
-        let ops = vec![
-            Op::Blur {
-                layer: "a".into(),
-                sigmas: vec![],
-                cells: vec![2.0],
-            },
-            Op::Roughness {
-                layer: "a".into(),
-                windows: vec![3],
-            },
-            Op::Relief {
-                layer: "a".into(),
-                cells: vec![2.0],
-            },
+        let mut ops = neighbourhood_ops("a");
+        ops.extend([
             Op::Laplacian { layer: "a".into() },
             Op::QuantileDistance {
                 layer: "a".into(),
@@ -1577,7 +1570,7 @@ mod tests {
                 gradient: false,
                 roughness: vec![5],
             },
-        ];
+        ]);
         let stack = compute(&m, &spec(Some(vec!["a"]), ops.clone())).unwrap();
         let plane = |name: &str| stack.plane(stack.names.iter().position(|n| n == name).unwrap());
         let void = |cell: usize| m.layers[0].values[cell].is_nan();
