@@ -88,24 +88,45 @@ fn a_ros1_log_decodes_as_foxglove_does_and_ingests_as_its_ros2_twin() {
         assert_eq!(a, b, "message {i}");
     }
 
+    assert_ingest_finds_the_same_drive(dir.path(), &ros1_log, &ros2_log);
+}
+
+/// Two logs of one drive, each in its own folder under the same file name (the name goes
+/// into the datasets): ingest, split on the goals, writes the same paths and
+/// demonstrations from both, byte for byte.
+fn assert_ingest_finds_the_same_drive(dir: &Path, log: &Path, twin: &Path) {
     let split = ["--goal-topic", "/goal", "--split", "goal"];
-    for (log, out_dir) in [
-        (ros1_log.to_str().unwrap(), "from-ros1"),
-        (ros2_log.to_str().unwrap(), "from-ros2"),
-    ] {
+    for (log, out_dir) in [(log, "from-log"), (twin, "from-twin")] {
+        let log = log.to_str().unwrap();
         let out = imitate(
-            dir.path(),
+            dir,
             &[&["ingest", "--log", log], &split[..], &["--out", out_dir]].concat(),
         );
         assert!(out.status.success(), "{}", stderr(&out));
     }
     for file in ["paths.parquet", "demonstrations.parquet"] {
         assert_eq!(
-            std::fs::read(dir.path().join("from-ros1").join(file)).unwrap(),
-            std::fs::read(dir.path().join("from-ros2").join(file)).unwrap(),
+            std::fs::read(dir.join("from-log").join(file)).unwrap(),
+            std::fs::read(dir.join("from-twin").join(file)).unwrap(),
             "{file}"
         );
     }
+}
+
+/// The same ROS 2 log with its schemas stored as `ros2idl` (the IDL `rosidl_adapter`
+/// generates, rewritten by Foxglove's `mcap` writer: `tests/python/ros2idl_bag.py`):
+/// ingest gives the demonstrations and paths of the `ros2msg` log, byte for byte.
+#[test]
+fn a_log_with_ros2idl_schemas_ingests_as_its_ros2msg_twin() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir(dir.path().join("idl")).unwrap();
+    let msg_log = repo().join("testdata/world/logs/terrain-002.mcap");
+    let idl_log = dir.path().join("idl/terrain-002.mcap");
+    let Some(converted) = python_script("ros2idl_bag.py", &[&msg_log, &idl_log]) else {
+        return;
+    };
+    assert_eq!(converted[0]["schemas"], 4);
+    assert_ingest_finds_the_same_drive(dir.path(), &idl_log, &msg_log);
 }
 
 #[test]

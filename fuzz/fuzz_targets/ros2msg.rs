@@ -1,4 +1,4 @@
-//! The ros2msg and ros1msg schema parsers on arbitrary text: errors are fine, panics
+//! The ros2msg, ros1msg and ros2idl schema parsers on arbitrary text: errors are fine, panics
 //! are not.
 #![no_main]
 
@@ -8,5 +8,6 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
         let _ = imitate::io::mcap::ros2msg::parse("fuzz_msgs/msg/Root", text);
         let _ = imitate::io::mcap::ros2msg::parse_ros1("fuzz_msgs/Root", text);
+        let _ = imitate::io::mcap::ros2idl::parse("fuzz_msgs/msg/Root", text);
     }
 });

@@ -1,5 +1,5 @@
 //! Choosing and running a channel's decoder from its message encoding and the schema
-//! stored in the file: `cdr` + `ros2msg` and `ros1` + `ros1msg` (our parser and
+//! stored in the file: `cdr` + `ros2msg` or `ros2idl` and `ros1` + `ros1msg` (our parsers and
 //! decoders), `json` (any or no schema), `protobuf` + a `FileDescriptorSet` (through
 //! `prost-reflect`).
 
@@ -10,6 +10,7 @@ use prost_reflect::{DescriptorPool, DynamicMessage, MessageDescriptor, ReflectMe
 
 use super::cdr;
 use super::reader::{ChannelInfo, SchemaInfo};
+use super::ros2idl;
 use super::ros2msg::{self, Schema};
 use super::value::Value;
 
@@ -28,6 +29,11 @@ impl MessageDecoder {
         match (channel.message_encoding.as_str(), schema) {
             ("cdr", Some(schema)) if schema_encoding == "ros2msg" => {
                 ros2msg::parse(&schema.name, text(schema)?)
+                    .map(MessageDecoder::Cdr)
+                    .map_err(|e| format!("schema '{}': {e}", schema.name))
+            }
+            ("cdr", Some(schema)) if schema_encoding == "ros2idl" => {
+                ros2idl::parse(&schema.name, text(schema)?)
                     .map(MessageDecoder::Cdr)
                     .map_err(|e| format!("schema '{}': {e}", schema.name))
             }
@@ -52,7 +58,7 @@ impl MessageDecoder {
             }
             (encoding, _) => Err(format!(
                 "no decoder for message encoding '{encoding}' with schema encoding \
-                 '{schema_encoding}' (supported: cdr+ros2msg, ros1+ros1msg, json, \
+                 '{schema_encoding}' (supported: cdr+ros2msg, cdr+ros2idl, ros1+ros1msg, json, \
                  protobuf+protobuf)"
             )),
         }

@@ -9,6 +9,7 @@ pub mod frames;
 pub mod inspect;
 pub mod reader;
 pub mod ros2;
+pub mod ros2idl;
 pub mod ros2msg;
 pub mod value;
 pub mod writer;

@@ -179,25 +179,25 @@ impl Schema {
 }
 
 /// A field type as written, before message names are resolved.
-struct RawField {
-    name: String,
-    type_text: String,
-    base: RawBase,
-    arity: Arity,
-    string_bound: Option<usize>,
-    default_text: Option<String>,
-    line: usize,
+pub(super) struct RawField {
+    pub(super) name: String,
+    pub(super) type_text: String,
+    pub(super) base: RawBase,
+    pub(super) arity: Arity,
+    pub(super) string_bound: Option<usize>,
+    pub(super) default_text: Option<String>,
+    pub(super) line: usize,
 }
 
-enum RawBase {
+pub(super) enum RawBase {
     Primitive(Primitive),
     Message(String),
 }
 
-struct RawMessage {
-    name: String,
-    fields: Vec<RawField>,
-    constants: Vec<Constant>,
+pub(super) struct RawMessage {
+    pub(super) name: String,
+    pub(super) fields: Vec<RawField>,
+    pub(super) constants: Vec<Constant>,
 }
 
 /// Parses `text`, the ROS 2 schema stored for message type `name` (e.g.
@@ -308,7 +308,7 @@ fn parse_dialect(name: &str, text: &str, dialect: Dialect) -> Result<Schema, Str
     resolve(raw)
 }
 
-fn short_name(name: &str) -> String {
+pub(super) fn short_name(name: &str) -> String {
     let parts: Vec<&str> = name.split('/').collect();
     match parts.as_slice() {
         [pkg, "msg", msg] => format!("{pkg}/{msg}"),
@@ -468,7 +468,7 @@ fn parse_size(text: &str, type_text: &str) -> Result<usize, String> {
 
 /// Parses a default value or constant. Arrays are `[a, b, ...]`; strings may be quoted
 /// with `"` or `'` (a constant's unquoted string is the rest of the line).
-fn parse_literal(ty: Primitive, arity: Arity, text: &str) -> Result<Literal, String> {
+pub(super) fn parse_literal(ty: Primitive, arity: Arity, text: &str) -> Result<Literal, String> {
     if arity != Arity::Single {
         let inner = text
             .strip_prefix('[')
@@ -587,7 +587,8 @@ fn builtin(name: &str) -> Option<RawMessage> {
     })
 }
 
-fn resolve(mut raw: Vec<RawMessage>) -> Result<Schema, String> {
+/// Resolves message names to indices; `raw[0]` is the root.
+pub(super) fn resolve(mut raw: Vec<RawMessage>) -> Result<Schema, String> {
     let mut index: HashMap<String, usize> = HashMap::new();
     for (i, message) in raw.iter().enumerate() {
         // The first definition of a name wins, as in the reference decoder's lookups.
