@@ -422,6 +422,7 @@ impl Parser {
 
     fn constant(&mut self) -> Result<(), String> {
         self.at += 1;
+        let line = self.line();
         let ty = match self.type_spec()? {
             TypeSpec::Primitive(p) => p,
             TypeSpec::String { wide: false, .. } => Primitive::String,
@@ -446,8 +447,12 @@ impl Parser {
             (Primitive::String | Primitive::WString, Some(s)) if text.is_empty() => Literal::Str(s),
             (_, None) => parse_literal(ty, Arity::Single, &text)
                 .or_else(|e| hex_literal(ty, &text).ok_or(e))
-                .map_err(|e| format!("line {}: constant {name}: {e}", self.line()))?,
-            _ => return self.fail(format!("constant {name} has a value of the wrong kind")),
+                .map_err(|e| format!("line {line}: constant {name}: {e}"))?,
+            _ => {
+                return Err(format!(
+                    "line {line}: constant {name} has a value of the wrong kind"
+                ));
+            }
         };
         self.found
             .constants
@@ -1139,6 +1144,10 @@ module example_interfaces { module srv {
             (
                 "module a { module msg { struct N { long x; }; }; };",
                 "the schema defines no struct a/M",
+            ),
+            (
+                "module a { module msg {\n module M_Constants { const uint8 C = 300; };\n}; };",
+                "line 2: constant C: 300 is out of range",
             ),
             (
                 "module a { module msg { struct M {\n long x\n}; }; };",
