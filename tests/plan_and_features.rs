@@ -505,6 +505,41 @@ fn bench_terrain_names_a_raster_it_cannot_use() {
     assert_input_error(&out, &["one-cell.tif", "no 60 pairs of cells", "1 × 1"]);
 }
 
+/// A raster with nothing on it (every cell the same value) leaves every teacher a
+/// uniform cost: every method learns a cost of one level (its features are constant),
+/// whose plans cost exactly the teacher's, and none fails on the features' zero spread.
+#[test]
+fn bench_terrain_on_a_constant_raster_plans_at_the_teachers_cost() {
+    let dir = tempfile::tempdir().unwrap();
+    let raster = dir.path().join("flat.tif");
+    write_geotiff(
+        &raster,
+        &GeoRef::square(24, 20, 30.0, [0.0, 0.0], "map"),
+        &[7.0; 24 * 20],
+    )
+    .unwrap();
+    let mut args = vec!["bench", "terrain", raster.to_str().unwrap()];
+    for teacher in ["threshold", "texture"] {
+        args.extend(["--teacher", teacher]);
+    }
+    for method in ["learch-alternate", "learch-ridge", "mmp", "maxent"] {
+        args.extend(["--method", method]);
+    }
+    args.extend(["--rounds", "3", "--paths", "16", "--json"]);
+    let out = imitate(dir.path(), &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let results = report["results"].as_array().unwrap();
+    // Both teachers, the uniform baseline and the four methods.
+    assert_eq!(results.len(), 2 * 5, "{report}");
+    for result in results {
+        for figure in ["mean_cost_ratio", "max_cost_ratio"] {
+            let ratio = result[figure].as_f64().unwrap();
+            assert!((ratio - 1.0).abs() < 1e-9, "{figure} {ratio} in {result}");
+        }
+    }
+}
+
 /// A 48 × 40 GeoTIFF of 30 m cells in `dir`: crossed waves on a slope, a terrain
 /// that `bench terrain` runs on in seconds.
 fn waves_raster(dir: &Path) -> PathBuf {
