@@ -192,3 +192,55 @@ fn forecast_refuses_what_it_cannot_use() {
     assert!(stderr(&tree).contains("weak_learner"), "{}", stderr(&tree));
     assert!(!ws.path().join("t").exists());
 }
+
+/// A costmap as ROS writes them (cells of 1 to 250) with a horizon that binds: the
+/// cheap ring round the border is far longer in steps than the 7 the forecast allows,
+/// so every path it may take is some 1700 dearer than the cheapest of any length.
+/// The forecast must still find the destination and send every path through it.
+#[test]
+fn forecast_on_a_dear_map_with_a_binding_horizon_reaches_the_destination() {
+    use imitate::grid::{GeoRef, Grid};
+    let ws = tempfile::tempdir().unwrap();
+    let (width, height) = (9u32, 11u32);
+    let costs: Vec<f32> = (0..width * height)
+        .map(|i| {
+            let (row, col) = (i / width, i % width);
+            let ring = row == 0 || row == height - 1 || col == 0 || col == width - 1;
+            if ring { 1.0 } else { 250.0 }
+        })
+        .collect();
+    let grid = Grid::from_vec(GeoRef::unit(width, height), costs);
+    let costmap = ws.path().join("ros.parquet");
+    imitate::io::tables::write_costmap(&costmap, "ros", &grid).unwrap();
+    let run = imitate(
+        ws.path(),
+        &[
+            "forecast",
+            "ros.parquet",
+            "--cells",
+            "--observed",
+            "5,0 5,1",
+            "--destination",
+            "5,8",
+            "--horizon-factor",
+            "1",
+            "--out",
+            "fc",
+        ],
+    );
+    assert!(run.status.success(), "{}", stderr(&run));
+    let visitation = read_numeric_table(
+        &ws.path().join("fc/visitation.parquet"),
+        Table::FORECAST_VISITATION,
+        &["row", "col", "visits"],
+    )
+    .unwrap();
+    // Seven steps for seven columns: every path crosses each column once.
+    for col in 2..width {
+        let crossings: f64 = (0..visitation[0].len())
+            .filter(|&i| visitation[1][i] == f64::from(col))
+            .map(|i| visitation[2][i])
+            .sum();
+        assert!((crossings - 1.0).abs() < 1e-5, "column {col}: {crossings}");
+    }
+}

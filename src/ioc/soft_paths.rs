@@ -30,8 +30,8 @@
 //! is dropped, as the forward pass drops negligible mass.
 
 use super::soft_math::{
-    arrive_row, binary_exponent, flow_row, largest_of, ln_scaled, negated_exp_row, partition_row,
-    power_of_two, scaled_inverse,
+    arrive_row, binary_exponent, exp, flow_row, largest_of, ln_scaled, negated_exp_row,
+    partition_row, power_of_two, scaled_inverse,
 };
 use crate::grid::{Cell, Grid};
 use crate::plan::StepLengths;
@@ -140,6 +140,9 @@ pub struct SoftGoal {
     /// h(x): the least cost from x to the goal over the cells paths can use (∞ where
     /// there is none), the potential the weights are measured against.
     potential: Vec<f64>,
+    /// Each window cell's price, ∞ where paths cannot enter: what the log-domain pass
+    /// (`SoftGoal::exact`) prices steps with.
+    priced: Vec<f64>,
     goal: usize,
     goal_cell: Cell,
     /// The one start the passes are restricted to, if any (see `SoftGoal::between`).
@@ -167,6 +170,25 @@ struct Layer {
 /// A layer whose largest value leaves 2^±64 is scaled back to 1: far from the floats'
 /// limits, and rarely (a step multiplies a layer's values by at most 8).
 const DRIFT: i32 = 64;
+
+/// The binary exponent of a start's scaled Z below which its fast answer is not
+/// trusted. Every path within the step budget is then some 415 nats dearer than the
+/// potential promised (a horizon that binds on a dear map), and the other cells of the
+/// layers, scaled alike, may have lost to underflow what those paths carry; such a
+/// start is answered in the log domain (`SoftGoal::exact`). Above it, whatever
+/// underflowed weighs less than 2^−250 of the start's paths.
+const TRUSTED_EXPONENT: i32 = -600;
+
+/// How the passes answer for one start.
+enum StartAnswer {
+    /// From the layers: Z_steps(start) e^h(start) as a value and its layer's exponent.
+    Layers(f64, i32),
+    /// In the log domain: the layers' value is too small to trust.
+    Exact,
+    /// The goal cannot be reached from it within the steps (or it is not the start
+    /// the passes are restricted to, or outside the window).
+    Unreachable,
+}
 
 /// Window rows r0..r1 and columns c0..c1.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -456,6 +478,7 @@ impl SoftGoal {
             weight,
             half_lengths: row_lengths.iter().map(|l| l.map(|l| l * 0.5)).collect(),
             potential,
+            priced,
             goal,
             goal_cell,
             start,
@@ -595,23 +618,35 @@ impl SoftGoal {
 
     /// Soft cost-to-go from `cell` with at most `steps` steps (capped at the horizon).
     pub fn value_within(&self, cell: Cell, steps: usize) -> f64 {
-        match self.partition_at(cell, steps) {
-            Some((z, exponent)) => self.potential[self.window.index(cell)] - ln_scaled(z, exponent),
-            None => f64::INFINITY,
+        match self.answer_at(cell, steps) {
+            StartAnswer::Layers(z, exponent) => {
+                self.potential[self.window.index(cell)] - ln_scaled(z, exponent)
+            }
+            StartAnswer::Exact => self.exact(cell, steps.min(self.horizon)).0,
+            StartAnswer::Unreachable => f64::INFINITY,
         }
     }
 
-    /// Z_steps(cell) e^h(cell) as a value and its layer's exponent, where it is positive
-    /// (`cell` in the window and, for passes restricted to one start, that start).
-    fn partition_at(&self, cell: Cell, steps: usize) -> Option<(f64, i32)> {
-        if !self.window.contains(cell) || self.start.is_some_and(|s| s != cell) {
-            return None;
+    /// How the passes answer for paths from `cell` of at most `steps` steps.
+    fn answer_at(&self, cell: Cell, steps: usize) -> StartAnswer {
+        let steps = steps.min(self.horizon);
+        if !self.window.contains(cell)
+            || self.start.is_some_and(|s| s != cell)
+            || cell.chebyshev(self.goal_cell) as usize > steps
+            || !self.potential[self.window.index(cell)].is_finite()
+        {
+            return StartAnswer::Unreachable;
         }
-        let layer = self.layer(steps.min(self.horizon));
-        let z = self.data(layer)[layer
+        let layer = self.layer(steps);
+        let z = layer
             .rect
-            .offset(self.window.index(cell), self.window.cols)?];
-        (z > 0.0).then_some((z, layer.exponent))
+            .offset(self.window.index(cell), self.window.cols)
+            .map_or(0.0, |at| self.data(layer)[at]);
+        if z > 0.0 && binary_exponent(z) >= TRUSTED_EXPONENT {
+            StartAnswer::Layers(z, layer.exponent)
+        } else {
+            StartAnswer::Exact
+        }
     }
 
     /// Expected visitation of paths from `start` under the distribution.
@@ -622,31 +657,42 @@ impl SoftGoal {
     /// Expected visitation of the paths from `start` of at most `steps` steps (capped
     /// at the horizon).
     pub fn visitation_within(&self, start: Cell, steps: usize) -> Visitation {
+        let steps = steps.min(self.horizon);
+        let (z, exponent) = match self.answer_at(start, steps) {
+            StartAnswer::Layers(z, exponent) => (z, exponent),
+            StartAnswer::Exact => return self.exact(start, steps).1,
+            StartAnswer::Unreachable => {
+                return Visitation {
+                    visits: vec![0.0; self.window.len()],
+                    incidence: vec![0.0; self.window.len()],
+                };
+            }
+        };
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the CPU has AVX2.
-            return unsafe { self.visitation_avx2(start, steps) };
+            return unsafe { self.visitation_avx2(start, steps, z, exponent) };
         }
-        self.visitation_rows(start, steps)
+        self.visitation_rows(start, steps, z, exponent)
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn visitation_avx2(&self, start: Cell, steps: usize) -> Visitation {
-        self.visitation_rows(start, steps)
+    fn visitation_avx2(&self, start: Cell, steps: usize, z: f64, exponent: i32) -> Visitation {
+        self.visitation_rows(start, steps, z, exponent)
     }
 
+    /// The forward pass from `start`, whose Z_steps is `z_start` over 2^`z_exponent`.
     #[inline(always)]
-    fn visitation_rows(&self, start: Cell, steps: usize) -> Visitation {
-        let steps = steps.min(self.horizon);
+    fn visitation_rows(
+        &self,
+        start: Cell,
+        steps: usize,
+        z_start: f64,
+        z_exponent: i32,
+    ) -> Visitation {
         let n = self.window.len();
         let width = self.window.cols;
-        let Some((z_start, z_exponent)) = self.partition_at(start, steps) else {
-            return Visitation {
-                visits: vec![0.0; n],
-                incidence: vec![0.0; n],
-            };
-        };
         // Z_left−1, the partition functions ahead of a step with `left` steps left.
         let mut ahead = Scratch::new(&self.window);
         let offsets = ahead.offsets();
@@ -778,6 +824,111 @@ impl SoftGoal {
             visits: unpadded(visits),
             incidence: unpadded(incidence),
         }
+    }
+
+    /// Soft value and visitation of the paths from `start` of at most `steps` steps,
+    /// in the log domain: soft values V_k = −ln Z_k layer by layer (each a log-sum-exp
+    /// with its least term taken out), then the forward pass in step probabilities
+    /// e^(V_k(x) − edge − V_k−1(y)) ≤ 1, so that nothing underflows however dear the
+    /// paths the step budget leaves. Several times slower than the layers, and only
+    /// asked where they cannot be trusted (`TRUSTED_EXPONENT`).
+    fn exact(&self, start: Cell, steps: usize) -> (f64, Visitation) {
+        let (n, width, rows) = (
+            self.window.len(),
+            self.window.cols as usize,
+            self.window.rows as usize,
+        );
+        // Cells that can lie k steps from the goal on a path from the start.
+        let rects: Vec<Rect> = (0..=steps)
+            .map(|k| {
+                Rect::ball(&self.window, self.goal_cell, k).intersect(Rect::ball(
+                    &self.window,
+                    start,
+                    steps - k,
+                ))
+            })
+            .collect();
+        // The step from x by move m: where it lands and its cost, where it can be taken.
+        let step = |x: usize, m: usize| -> Option<(usize, f64)> {
+            let (dr, dc) = MOVES[m];
+            let r = (x / width)
+                .checked_add_signed(dr as isize)
+                .filter(|&r| r < rows)?;
+            let c = (x % width)
+                .checked_add_signed(dc as isize)
+                .filter(|&c| c < width)?;
+            let y = r * width + c;
+            let cost = step_cost(
+                self.half_lengths[x / width][m],
+                self.priced[x],
+                self.priced[y],
+            );
+            cost.is_finite().then_some((y, cost))
+        };
+        let mut layers: Vec<Vec<f64>> = Vec::with_capacity(steps + 1);
+        let value = |layers: &[Vec<f64>], k: usize, x: usize| {
+            rects[k]
+                .offset(x, self.window.cols)
+                .map_or(f64::INFINITY, |at| layers[k][at])
+        };
+        for (k, rect) in rects.iter().enumerate() {
+            let mut layer = Vec::with_capacity(rect.len());
+            for x in rect.rows(self.window.cols).flatten() {
+                layer.push(if x == self.goal {
+                    0.0
+                } else if k == 0 {
+                    f64::INFINITY
+                } else {
+                    let ahead = || {
+                        (0..8)
+                            .filter_map(|m| step(x, m))
+                            .map(|(y, cost)| cost + value(&layers, k - 1, y))
+                    };
+                    let least = ahead().fold(f64::INFINITY, f64::min);
+                    if least.is_finite() {
+                        let sum: f64 = ahead().map(|q| exp(least - q)).sum();
+                        least - ln_scaled(sum, 0)
+                    } else {
+                        least
+                    }
+                });
+            }
+            layers.push(layer);
+        }
+        let origin = self.window.index(start);
+        let (mut visits, mut incidence) = (vec![0.0; n], vec![0.0; n]);
+        visits[origin] = 1.0;
+        let mut mass = vec![0.0; n];
+        if origin != self.goal {
+            mass[origin] = 1.0;
+        }
+        let mut moved = vec![0.0; n];
+        for left in (1..=steps).rev() {
+            moved.fill(0.0);
+            for x in rects[left].rows(self.window.cols).flatten() {
+                if mass[x] == 0.0 {
+                    continue;
+                }
+                let here = value(&layers, left, x);
+                for m in 0..8 {
+                    let Some((y, cost)) = step(x, m) else {
+                        continue;
+                    };
+                    let flow = mass[x] * exp(here - cost - value(&layers, left - 1, y));
+                    let half = self.half_lengths[x / width][m];
+                    moved[y] += flow;
+                    visits[y] += flow;
+                    incidence[x] += half * flow;
+                    incidence[y] += half * flow;
+                }
+            }
+            moved[self.goal] = 0.0;
+            std::mem::swap(&mut mass, &mut moved);
+        }
+        (
+            value(&layers, steps, origin),
+            Visitation { visits, incidence },
+        )
     }
 }
 
@@ -1053,17 +1204,59 @@ mod tests {
             let horizon = start.chebyshev(goal) as usize + extra;
             let window = Window::around(&[Cell::new(0, 0), goal], 0, width, height);
             let (value, visits) = naive(&costs, start, goal, horizon);
+            // Infinite only against infinite.
+            let close = |a: f64, b: f64| {
+                a == b || (a.is_finite() && (a - b).abs() <= 1e-9 * a.abs().max(1.0))
+            };
             for soft in [
                 SoftGoal::new(&costs, window, goal, horizon),
                 SoftGoal::between(&costs, window, start, goal, horizon),
             ] {
-                let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
-                proptest::prop_assert!(close(soft.value(start), value), "{} against {value}", soft.value(start));
-                let found = soft.visitation(start).visits;
-                for (i, (&a, &b)) in found.iter().zip(&visits).enumerate() {
-                    proptest::prop_assert!(close(a, b), "cell {i}: {a} against {b}");
+                // The layers where they are trusted, and the log-domain pass everywhere.
+                let (exact_value, exact) = soft.exact(start, horizon);
+                for (found, found_visits) in [
+                    (soft.value(start), soft.visitation(start).visits),
+                    (exact_value, exact.visits),
+                ] {
+                    proptest::prop_assert!(close(found, value), "{found} against {value}");
+                    for (i, (&a, &b)) in found_visits.iter().zip(&visits).enumerate() {
+                        proptest::prop_assert!(close(a, b), "cell {i}: {a} against {b}");
+                    }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn a_binding_horizon_on_a_dear_map_is_answered_in_the_log_domain() {
+        // Dear cells and a horizon of the diagonal's steps: the one path allowed costs
+        // some 1100 more than the cheapest path of any length, which the potential
+        // measures against, so its weight underflows in the layers.
+        let (width, height, seed) = (7u32, 7u32, 343u64);
+        let data: Vec<f32> = (0..width * height)
+            .map(|i| {
+                390.3 * (0.5 + ((u64::from(i) * 2654435761 + seed * 40503) % 1000) as f32 / 1000.0)
+            })
+            .collect();
+        let costs = grid(width, height, data);
+        let (start, goal) = (Cell::new(0, 0), Cell::new(6, 6));
+        let window = Window::around(&[start, goal], 0, width, height);
+        let soft = SoftGoal::new(&costs, window, goal, 6);
+        assert!(matches!(soft.answer_at(start, 6), StartAnswer::Exact));
+        let diagonal: Vec<Cell> = (0..7).map(|i| Cell::new(i, i)).collect();
+        let cost = path_cost(&costs, &diagonal);
+        assert!(
+            (soft.value(start) - cost).abs() <= 1e-9 * cost,
+            "{} against {cost}",
+            soft.value(start)
+        );
+        let visits = soft.visitation(start).visits;
+        for (i, &v) in visits.iter().enumerate() {
+            let on_diagonal = i % 8 == 0;
+            assert!(
+                (v - f64::from(u8::from(on_diagonal))).abs() < 1e-12,
+                "cell {i}: {v}"
+            );
         }
     }
 
@@ -1124,8 +1317,11 @@ mod tests {
             let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert_eq!(bits(&plain.memory), bits(&auto.memory));
             assert_eq!(plain.value(start).to_bits(), auto.value(start).to_bits());
+            let StartAnswer::Layers(z, exponent) = plain.answer_at(start, horizon) else {
+                panic!("this map's layers answer for the start");
+            };
             let (a, b) = (
-                plain.visitation_rows(start, horizon),
+                plain.visitation_rows(start, horizon, z, exponent),
                 auto.visitation(start),
             );
             assert_eq!(bits(&a.visits), bits(&b.visits));

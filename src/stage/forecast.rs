@@ -30,8 +30,10 @@ use crate::report::{COLOUR_DEMONSTRATION, COLOUR_PLAN, paint_heat};
 
 pub const KIND: &str = "forecast";
 /// 2: MaxEnt's passes with their own exponential (the same bits on every machine).
-/// 3: the forward pass drops negligible mass.
-const VERSION: u32 = 3;
+/// 3: the forward pass drops negligible mass. 4: a start whose paths within the
+/// horizon the layers cannot hold (a horizon that binds on a dear map) is answered in
+/// the log domain rather than as unreachable.
+const VERSION: u32 = 4;
 
 fn default_horizon_factor() -> f64 {
     1.5

@@ -35,7 +35,9 @@ pub const KIND: &str = "learch";
 /// for 160 rounds by default. 11: trees split distances between any two of their
 /// values. 12: LEARCH with trees trains two members and averages their costs. 13: a
 /// feature constant over every map is scaled by its size (MMP's and ridge's steps).
-const VERSION: u32 = 13;
+/// 14: MaxEnt answers an example whose paths within the horizon its layers cannot hold
+/// (a horizon that binds on a dear map) in the log domain.
+const VERSION: u32 = 14;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {
