@@ -114,18 +114,15 @@ pub(super) fn negated_exp_row(values: &mut [f64]) {
     }
 }
 
-/// One row of a backward step: `out[i]` = Σ over moves m of `weights[m][i]` ·
-/// `ahead[m][i]` (a cell's step weights and its neighbours' partition functions one
-/// step later), summed in move order.
+/// One move of a backward step over a row's cells: `out[i]` += `weights[i]` ·
+/// `ahead[i]` (a cell's step weight and its neighbour's partition function one step
+/// later); a row's moves are added in move order.
 #[inline(always)]
-pub(super) fn partition_row(weights: [&[f64]; 8], ahead: [&[f64]; 8], out: &mut [f64]) {
-    for ((sum, &w), &z) in out.iter_mut().zip(weights[0]).zip(ahead[0]) {
-        *sum = w * z;
-    }
-    for (weights, ahead) in weights.iter().zip(ahead).skip(1) {
-        for ((sum, &w), &z) in out.iter_mut().zip(*weights).zip(ahead) {
-            *sum += w * z;
-        }
+pub(super) fn add_products(weights: &[f64], ahead: &[f64], out: &mut [f64]) {
+    let len = out.len();
+    let (weights, ahead) = (&weights[..len], &ahead[..len]);
+    for ((sum, &w), &z) in out.iter_mut().zip(weights).zip(ahead) {
+        *sum += w * z;
     }
 }
 
@@ -529,11 +526,9 @@ mod tests {
                 .collect()
         });
         let mut sums = vec![0.0; len];
-        partition_row(
-            std::array::from_fn(|m| weights[m].as_slice()),
-            std::array::from_fn(|m| ahead[m].as_slice()),
-            &mut sums,
-        );
+        for (weights, ahead) in weights.iter().zip(&ahead) {
+            add_products(weights, ahead, &mut sums);
+        }
         for i in 0..len {
             let direct: f64 = (0..8).map(|m| weights[m][i] * ahead[m][i]).sum();
             assert_eq!(sums[i], direct);

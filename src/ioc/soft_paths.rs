@@ -30,8 +30,8 @@
 //! is dropped, as the forward pass drops negligible mass.
 
 use super::soft_math::{
-    arrive_row, binary_exponent, exp, flow_row, largest_of, ln_scaled, negated_exp_row,
-    partition_row, power_of_two, scaled_inverse,
+    add_products, arrive_row, binary_exponent, exp, flow_row, largest_of, ln_scaled,
+    negated_exp_row, power_of_two, scaled_inverse,
 };
 use crate::grid::{Cell, Grid};
 use crate::plan::StepLengths;
@@ -200,13 +200,6 @@ struct Rect {
 }
 
 impl Rect {
-    const EMPTY: Rect = Rect {
-        r0: 0,
-        r1: 0,
-        c0: 0,
-        c1: 0,
-    };
-
     /// The window cells within `k` moves (Chebyshev distance) of `center`: only they
     /// can hold finite values after k backward steps, or mass after k forward ones.
     fn ball(window: &Window, center: Cell, k: usize) -> Rect {
@@ -280,23 +273,23 @@ impl Rect {
     }
 }
 
-/// A copy of one layer on the window with a border of one cell all round (0 outside
-/// the layer and on the border), so that the passes read a cell's eight neighbours at
-/// fixed offsets, a row's cells side by side, without bounds tests.
-struct Scratch {
-    values: Vec<f64>,
+/// The window's cells laid out with a border of one cell all round, so that a cell's
+/// eight neighbours lie at fixed offsets and a row's cells side by side, with no
+/// bounds tests.
+#[derive(Debug, Clone, Copy)]
+struct Bordered {
     /// The window's columns.
     cols: usize,
-    rect: Rect,
+    /// Positions in all, the border's included.
+    len: usize,
 }
 
-impl Scratch {
+impl Bordered {
     fn new(window: &Window) -> Self {
         let (rows, cols) = (window.rows as usize, window.cols as usize);
-        Scratch {
-            values: vec![0.0; (rows + 2) * (cols + 2)],
+        Bordered {
             cols,
-            rect: Rect::EMPTY,
+            len: (rows + 2) * (cols + 2),
         }
     }
 
@@ -310,38 +303,47 @@ impl Scratch {
         let row = self.cols as isize + 2;
         MOVES.map(|(dr, dc)| dr as isize * row + dc as isize)
     }
+}
 
-    /// The values of window indices `cells` (one row's), each moved by `offset`.
-    fn row(&self, cells: &std::ops::Range<usize>, offset: isize) -> &[f64] {
-        let first = self.at(cells.start).wrapping_add_signed(offset);
-        &self.values[first..first + cells.len()]
-    }
+/// One layer's values as the passes read them: row by row where the layer holds them
+/// (0 elsewhere), with no bordered copy.
+struct LayerRows<'a> {
+    rect: Rect,
+    data: &'a [f64],
+}
 
-    /// The values of window indices `cells` (one row's), to write.
-    fn row_mut(&mut self, cells: &std::ops::Range<usize>) -> &mut [f64] {
-        let first = self.at(cells.start);
-        &mut self.values[first..first + cells.len()]
-    }
-
-    /// Hold a layer on `rect` instead, its rows to be written with `row_mut`: the old
-    /// layer's cells are cleared.
-    fn begin(&mut self, rect: Rect) {
-        let width = self.cols as u32;
-        for row in self.rect.rows(width) {
-            let first = self.at(row.start);
-            self.values[first..first + row.len()].fill(0.0);
+impl<'a> LayerRows<'a> {
+    fn of(layer: &Layer, data: &'a [f64]) -> Self {
+        LayerRows {
+            rect: layer.rect,
+            data,
         }
-        self.rect = rect;
     }
 
-    /// Hold the layer of `rect` and `data` instead, touching only the two layers' cells.
-    fn load(&mut self, rect: Rect, mut data: &[f64]) {
-        self.begin(rect);
-        for row in rect.rows(self.cols as u32) {
-            let (this, rest) = data.split_at(row.len());
-            self.row_mut(&row).copy_from_slice(this);
-            data = rest;
+    /// For the cells of window row `row` at `columns`, each moved by (`dr`, `dc`):
+    /// the columns whose moved cell lies in the layer, and the layer's values there
+    /// (none where no such column is).
+    fn moved(
+        &self,
+        row: usize,
+        columns: &std::ops::Range<usize>,
+        dr: i32,
+        dc: i32,
+    ) -> Option<(std::ops::Range<usize>, &'a [f64])> {
+        let (r0, r1) = (self.rect.r0 as usize, self.rect.r1 as usize);
+        let moved_row = row
+            .checked_add_signed(dr as isize)
+            .filter(|r| (r0..r1).contains(r))?;
+        let (c0, c1) = (self.rect.c0 as isize, self.rect.c1 as isize);
+        let first = (columns.start as isize).max(c0 - dc as isize);
+        let last = (columns.end as isize).min(c1 - dc as isize);
+        if first >= last {
+            return None;
         }
+        let cols = self.rect.cols();
+        let at = (moved_row - r0) * cols + (first + dc as isize - c0) as usize;
+        let kept = first as usize..last as usize;
+        Some((kept.clone(), &self.data[at..at + kept.len()]))
     }
 }
 
@@ -523,16 +525,12 @@ impl SoftGoal {
 
     #[inline(always)]
     fn backward_rows(&mut self) {
-        let (width, n) = (self.window.cols, self.window.len());
-        // Z_k−1 and Z_k with the layers' border, swapped after each layer.
-        let (mut previous, mut current) = (Scratch::new(&self.window), Scratch::new(&self.window));
-        let offsets = previous.offsets();
+        let (width, n) = (self.window.cols as usize, self.window.len());
         // Room for every layer up to the horizon, so that growing never copies them
         // (room a settled pass leaves unused is never touched).
         self.memory = Vec::with_capacity((0..=self.horizon).map(|k| self.region(k).len()).sum());
         let first = self.region(0);
         self.memory.resize(first.len(), 1.0);
-        previous.load(first, &self.memory);
         self.layers.push(Layer {
             rect: first,
             start: 0,
@@ -545,26 +543,46 @@ impl SoftGoal {
             let start = self.memory.len();
             // The goal's Z stays 1 (paths end there), in the previous layer's scale.
             let at_goal = power_of_two(-exponent);
-            // Summed straight into the layer's bordered copy, which the next layer reads,
-            // and appended from there: the layers' memory is written once, never
-            // cleared first.
-            current.begin(rect);
-            for cells in rect.rows(width) {
-                let weights = std::array::from_fn(|m| &self.weight[m * n..][cells.clone()]);
-                let ahead = offsets.map(|offset| previous.row(&cells, offset));
-                let out = current.row_mut(&cells);
-                partition_row(weights, ahead, out);
+            // Each row summed move by move straight into the layers' memory, from the
+            // layer before read where it holds values (elsewhere they are 0, and add
+            // nothing): no copy of either layer.
+            self.memory.resize(start + rect.len(), 0.0);
+            let (before, data) = self.memory.split_at_mut(start);
+            let layer = &self.layers[k - 1];
+            let previous = LayerRows::of(layer, &before[layer.start..]);
+            let row_cols = rect.cols();
+            for (cells, out) in rect
+                .rows(width as u32)
+                .zip(data.chunks_exact_mut(row_cols.max(1)))
+            {
+                let (row, col) = (cells.start / width, cells.start % width);
+                let columns = col..col + cells.len();
+                for (m, &(dr, dc)) in MOVES.iter().enumerate() {
+                    let Some((kept, ahead)) = previous.moved(row, &columns, dr, dc) else {
+                        continue;
+                    };
+                    let at = kept.start - columns.start;
+                    let weights = &self.weight[m * n + row * width..][kept.clone()];
+                    add_products(weights, ahead, &mut out[at..at + kept.len()]);
+                }
                 if cells.contains(&self.goal) {
                     out[self.goal - cells.start] = at_goal;
                 }
                 if !changed {
-                    let old = previous.row(&cells, 0);
-                    changed = out
-                        .iter()
-                        .zip(old)
-                        .any(|(&z, &old)| z != old && (z - old).abs() > SETTLED * z.max(old));
+                    changed = match previous.moved(row, &columns, 0, 0) {
+                        // Outside the layer before, any value is a change from its 0.
+                        None => out.iter().any(|&z| z != 0.0),
+                        Some((kept, old)) => {
+                            let at = kept.start - columns.start;
+                            let moved = |(&z, &old): (&f64, &f64)| {
+                                z != old && (z - old).abs() > SETTLED * z.max(old)
+                            };
+                            out[..at].iter().any(|&z| z != 0.0)
+                                || out[at..at + kept.len()].iter().zip(old).any(moved)
+                                || out[at + kept.len()..].iter().any(|&z| z != 0.0)
+                        }
+                    };
                 }
-                self.memory.extend_from_slice(out);
             }
             let data = &mut self.memory[start..];
             let largest = largest_of(data);
@@ -577,11 +595,9 @@ impl SoftGoal {
                 // Two exact halves: 2^−drift alone may not be a float.
                 let (half, rest) = (power_of_two(-drift / 2), power_of_two(-drift + drift / 2));
                 data.iter_mut().for_each(|z| *z = *z * half * rest);
-                current.load(rect, data);
                 exponent += drift;
                 changed = true;
             }
-            std::mem::swap(&mut previous, &mut current);
             self.layers.push(Layer {
                 rect,
                 start,
@@ -693,18 +709,17 @@ impl SoftGoal {
     ) -> Visitation {
         let n = self.window.len();
         let width = self.window.cols;
-        // Z_left−1, the partition functions ahead of a step with `left` steps left.
-        let mut ahead = Scratch::new(&self.window);
-        let offsets = ahead.offsets();
+        let layout = Bordered::new(&self.window);
+        let offsets = layout.offsets();
         // The forward partition functions (the summed weight of the paths from the start
         // that reach a cell after `taken` steps without having reached the goal), over
-        // 2^forward_exponent, with the layers' border: a move's arrivals from a row's
-        // cells land side by side, and moves off the window carry none.
-        let padded = ahead.values.len();
+        // 2^forward_exponent, [`Bordered`]: a move's arrivals from a row's cells land
+        // side by side at a fixed offset.
+        let padded = layout.len;
         let (mut forward, mut arrived) = (vec![0.0; padded], vec![0.0; padded]);
         let mut forward_exponent = 0;
         let (mut visits, mut incidence) = (vec![0.0; padded], vec![0.0; padded]);
-        let (origin, goal) = (ahead.at(self.window.index(start)), ahead.at(self.goal));
+        let (origin, goal) = (layout.at(self.window.index(start)), layout.at(self.goal));
         forward[origin] = 1.0;
         visits[origin] = 1.0;
         // Each window row's columns that paths reach (empty where none): the passes
@@ -722,8 +737,10 @@ impl SoftGoal {
         }
         let mut outgoing = vec![0.0; width as usize];
         for left in (1..=steps).rev() {
+            // Z_left−1, the partition functions ahead of the step, read where the layer
+            // holds them: elsewhere they are 0, and no path arrives.
             let layer = self.layer(left - 1);
-            ahead.load(layer.rect, self.data(layer));
+            let ahead = LayerRows::of(layer, self.data(layer));
             // A path's share of them all: its weight times Z_left−1 where it arrives,
             // over Z_steps(start); with the scales, `forward` · Z_left−1 · `share`.
             let share = scaled_inverse(forward_exponent + layer.exponent - z_exponent, z_start);
@@ -741,45 +758,52 @@ impl SoftGoal {
                     Some(first) => first.saturating_sub(1)..(last + 1).min(width as usize),
                     None => 0..0,
                 };
-                let at = ahead.at(r * width as usize);
+                let at = layout.at(r * width as usize);
                 arrived[at + reach.start..at + reach.end].fill(0.0);
             }
             for (r, span) in spans.iter().enumerate().filter(|(_, s)| !s.is_empty()) {
-                let (source, len) = (ahead.at(r * width as usize + span.start), span.len());
-                let cells = r * width as usize + span.start..r * width as usize + span.end;
-                let outgoing = &mut outgoing[..len];
+                let source = layout.at(r * width as usize + span.start);
+                let outgoing = &mut outgoing[..span.len()];
                 outgoing.fill(0.0);
                 // Move by move, every cell of the span at once: each cell's paths land on
                 // a different neighbour.
-                for (m, &offset) in offsets.iter().enumerate() {
-                    let target = source.wrapping_add_signed(offset);
+                for (m, (&offset, &(dr, dc))) in offsets.iter().zip(&MOVES).enumerate() {
+                    let Some((columns, z)) = ahead.moved(r, span, dr, dc) else {
+                        continue;
+                    };
+                    let from = source + (columns.start - span.start);
+                    let (target, len) = (from.wrapping_add_signed(offset), columns.len());
+                    let cells =
+                        r * width as usize + columns.start..r * width as usize + columns.end;
                     flow_row(
-                        &forward[source..source + len],
-                        &self.weight[m * n..][cells.clone()],
-                        &ahead.values[target..target + len],
+                        &forward[from..from + len],
+                        &self.weight[m * n..][cells],
+                        z,
                         self.half_lengths[r][m] * share,
                         &mut arrived[target..target + len],
                         &mut incidence[target..target + len],
-                        outgoing,
+                        &mut outgoing[columns.start - span.start..columns.end - span.start],
                     );
                 }
-                for (incidence, &out) in incidence[source..source + len].iter_mut().zip(&*outgoing)
-                {
+                for (incidence, &out) in incidence[source..].iter_mut().zip(&*outgoing) {
                     *incidence += out;
                 }
             }
             // Arrivals are visits; a negligible share is not moved on.
             let mut largest = [0.0f64; 4];
             for (r, (reach, span)) in reached.iter().zip(&mut next_spans).enumerate() {
-                let at = ahead.at(r * width as usize);
+                let at = layout.at(r * width as usize);
                 let cells = at + reach.start..at + reach.end;
-                arrive_row(
-                    &mut arrived[cells.clone()],
-                    &mut visits[cells.clone()],
-                    &ahead.values[cells.clone()],
-                    share,
-                    &mut largest,
-                );
+                if let Some((columns, z)) = ahead.moved(r, reach, 0, 0) {
+                    let arrivals = at + columns.start..at + columns.end;
+                    arrive_row(
+                        &mut arrived[arrivals.clone()],
+                        &mut visits[arrivals],
+                        z,
+                        share,
+                        &mut largest,
+                    );
+                }
                 if (at..at + width as usize).contains(&goal) {
                     arrived[goal] = 0.0;
                 }
@@ -803,7 +827,7 @@ impl SoftGoal {
                 // Two exact halves: 2^−drift alone may not be a float.
                 let (half, rest) = (power_of_two(-drift / 2), power_of_two(-drift + drift / 2));
                 for (r, span) in spans.iter().enumerate() {
-                    let at = ahead.at(r * width as usize);
+                    let at = layout.at(r * width as usize);
                     forward[at + span.start..at + span.end]
                         .iter_mut()
                         .for_each(|a| *a = *a * half * rest);
@@ -815,7 +839,7 @@ impl SoftGoal {
         let unpadded = |padded: Vec<f64>| -> Vec<f64> {
             (0..self.window.rows as usize)
                 .flat_map(|row| {
-                    let first = ahead.at(row * width as usize);
+                    let first = layout.at(row * width as usize);
                     padded[first..first + width as usize].to_vec()
                 })
                 .collect()

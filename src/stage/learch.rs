@@ -36,8 +36,9 @@ pub const KIND: &str = "learch";
 /// values. 12: LEARCH with trees trains two members and averages their costs. 13: a
 /// feature constant over every map is scaled by its size (MMP's and ridge's steps).
 /// 14: MaxEnt answers an example whose paths within the horizon its layers cannot hold
-/// (a horizon that binds on a dear map) in the log domain.
-const VERSION: u32 = 14;
+/// (a horizon that binds on a dear map) in the log domain. 15: MaxEnt's trees are
+/// fitted on one point per cell (their sums rounded in another order).
+const VERSION: u32 = 15;
 
 mod defaults {
     pub fn schedule() -> crate::ioc::StepSchedule {

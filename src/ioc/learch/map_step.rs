@@ -34,7 +34,18 @@ pub struct ExampleStatistics {
 /// stored column by column as the tree bins them, and each cell's target and weight.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub(super) struct TreePoints {
-    /// Feature `j` of point `i` at `j * targets.len() + i`.
+    /// The index of the map the points lie on (`Example::map`).
+    map: usize,
+    /// Each point's cell, a row-major index into its map.
+    cells: Vec<usize>,
+    rows: TreeRows,
+}
+
+/// Rows for a regression tree: features stored column by column as the tree bins them,
+/// and each row's target and weight.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub(super) struct TreeRows {
+    /// Feature `j` of row `i` at `j * targets.len() + i`.
     pub(super) columns: Vec<f64>,
     pub(super) targets: Vec<f64>,
     pub(super) weights: Vec<f64>,
@@ -46,7 +57,8 @@ impl TreePoints {
     pub(super) fn of(
         model: &LogCostModel,
         stack: &FeatureStack,
-        cells: &[usize],
+        ex: &Example,
+        cells: Vec<usize>,
         targets: Vec<f64>,
         weights: Vec<f64>,
     ) -> Self {
@@ -55,32 +67,85 @@ impl TreePoints {
             columns.extend(cells.iter().map(|&i| f64::from(plane[i]) / scale));
         }
         TreePoints {
-            columns,
-            targets,
-            weights,
+            map: ex.map,
+            cells,
+            rows: TreeRows {
+                columns,
+                targets,
+                weights,
+            },
         }
     }
 
     pub(super) fn len(&self) -> usize {
-        self.targets.len()
+        self.cells.len()
     }
 
     /// Every example's points together, column by column, in example order.
-    pub(super) fn concatenated(all: &[&TreePoints], dims: usize) -> TreePoints {
+    pub(super) fn concatenated(all: &[&TreePoints], dims: usize) -> TreeRows {
         let rows: usize = all.iter().map(|p| p.len()).sum();
         let mut columns = vec![0.0; dims * rows];
         (columns.par_chunks_mut(rows.max(1)).enumerate()).for_each(|(j, column)| {
             let mut at = 0;
             for points in all {
                 let n = points.len();
-                column[at..at + n].copy_from_slice(&points.columns[j * n..(j + 1) * n]);
+                column[at..at + n].copy_from_slice(&points.rows.columns[j * n..(j + 1) * n]);
                 at += n;
             }
         });
-        TreePoints {
+        TreeRows {
             columns,
-            targets: all.iter().flat_map(|p| &p.targets).copied().collect(),
-            weights: all.iter().flat_map(|p| &p.weights).copied().collect(),
+            targets: all.iter().flat_map(|p| &p.rows.targets).copied().collect(),
+            weights: all.iter().flat_map(|p| &p.rows.weights).copied().collect(),
+        }
+    }
+
+    /// Every example's points together, those at one cell of one map merged into one
+    /// point in the order they first appear: its weight the sum of theirs, its target
+    /// their weighted mean. The tree's sums over a leaf, and so its splits and values,
+    /// are the same up to their rounding, on as many rows as there are cells: MaxEnt's
+    /// examples each give a point at every cell their soft paths reach, most of them
+    /// shared with the other examples'. `cell_counts`: the cells of each map.
+    pub(super) fn merged_by_cell(
+        all: &[&TreePoints],
+        dims: usize,
+        cell_counts: &[usize],
+    ) -> TreeRows {
+        let mut row_of_cell: Vec<Vec<u32>> = vec![Vec::new(); cell_counts.len()];
+        // Each merged point's first (example, point), its summed weight and weight × target.
+        let mut first = Vec::new();
+        let (mut weights, mut weighted_targets) = (Vec::new(), Vec::new());
+        for (e, points) in all.iter().enumerate() {
+            let rows = &mut row_of_cell[points.map];
+            if rows.is_empty() {
+                *rows = vec![u32::MAX; cell_counts[points.map]];
+            }
+            for (k, &cell) in points.cells.iter().enumerate() {
+                if rows[cell] == u32::MAX {
+                    rows[cell] = first.len() as u32;
+                    first.push((e, k));
+                    weights.push(0.0);
+                    weighted_targets.push(0.0);
+                }
+                let row = rows[cell] as usize;
+                weights[row] += points.rows.weights[k];
+                weighted_targets[row] += points.rows.weights[k] * points.rows.targets[k];
+            }
+        }
+        let rows = first.len();
+        let mut columns = vec![0.0; dims * rows];
+        (columns.par_chunks_mut(rows.max(1)).enumerate()).for_each(|(j, column)| {
+            for (value, &(e, k)) in column.iter_mut().zip(&first) {
+                *value = all[e].rows.columns[j * all[e].len() + k];
+            }
+        });
+        let targets = (weighted_targets.iter().zip(&weights))
+            .map(|(&wy, &w): (&f64, &f64)| if w > 0.0 { wy / w } else { 0.0 })
+            .collect();
+        TreeRows {
+            columns,
+            targets,
+            weights,
         }
     }
 }
@@ -395,7 +460,7 @@ fn planned_gradient(
     }
     Ok(ExampleStatistics {
         data,
-        points: TreePoints::of(model, stack, &point_cells, targets, weights),
+        points: TreePoints::of(model, stack, ex, point_cells, targets, weights),
         direction,
         steps: steps(&ex.path),
         loss: ((demo_cost - route.cost) / demo_cost.max(f64::MIN_POSITIVE)).max(0.0),
@@ -481,7 +546,7 @@ fn maxent_gradient(
         let cells: Vec<usize> = kept().map(|&(i, _)| i).collect();
         let targets = kept().map(|(_, g)| g.signum()).collect();
         let weights = kept().map(|(_, g)| g.abs()).collect();
-        points = TreePoints::of(model, stack, &cells, targets, weights);
+        points = TreePoints::of(model, stack, ex, cells, targets, weights);
     }
     let direction = weighted_features(model, stack, gradient.into_iter());
     let demo_cost = path_cost(costs, &ex.path);
@@ -501,6 +566,54 @@ fn maxent_gradient(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn points_at_one_cell_of_one_map_merge_into_one_row_and_the_same_tree() {
+        // Two features: the cell's index and its square. Dyadic weights, so that the
+        // merged sums are exact.
+        let points = |map, cells: Vec<usize>, targets: Vec<f64>, weights: Vec<f64>| {
+            let index = cells.iter().map(|&c| c as f64);
+            let square = cells.iter().map(|&c| (c * c) as f64);
+            TreePoints {
+                map,
+                rows: TreeRows {
+                    columns: index.chain(square).collect(),
+                    targets,
+                    weights,
+                },
+                cells,
+            }
+        };
+        let a = points(0, vec![3, 5, 7], vec![1.0, -1.0, 1.0], vec![0.5, 0.25, 2.0]);
+        let b = points(0, vec![5, 9], vec![1.0, -1.0], vec![0.75, 1.0]);
+        // Cell 5 of another map is another point.
+        let c = points(1, vec![5], vec![-1.0], vec![0.5]);
+        let all = [&a, &b, &c];
+        let merged = TreePoints::merged_by_cell(&all, 2, &[10, 10]);
+        assert_eq!(merged.weights, [0.5, 1.0, 2.0, 1.0, 0.5]);
+        assert_eq!(merged.targets, [1.0, 0.5, 1.0, -1.0, -1.0]);
+        let columns = [3.0, 5.0, 7.0, 9.0, 5.0, 9.0, 25.0, 49.0, 81.0, 25.0];
+        assert_eq!(merged.columns, columns);
+        let fit = |rows: &TreeRows| {
+            let config = crate::learn::TreeConfig {
+                min_leaf_weight: 0.1,
+                ..Default::default()
+            };
+            let candidates = [crate::learn::Candidates::Exact; 2];
+            let (columns, targets, weights) = (&rows.columns, &rows.targets, &rows.weights);
+            crate::learn::RegressionTree::fit_on(
+                columns,
+                targets,
+                weights,
+                &config,
+                &candidates,
+                &[1.0; 2],
+            )
+        };
+        let tree = fit(&merged);
+        assert!(tree.leaves() > 1);
+        assert_eq!(tree, fit(&TreePoints::concatenated(&all, 2)));
+    }
 
     #[test]
     fn plans_and_demonstrations_differ_by_the_lengths_of_their_steps() {

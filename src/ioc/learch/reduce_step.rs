@@ -91,13 +91,22 @@ pub fn fit_round(
         (GridMethod::Learch | GridMethod::Maxent, _) => {
             let dims = model.feature_names.len();
             let all: Vec<&TreePoints> = statistics.iter().map(|g| &g.points).collect();
-            let points = TreePoints::concatenated(&all, dims);
+            // MaxEnt's examples share most of their points' cells; LEARCH's plans and
+            // demonstrations rarely meet, and their rows are kept as they come.
+            let rows = match config.method {
+                GridMethod::Maxent => {
+                    let cell_counts: Vec<usize> =
+                        stacks.iter().map(|s| s.geo.cell_count()).collect();
+                    TreePoints::merged_by_cell(&all, dims, &cell_counts)
+                }
+                _ => TreePoints::concatenated(&all, dims),
+            };
             let (candidates, gains) =
                 split_candidates(&model.feature_names, stacks, config, t, member);
             let tree = RegressionTree::fit_on(
-                &points.columns,
-                &points.targets,
-                &points.weights,
+                &rows.columns,
+                &rows.targets,
+                &rows.weights,
                 &config.tree,
                 &candidates,
                 &gains,
