@@ -29,6 +29,8 @@ fn workspace() -> &'static Path {
                 "fs",
                 "--rounds",
                 rounds,
+                "--holdout",
+                "0.25",
                 "--out",
                 &out,
             ]);

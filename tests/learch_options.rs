@@ -34,6 +34,8 @@ fn tree_learch_with_early_stopping_writes_what_it_kept() {
         "tree",
         "--loss-kind",
         "dilated",
+        "--holdout",
+        "0.25",
         "--validation",
         "0.25",
         "--patience",
@@ -214,4 +216,45 @@ fn the_round_benchmark_runs_on_small_maps() {
     assert_eq!(first["threads"], 1);
     let share = first["planning_share"].as_f64().unwrap();
     assert!(share > 0.0, "{report}");
+}
+
+#[test]
+fn learch_trains_on_every_demonstration_unless_some_are_held_out() {
+    let ws = prepared_workspace();
+    let run = |args: &[&str]| imitate(ws.path(), args);
+    let out = run(&[
+        "learch",
+        "--dataset",
+        "ds",
+        "--features",
+        "fs",
+        "--rounds",
+        "3",
+        "--members",
+        "1",
+        "--out",
+        "c",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    // The summary says the figures are the training paths', not held-out ones.
+    assert!(
+        stderr(&out).contains("64 training / 0 held-out demonstrations; none held out"),
+        "{}",
+        stderr(&out)
+    );
+    let metrics: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(ws.path().join("c/metrics.json")).unwrap()).unwrap();
+    assert_eq!(metrics["training"]["summary"]["examples"], 64);
+    assert_eq!(metrics["holdout"]["summary"]["examples"], 0);
+    assert!(metrics["rounds"][0]["holdout"].is_null());
+
+    // The report gives the empty held-out set no figures.
+    let out = run(&["report", "c", "--out", "r"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report = std::fs::read_to_string(ws.path().join("r/report.md")).unwrap();
+    assert!(report.contains("| held out | 0 | – | – | – |"), "{report}");
+    assert!(
+        report.contains("no demonstrations were held out"),
+        "{report}"
+    );
 }

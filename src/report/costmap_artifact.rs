@@ -108,10 +108,13 @@ impl CostmapArtifact {
             .unwrap_or_default()
     }
 
-    /// A number of the held-out summary (e.g. `within_radius`).
+    /// A number of the held-out summary (e.g. `within_radius`); none when nothing was
+    /// held out, whose summary's zeros measure nothing.
     pub fn holdout_metric(&self, name: &str) -> Option<f64> {
-        self.metrics
-            .pointer(&format!("/holdout/summary/{name}"))
-            .and_then(|v| v.as_f64())
+        let summary = self.metrics.pointer("/holdout/summary")?;
+        if summary.get("examples").and_then(|n| n.as_u64()) == Some(0) {
+            return None;
+        }
+        summary.get(name).and_then(|v| v.as_f64())
     }
 }

@@ -140,39 +140,45 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
             .get("method")
             .and_then(|m| m.as_str())
             .unwrap_or("learch");
-        let plot = side_by_side(
-            &[
-                &learning_chart(
-                    "Training loss per round",
-                    loss_description(method),
-                    ("training examples", LOSS_COLOUR),
-                    &loss,
-                    Legend::UpperRight,
-                )?,
-                &learning_chart(
-                    "Held-out agreement per round",
-                    "cells within 2 of the demo (share)",
-                    ("held-out examples", AGREEMENT_COLOUR),
-                    &agreement,
-                    Legend::LowerRight,
-                )?,
-            ],
-            12,
+        let loss_chart = learning_chart(
+            "Training loss per round",
+            loss_description(method),
+            ("training examples", LOSS_COLOUR),
+            &loss,
+            Legend::UpperRight,
+        )?;
+        let loss_words = format!(
+            "training loss ({:.4} → {:.4})",
+            loss.first().copied().unwrap_or(f64::NAN),
+            loss.last().copied().unwrap_or(f64::NAN),
         );
+        // Without held-out demonstrations there is no agreement to draw.
+        let (plot, caption) = if agreement.iter().all(|a| a.is_nan()) {
+            (
+                loss_chart,
+                format!("per round: {loss_words}; no demonstrations were held out"),
+            )
+        } else {
+            let agreement_chart = learning_chart(
+                "Held-out agreement per round",
+                "cells within 2 of the demo (share)",
+                ("held-out examples", AGREEMENT_COLOUR),
+                &agreement,
+                Legend::LowerRight,
+            )?;
+            (
+                side_by_side(&[&loss_chart, &agreement_chart], 12),
+                format!(
+                    "per round, left: {loss_words}; right: share of held-out planned cells \
+                     within 2 cells of the demonstration ({:.3} → {:.3})",
+                    agreement.first().copied().unwrap_or(f64::NAN),
+                    agreement.last().copied().unwrap_or(f64::NAN)
+                ),
+            )
+        };
         let path = out.file("learning-curves.png", "picture")?;
         write_png(&path, &plot)?;
-        pictures.push((
-            "Learning curves".into(),
-            path,
-            format!(
-                "per round, left: training loss ({:.4} → {:.4}); right: share of held-out \
-                 planned cells within 2 cells of the demonstration ({:.3} → {:.3})",
-                loss.first().copied().unwrap_or(f64::NAN),
-                loss.last().copied().unwrap_or(f64::NAN),
-                agreement.first().copied().unwrap_or(f64::NAN),
-                agreement.last().copied().unwrap_or(f64::NAN)
-            ),
-        ));
+        pictures.push(("Learning curves".into(), path, caption));
     }
     for file in manifest.files_with_role("preview") {
         let name = std::path::Path::new(&file.path)
@@ -195,12 +201,15 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
     let mut rows = Vec::new();
     for (set, label) in [("training", "training"), ("holdout", "held out")] {
         let summary = artifact.metrics.pointer(&format!("/{set}/summary"));
+        // A set with no examples has no figures (its summary's zeros measure nothing).
+        let figures =
+            summary.filter(|s| s.get("examples").and_then(|n| n.as_u64()).unwrap_or(0) > 0);
         rows.push([
             label.to_string(),
             number(summary.and_then(|s| s.get("examples"))),
-            number(summary.and_then(|s| s.get("within_radius"))),
-            number(summary.and_then(|s| s.get("mean_reference_cost_ratio"))),
-            number(summary.and_then(|s| s.get("max_reference_cost_ratio"))),
+            number(figures.and_then(|s| s.get("within_radius"))),
+            number(figures.and_then(|s| s.get("mean_reference_cost_ratio"))),
+            number(figures.and_then(|s| s.get("max_reference_cost_ratio"))),
         ]);
     }
     let header = [
