@@ -1,0 +1,206 @@
+#!/usr/bin/env python3
+"""The hidden-teacher protocol as a user runs it: through the CLI, scored outside the tool.
+
+`imitate bench terrain` draws its teacher paths, learns and scores inside one process.
+This script does what someone checking the tool would: resamples a GeoTIFF with GDAL
+(rasterio, average), makes a teacher cost of its own from the bands, draws optimal
+teacher paths with its own Dijkstra (8-connected, a step costs its length times the
+mean of its two cells' costs), writes three quarters of them as a demonstrations
+table of world coordinates, and runs
+
+    imitate ingest --map MAP.tif --demonstrations train.parquet --out ds
+    imitate features --dataset ds --bank auto --out fs
+    imitate learch --dataset ds --features fs --out costmap [LEARCH_ARGS]
+    imitate export costmap --format geotiff --out export
+
+then plans the held-out quarter's ends on the exported costmap with the same Dijkstra
+and scores the plans under the teacher's cost: mean and worst true-cost ratio (plan /
+teacher path) and the share of planned cells within 2 cells of the teacher's path.
+
+    python3 benches/terrain_cli.py IMITATE RASTER WORKDIR [--teacher bright|contrast]
+        [--cells 160] [--paths 60] [--seed 7] [-- LEARCH_ARGS...]
+
+Needs numpy, pyarrow and rasterio (`scripts/python-deps.sh` installs them).
+"""
+import argparse
+import heapq
+import json
+import math
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import rasterio
+from rasterio.enums import Resampling
+
+
+def resampled(raster, cells, out):
+    """The raster averaged down to `cells` along its longer side, as a float32 GeoTIFF."""
+    with rasterio.open(raster) as src:
+        factor = max(1, math.ceil(max(src.width, src.height) / cells))
+        shape = (src.count, src.height // factor, src.width // factor)
+        data = src.read(out_shape=shape, resampling=Resampling.average).astype("float32")
+        transform = src.transform * src.transform.scale(
+            src.width / shape[2], src.height / shape[1])
+        profile = dict(driver="GTiff", width=shape[2], height=shape[1], count=shape[0],
+                       dtype="float32", crs=src.crs, transform=transform)
+    with rasterio.open(out, "w", **profile) as dst:
+        dst.write(data)
+    return data, transform
+
+
+def normalised(bands):
+    """Every band scaled to its own 2nd-98th percentile, clipped to [0, 1]."""
+    out = []
+    for b in bands:
+        lo, hi = np.percentile(b, [2, 98])
+        out.append(np.clip((b - lo) / max(hi - lo, 1e-9), 0, 1))
+    return out
+
+
+def box_mean(x, radius):
+    """Mean over a (2r+1)² window, edges replicated."""
+    padded = np.pad(x, radius, mode="edge")
+    total = np.zeros_like(x)
+    for dr in range(2 * radius + 1):
+        for dc in range(2 * radius + 1):
+            total += padded[dr:dr + x.shape[0], dc:dc + x.shape[1]]
+    return total / (2 * radius + 1) ** 2
+
+
+def teacher_cost(bands, teacher):
+    n = normalised(bands)
+    brightness = sum(n) / len(n)
+    if teacher == "bright":
+        # Thresholds the tool never sees: bright ground dear, the darkest dearer still.
+        return 1 + 5 * (brightness > 0.55) + 2 * (brightness < 0.2)
+    # contrast: a cell unlike its 7 x 7 neighbourhood is dear, squared.
+    return 1 + 40 * (brightness - box_mean(brightness, 3)) ** 2 + 2 * (n[0] > 0.7)
+
+
+def dijkstra(cost, dx, dy, start, goal):
+    """Cheapest 8-connected path from `start` to `goal` (row, col), and its cost."""
+    h, w = cost.shape
+    diag = math.hypot(dx, dy)
+    moves = [(-1, 0, dy), (0, -1, dx), (0, 1, dx), (1, 0, dy),
+             (-1, -1, diag), (-1, 1, diag), (1, -1, diag), (1, 1, diag)]
+    dist = np.full(cost.shape, np.inf)
+    parent = {}
+    dist[start] = 0.0
+    queue = [(0.0, start)]
+    while queue:
+        d, (r, c) = heapq.heappop(queue)
+        if (r, c) == goal:
+            break
+        if d > dist[r, c]:
+            continue
+        for dr, dc, length in moves:
+            rr, cc = r + dr, c + dc
+            if 0 <= rr < h and 0 <= cc < w:
+                nd = d + length * 0.5 * (cost[r, c] + cost[rr, cc])
+                if nd < dist[rr, cc]:
+                    dist[rr, cc] = nd
+                    parent[(rr, cc)] = (r, c)
+                    heapq.heappush(queue, (nd, (rr, cc)))
+    path = [goal]
+    while path[-1] != start:
+        path.append(parent[path[-1]])
+    return path[::-1]
+
+
+def path_cost(cost, dx, dy, path):
+    total = 0.0
+    for (r0, c0), (r1, c1) in zip(path, path[1:]):
+        length = math.hypot((c1 - c0) * dx, (r1 - r0) * dy)
+        total += length * 0.5 * (cost[r0, c0] + cost[r1, c1])
+    return total
+
+
+def within(plan, teacher, radius=2.0):
+    cells = np.array(teacher)
+    near = 0
+    for r, c in plan:
+        if (((cells[:, 0] - r) ** 2 + (cells[:, 1] - c) ** 2).min()) <= radius ** 2:
+            near += 1
+    return near
+
+
+def main():
+    argv = sys.argv[1:]
+    extra = argv[argv.index("--") + 1:] if "--" in argv else []
+    argv = argv[:argv.index("--")] if "--" in argv else argv
+    parser = argparse.ArgumentParser()
+    parser.add_argument("imitate")
+    parser.add_argument("raster")
+    parser.add_argument("workdir")
+    parser.add_argument("--teacher", choices=["bright", "contrast"], default="bright")
+    parser.add_argument("--cells", type=int, default=160)
+    parser.add_argument("--paths", type=int, default=60)
+    parser.add_argument("--seed", type=int, default=7)
+    args = parser.parse_args(argv)
+    os.makedirs(args.workdir, exist_ok=True)
+    name = "terrain"
+    map_path = os.path.join(args.workdir, f"{name}.tif")
+    bands, transform = resampled(args.raster, args.cells, map_path)
+    cost = teacher_cost(list(bands), args.teacher).astype("float64")
+    dx, dy = abs(transform.a), abs(transform.e)
+    h, w = cost.shape
+
+    rng = np.random.default_rng(args.seed)
+    paths = []
+    while len(paths) < args.paths:
+        a = (int(rng.integers(h)), int(rng.integers(w)))
+        b = (int(rng.integers(h)), int(rng.integers(w)))
+        if math.dist(a, b) < 0.5 * min(h, w):
+            continue
+        paths.append(dijkstra(cost, dx, dy, a, b))
+    held = set(range(3, args.paths, 4))
+    rows = {"episode": [], "map": [], "t": [], "x": [], "y": []}
+    for i, path in enumerate(paths):
+        if i in held:
+            continue
+        for t, (r, c) in enumerate(path):
+            x, y = transform * (c + 0.5, r + 0.5)
+            rows["episode"].append(f"teacher-{i:03}")
+            rows["map"].append(name)
+            rows["t"].append(float(t))
+            rows["x"].append(x)
+            rows["y"].append(y)
+    demonstrations = os.path.join(args.workdir, "train.parquet")
+    pq.write_table(pa.table(rows), demonstrations)
+
+    def imitate(*cli):
+        subprocess.run([args.imitate, *cli], cwd=args.workdir, check=True,
+                       stdout=subprocess.DEVNULL)
+
+    imitate("ingest", "--map", f"{name}.tif", "--demonstrations", "train.parquet",
+            "--out", "ds")
+    imitate("features", "--dataset", "ds", "--bank", "auto", "--out", "fs")
+    imitate("learch", "--dataset", "ds", "--features", "fs", "--out", "costmap", *extra)
+    imitate("export", "costmap", "--format", "geotiff", "--out", "export")
+    exported = [f for f in os.listdir(os.path.join(args.workdir, "export"))
+                if f.endswith(".tif")]
+    with rasterio.open(os.path.join(args.workdir, "export", exported[0])) as src:
+        learned = src.read(1).astype("float64")
+    assert learned.shape == cost.shape, (learned.shape, cost.shape)
+
+    ratios, near, planned = [], 0, 0
+    for i in sorted(held):
+        teacher = paths[i]
+        plan = dijkstra(learned, dx, dy, teacher[0], teacher[-1])
+        ratios.append(path_cost(cost, dx, dy, plan) / path_cost(cost, dx, dy, teacher))
+        near += within(plan, teacher)
+        planned += len(plan)
+    print(json.dumps({
+        "raster": os.path.basename(args.raster), "teacher": args.teacher,
+        "learch_args": extra, "held_out": len(ratios),
+        "mean_cost_ratio": sum(ratios) / len(ratios), "max_cost_ratio": max(ratios),
+        "within_radius": near / planned,
+    }))
+
+
+if __name__ == "__main__":
+    main()
