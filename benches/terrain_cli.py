@@ -4,8 +4,9 @@
 `imitate bench terrain` draws its teacher paths, learns and scores inside one process.
 This script does what someone checking the tool would: resamples a GeoTIFF with GDAL
 (rasterio, average), makes a teacher cost of its own from the bands, draws optimal
-teacher paths with its own Dijkstra (8-connected, a step costs its length times the
-mean of its two cells' costs), writes three quarters of them as a demonstrations
+teacher paths with its own Dijkstra (8-connected, a step costs its length on the
+ground times the mean of its two cells' costs; on a geographic raster a row's cells
+are measured in metres at its latitude, as the issue asks of the tool), writes three quarters of them as a demonstrations
 table of world coordinates, and runs
 
     imitate ingest --map MAP.tif --demonstrations train.parquet --out ds
@@ -38,25 +39,42 @@ from rasterio.enums import Resampling
 
 
 def resampled(raster, cells, out):
-    """The raster averaged down to `cells` along its longer side, as a float32 GeoTIFF."""
+    """The raster averaged down to `cells` along its longer side, as a float32 GeoTIFF
+    whose cells without data (in any band) are NaN, tagged as its nodata; its CRS."""
     with rasterio.open(raster) as src:
         factor = max(1, math.ceil(max(src.width, src.height) / cells))
         shape = (src.count, src.height // factor, src.width // factor)
-        data = src.read(out_shape=shape, resampling=Resampling.average).astype("float32")
+        data = src.read(out_shape=shape, resampling=Resampling.average, masked=True)
+        data = data.astype("float32").filled(np.nan)
+        data[:, np.isnan(data).any(axis=0)] = np.nan
         transform = src.transform * src.transform.scale(
             src.width / shape[2], src.height / shape[1])
         profile = dict(driver="GTiff", width=shape[2], height=shape[1], count=shape[0],
-                       dtype="float32", crs=src.crs, transform=transform)
+                       dtype="float32", crs=src.crs, transform=transform, nodata=np.nan)
+        crs = src.crs
     with rasterio.open(out, "w", **profile) as dst:
         dst.write(data)
-    return data, transform
+    return data, transform, crs
+
+
+def row_metres(transform, crs, rows):
+    """Each row's cell width and the cells' height, in metres: on a geographic raster
+    from the latitude of the row's centre (WGS 84's metres per degree), else the
+    transform's own units."""
+    dx, dy = abs(transform.a), abs(transform.e)
+    if crs is None or not crs.is_geographic:
+        return np.full(rows, dx), np.full(rows, dy)
+    lat = np.radians(transform.f + transform.e * (np.arange(rows) + 0.5))
+    per_lat = 111132.92 - 559.82 * np.cos(2 * lat) + 1.175 * np.cos(4 * lat)
+    per_lon = 111412.84 * np.cos(lat) - 93.5 * np.cos(3 * lat)
+    return dx * per_lon, dy * per_lat
 
 
 def normalised(bands):
-    """Every band scaled to its own 2nd-98th percentile, clipped to [0, 1]."""
+    """Every band scaled to its own 2nd-98th percentile, clipped to [0, 1] (NaN stays)."""
     out = []
     for b in bands:
-        lo, hi = np.percentile(b, [2, 98])
+        lo, hi = np.nanpercentile(b, [2, 98])
         out.append(np.clip((b - lo) / max(hi - lo, 1e-9), 0, 1))
     return out
 
@@ -72,21 +90,29 @@ def box_mean(x, radius):
 
 
 def teacher_cost(bands, teacher):
+    """The teacher's cost per cell; cells without data cost 12."""
     n = normalised(bands)
     brightness = sum(n) / len(n)
+    void = np.isnan(brightness)
     if teacher == "bright":
         # Thresholds the tool never sees: bright ground dear, the darkest dearer still.
-        return 1 + 5 * (brightness > 0.55) + 2 * (brightness < 0.2)
-    # contrast: a cell unlike its 7 x 7 neighbourhood is dear, squared.
-    return 1 + 40 * (brightness - box_mean(brightness, 3)) ** 2 + 2 * (n[0] > 0.7)
+        cost = 1 + 5 * (brightness > 0.55) + 2 * (brightness < 0.2)
+    else:
+        # contrast: a cell unlike its 7 x 7 neighbourhood is dear, squared.
+        filled = np.where(void, np.nanmedian(brightness), brightness)
+        cost = 1 + 40 * (filled - box_mean(filled, 3)) ** 2 + 2 * (n[0] > 0.7)
+    return np.where(void, 12.0, cost)
+
+
+def step_length(dx, dy, r0, c0, r1, c1):
+    """A step's length on the ground: the mean of its two rows' cell widths across."""
+    return math.hypot((c1 - c0) * 0.5 * (dx[r0] + dx[r1]), (r1 - r0) * dy[r0])
 
 
 def dijkstra(cost, dx, dy, start, goal):
-    """Cheapest 8-connected path from `start` to `goal` (row, col), and its cost."""
+    """Cheapest 8-connected path from `start` to `goal` (row, col); NaN cells are walls."""
     h, w = cost.shape
-    diag = math.hypot(dx, dy)
-    moves = [(-1, 0, dy), (0, -1, dx), (0, 1, dx), (1, 0, dy),
-             (-1, -1, diag), (-1, 1, diag), (1, -1, diag), (1, 1, diag)]
+    moves = [(-1, 0), (0, -1), (0, 1), (1, 0), (-1, -1), (-1, 1), (1, -1), (1, 1)]
     dist = np.full(cost.shape, np.inf)
     parent = {}
     dist[start] = 0.0
@@ -97,9 +123,10 @@ def dijkstra(cost, dx, dy, start, goal):
             break
         if d > dist[r, c]:
             continue
-        for dr, dc, length in moves:
+        for dr, dc in moves:
             rr, cc = r + dr, c + dc
             if 0 <= rr < h and 0 <= cc < w:
+                length = step_length(dx, dy, r, c, rr, cc)
                 nd = d + length * 0.5 * (cost[r, c] + cost[rr, cc])
                 if nd < dist[rr, cc]:
                     dist[rr, cc] = nd
@@ -114,7 +141,7 @@ def dijkstra(cost, dx, dy, start, goal):
 def path_cost(cost, dx, dy, path):
     total = 0.0
     for (r0, c0), (r1, c1) in zip(path, path[1:]):
-        length = math.hypot((c1 - c0) * dx, (r1 - r0) * dy)
+        length = step_length(dx, dy, r0, c0, r1, c1)
         total += length * 0.5 * (cost[r0, c0] + cost[r1, c1])
     return total
 
@@ -144,17 +171,18 @@ def main():
     os.makedirs(args.workdir, exist_ok=True)
     name = "terrain"
     map_path = os.path.join(args.workdir, f"{name}.tif")
-    bands, transform = resampled(args.raster, args.cells, map_path)
+    bands, transform, crs = resampled(args.raster, args.cells, map_path)
     cost = teacher_cost(list(bands), args.teacher).astype("float64")
-    dx, dy = abs(transform.a), abs(transform.e)
     h, w = cost.shape
+    dx, dy = row_metres(transform, crs, h)
+    void = np.isnan(bands).any(axis=0)
 
     rng = np.random.default_rng(args.seed)
     paths = []
     while len(paths) < args.paths:
         a = (int(rng.integers(h)), int(rng.integers(w)))
         b = (int(rng.integers(h)), int(rng.integers(w)))
-        if math.dist(a, b) < 0.5 * min(h, w):
+        if math.dist(a, b) < 0.5 * min(h, w) or void[a] or void[b]:
             continue
         paths.append(dijkstra(cost, dx, dy, a, b))
     held = set(range(3, args.paths, 4))
