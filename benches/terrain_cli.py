@@ -6,8 +6,10 @@ This script does what someone checking the tool would: resamples a GeoTIFF with 
 (rasterio, average), makes a teacher cost of its own from the bands, draws optimal
 teacher paths with its own Dijkstra (8-connected, a step costs its length on the
 ground times the mean of its two cells' costs; on a geographic raster a row's cells
-are measured in metres at its latitude, as the issue asks of the tool), writes three quarters of them as a demonstrations
-table of world coordinates, and runs
+are measured in metres at its latitude, as the issue asks of the tool; cells without
+data stay no-data in the map the tool reads, cost the teacher 12 and hold no path's
+ends), writes three quarters of them as a demonstrations table of world coordinates,
+and runs
 
     imitate ingest --map MAP.tif --demonstrations train.parquet --out ds
     imitate features --dataset ds --bank auto --out fs
