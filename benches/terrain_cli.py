@@ -21,7 +21,12 @@ and scores the plans under the teacher's cost: mean and worst true-cost ratio (p
 teacher path) and the share of planned cells within 2 cells of the teacher's path.
 
     python3 benches/terrain_cli.py IMITATE RASTER WORKDIR [--teacher bright|contrast]
-        [--cells 160] [--paths 60] [--seed 7] [-- LEARCH_ARGS...]
+        [--cells 160] [--paths 60] [--seed 7] [--in-tool] [-- LEARCH_ARGS...]
+
+With `--in-tool` the tool is given the raster as it is and coarsens it itself
+(`ingest --cells`); the script's teacher lives on GDAL's grid of the same blocks
+(rasterio's `reproject` to the transform scaled by the factor, `average`), which is the
+grid the tool's costmap comes back on.
 
 Needs numpy, pyarrow and rasterio (`scripts/python-deps.sh` installs them).
 """
@@ -38,19 +43,34 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import rasterio
 from rasterio.enums import Resampling
+from rasterio.transform import Affine
+from rasterio.warp import reproject
 
 
-def resampled(raster, cells, out):
+def resampled(raster, cells, out, whole_blocks=False):
     """The raster averaged down to `cells` along its longer side, as a float32 GeoTIFF
-    whose cells without data (in any band) are NaN, tagged as its nodata; its CRS."""
+    whose cells without data (in any band) are NaN, tagged as its nodata; its CRS. With
+    `whole_blocks`, on GDAL's grid of blocks of whole cells from the north-west corner
+    (the last ones clipped), as `imitate ingest --cells` coarsens."""
     with rasterio.open(raster) as src:
         factor = max(1, math.ceil(max(src.width, src.height) / cells))
-        shape = (src.count, src.height // factor, src.width // factor)
-        data = src.read(out_shape=shape, resampling=Resampling.average, masked=True)
-        data = data.astype("float32").filled(np.nan)
+        if whole_blocks:
+            shape = (src.count, -(-src.height // factor), -(-src.width // factor))
+            transform = src.transform * Affine.scale(factor)
+            fine = src.read(masked=True).astype("float32").filled(np.nan)
+            data = np.full(shape, np.nan, dtype="float32")
+            for band in range(src.count):
+                reproject(fine[band], data[band], src_transform=src.transform,
+                          src_crs=src.crs, src_nodata=np.nan, dst_transform=transform,
+                          dst_crs=src.crs, dst_nodata=np.nan,
+                          resampling=Resampling.average)
+        else:
+            shape = (src.count, src.height // factor, src.width // factor)
+            data = src.read(out_shape=shape, resampling=Resampling.average, masked=True)
+            data = data.astype("float32").filled(np.nan)
+            transform = src.transform * src.transform.scale(
+                src.width / shape[2], src.height / shape[1])
         data[:, np.isnan(data).any(axis=0)] = np.nan
-        transform = src.transform * src.transform.scale(
-            src.width / shape[2], src.height / shape[1])
         profile = dict(driver="GTiff", width=shape[2], height=shape[1], count=shape[0],
                        dtype="float32", crs=src.crs, transform=transform, nodata=np.nan)
         crs = src.crs
@@ -169,11 +189,14 @@ def main():
     parser.add_argument("--cells", type=int, default=160)
     parser.add_argument("--paths", type=int, default=60)
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--in-tool", action="store_true")
     args = parser.parse_args(argv)
     os.makedirs(args.workdir, exist_ok=True)
     name = "terrain"
     map_path = os.path.join(args.workdir, f"{name}.tif")
-    bands, transform, crs = resampled(args.raster, args.cells, map_path)
+    if os.path.islink(map_path):  # a link to the raster, left by a run with --in-tool
+        os.remove(map_path)
+    bands, transform, crs = resampled(args.raster, args.cells, map_path, args.in_tool)
     cost = teacher_cost(list(bands), args.teacher).astype("float64")
     h, w = cost.shape
     dx, dy = row_metres(transform, crs, h)
@@ -206,8 +229,14 @@ def main():
         subprocess.run([args.imitate, *cli], cwd=args.workdir, check=True,
                        stdout=subprocess.DEVNULL)
 
+    if args.in_tool:
+        os.replace(map_path, os.path.join(args.workdir, "teacher-grid.tif"))
+        os.symlink(os.path.abspath(args.raster), map_path)
+        coarsen = ["--cells", str(args.cells)]
+    else:
+        coarsen = []
     imitate("ingest", "--map", f"{name}.tif", "--demonstrations", "train.parquet",
-            "--out", "ds")
+            "--out", "ds", *coarsen)
     imitate("features", "--dataset", "ds", "--bank", "auto", "--out", "fs")
     imitate("learch", "--dataset", "ds", "--features", "fs", "--out", "costmap", *extra)
     imitate("export", "costmap", "--format", "geotiff", "--out", "export")
@@ -215,6 +244,7 @@ def main():
                 if f.endswith(".tif")]
     with rasterio.open(os.path.join(args.workdir, "export", exported[0])) as src:
         learned = src.read(1).astype("float64")
+        assert src.transform.almost_equals(transform), (src.transform, transform)
     assert learned.shape == cost.shape, (learned.shape, cost.shape)
 
     ratios, near, planned = [], 0, 0

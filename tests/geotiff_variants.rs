@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data};
 use imitate::features::{Bank, FeatureSpec, Op, compute};
-use imitate::grid::{GroundScale, LayerKind, Map};
+use imitate::grid::{Edges, GroundScale, LayerKind, Map, coarsened};
 use imitate::io::geotiff::{read_geotiff, write_geotiff};
 
 /// Writes the variants into `out` with rasterio (see [`python_script`]).
@@ -76,6 +76,7 @@ fn every_gdal_variant_reads_to_the_same_grid() {
             || source == "pam-compound"
             || source == "pam-esri"
             || source == "registry"
+            || source == "coarse"
             || name.ends_with("--none")
             || name.ends_with("--float-pred3")
         {
@@ -914,4 +915,62 @@ fn baseline_tiffs_are_georeferenced_by_their_sidecars() {
         err.contains("no georeference") && err.contains("world file"),
         "{err}"
     );
+}
+
+/// Coarsened maps (`imitate ingest --cells`, `--cell-size`) are GDAL's: rasterio's
+/// `reproject` to the transform scaled by the factor, `average` on imagery and `mode`
+/// on a raster of two values, read to the same grid (clipped blocks along the south
+/// and east edges included) and the same values on every whole block to float rounding.
+#[test]
+fn coarsened_maps_are_gdals_average_over_whole_blocks() {
+    let dir = tempfile::tempdir().unwrap();
+    let (Some(files), Some(rasters)) = (write_variants(dir.path()), shared_data("raster")) else {
+        return;
+    };
+    let mut checked = 0;
+    for file in files.iter().filter(|f| f["source"] == "coarse") {
+        let name = file["name"].as_str().unwrap();
+        let factor = file["factor"].as_u64().unwrap() as usize;
+        let source = read_geotiff(&rasters.join(file["raster"].as_str().unwrap()), "m").unwrap();
+        let (w, h) = (source.geo.width as usize, source.geo.height as usize);
+        assert!(
+            w % factor != 0 || h % factor != 0,
+            "{name}: no clipped block"
+        );
+        let ours = coarsened(source, factor, Edges::Kept);
+        let gdal = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
+        assert_eq!(
+            (ours.geo.width, ours.geo.height),
+            (gdal.geo.width, gdal.geo.height),
+            "{name}"
+        );
+        let ([ox, oy], [gx, gy]) = (ours.geo.origin, gdal.geo.origin);
+        let [sx, sy] = gdal.geo.cell_size();
+        assert!(
+            (ox - gx).abs() < 1e-6 * sx && (oy - gy).abs() < 1e-6 * sy,
+            "{name}"
+        );
+        let ([ax, ay], [bx, by]) = (ours.geo.cell_size(), gdal.geo.cell_size());
+        assert!(
+            (ax - bx).abs() < 1e-9 * bx && (ay - by).abs() < 1e-9 * by,
+            "{name}"
+        );
+        // Whole blocks only: GDAL's warper fills a clipped block's cells past the
+        // raster from elsewhere (on the SPOT image's east edge it reads 486 / 16 for
+        // twelve cells of mean 38.5); ours are the mean of the cells they hold (the
+        // unit tests of `grid::coarsen`).
+        let (pw, ph) = (ours.geo.width as usize, ours.geo.height as usize);
+        let clipped_row = usize::from(h % factor != 0);
+        let whole = |i: usize| i % pw < w / factor && i / pw >= clipped_row;
+        for (a, b) in ours.layers.iter().zip(&gdal.layers) {
+            let worst = (0..pw * ph)
+                .filter(|&i| whole(i))
+                .map(|i| (a.values[i] - b.values[i]).abs())
+                .fold(0.0f32, f32::max);
+            assert!(worst <= 1e-3, "{name} {}: differs by {worst}", a.name);
+            assert!(a.values.iter().all(|v| v.is_finite()), "{name}");
+        }
+        checked += 1;
+    }
+    assert_eq!(checked, 3);
 }

@@ -263,3 +263,105 @@ fn renamed_columns_and_a_default_map_read_other_peoples_tables() {
         stderr(&out)
     );
 }
+
+/// `--cells` and `--cell-size` coarsen every map by whole blocks before the
+/// demonstrations are laid on it: the same dataset either way, block means of the
+/// layers, paths on the coarse grid, and a stack that learns.
+#[test]
+fn maps_coarsened_at_ingest_carry_the_demonstrations_on_their_cells() {
+    let dir = tempfile::tempdir().unwrap();
+    let world = repo().join("testdata/world");
+    let maps: Vec<String> = (0..4)
+        .map(|i| world.join(format!("maps/terrain-{i:03}.parquet")))
+        .map(|p| p.to_str().unwrap().to_string())
+        .collect();
+    let table = world.join("demonstrations.parquet");
+    let run = |out: &str, extra: &[&str]| {
+        let mut args = vec!["ingest", "--map"];
+        args.extend(maps.iter().map(String::as_str));
+        args.extend(["--demonstrations", table.to_str().unwrap(), "--out", out]);
+        args.extend_from_slice(extra);
+        imitate(dir.path(), &args)
+    };
+    let out = run("by-cells", &["--cells", "16"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let out = run("by-metres", &["--cell-size", "4.3"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    for file in ["maps/terrain-000.parquet", "paths.parquet"] {
+        let read = |ds: &str| std::fs::read(dir.path().join(ds).join(file)).unwrap();
+        assert_eq!(read("by-cells"), read("by-metres"), "{file}");
+    }
+
+    let fine = imitate::io::tables::read_map(&world.join("maps/terrain-000.parquet")).unwrap();
+    let coarse =
+        imitate::io::tables::read_map(&dir.path().join("by-cells/maps/terrain-000.parquet"))
+            .unwrap();
+    assert_eq!((coarse.geo.width, coarse.geo.height), (16, 16));
+    assert_eq!(coarse.geo.cell_size(), [4.0, 4.0]);
+    assert_eq!(coarse.geo.origin, fine.geo.origin);
+    let (layer, coarse_layer) = (&fine.layers[0], &coarse.layers[0]);
+    if layer.classes().is_none() {
+        let mean: f64 = (0..4)
+            .flat_map(|r| (0..4).map(move |c| r * 64 + c))
+            .map(|i| f64::from(layer.values[i]))
+            .sum::<f64>()
+            / 16.0;
+        assert!((f64::from(coarse_layer.values[0]) - mean).abs() < 1e-4);
+    }
+    let demos = imitate::io::demo_tables::read_demonstrations(&table).unwrap();
+    let first = demos.iter().find(|d| d.map == "terrain-000").unwrap();
+    let expected = imitate::grid::rasterize(&coarse.geo, &first.xy()).unwrap();
+    let paths =
+        imitate::io::tables::read_paths(&dir.path().join("by-cells/paths.parquet")).unwrap();
+    let path = paths.iter().find(|p| p.episode == first.episode).unwrap();
+    assert_eq!(path.cells.to_vec(), expected.to_vec());
+
+    let features = imitate(
+        dir.path(),
+        &[
+            "features",
+            "--dataset",
+            "by-cells",
+            "--bank",
+            "auto",
+            "--out",
+            "fs",
+        ],
+    );
+    assert!(features.status.success(), "{}", stderr(&features));
+    let learned = imitate(
+        dir.path(),
+        &[
+            "learch",
+            "--dataset",
+            "by-cells",
+            "--features",
+            "fs",
+            "--rounds",
+            "4",
+            "--out",
+            "cm",
+        ],
+    );
+    assert!(learned.status.success(), "{}", stderr(&learned));
+
+    for (flags, needle) in [
+        (
+            &["--cell-size", "0"][..],
+            "cell_size must be a positive number of metres",
+        ),
+        (
+            &["--cell-size=-2"][..],
+            "cell_size must be a positive number of metres",
+        ),
+        (
+            &["--cells", "8", "--cell-size", "4"][..],
+            "cannot be used with",
+        ),
+    ] {
+        let out = run("bad", flags);
+        assert_eq!(out.status.code(), Some(2), "{flags:?}");
+        assert!(stderr(&out).contains(needle), "{flags:?}: {}", stderr(&out));
+        assert!(!dir.path().join("bad").exists());
+    }
+}

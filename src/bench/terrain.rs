@@ -12,7 +12,6 @@ use std::time::Instant;
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rayon::prelude::*;
 use serde::Serialize;
 
 use super::ioc_methods::{
@@ -24,7 +23,7 @@ use crate::features::{
     Bank, FeatureSpec, compute, gaussian_blur, gaussian_blur_by_row, gradient, ground_windows,
     local_std_by_row,
 };
-use crate::grid::{GeoRef, Grid, Layer, Map};
+use crate::grid::{Edges, GeoRef, Grid, Layer, Map, coarsened, factor_for_cells};
 use crate::io::geotiff::read_geotiff;
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
 
@@ -190,89 +189,6 @@ struct TerrainReport {
     cells: u32,
     paths: usize,
     results: Vec<MethodResult>,
-}
-
-/// The raster's bands averaged over blocks of `factor` × `factor` cells (NaN cells left
-/// out; a block with no data is NaN), the cells growing by the same factor. Class
-/// layers (land cover, masks: [`Layer::classes`]) take each block's most
-/// common class instead, as GDAL's `mode` resampling does: a mean of class codes is
-/// no class, and a mean of a binary mask is a value the raster never holds.
-fn pooled(map: Map, cells: u32) -> Map {
-    let (w, h) = (map.geo.width as usize, map.geo.height as usize);
-    let factor = if cells == 0 {
-        1
-    } else {
-        (w.max(h) as u32).div_ceil(cells).max(1) as usize
-    };
-    if factor == 1 {
-        return map;
-    }
-    // Whole blocks only, but at least one per axis (a raster one row high keeps it).
-    let (pw, ph) = ((w / factor).max(1), (h / factor).max(1));
-    let layers = map
-        .layers
-        .iter()
-        .map(|layer| {
-            let classes = layer.classes().is_some();
-            let values = (0..pw * ph)
-                .into_par_iter()
-                .map(|i| {
-                    let (r, c) = (i / pw, i % pw);
-                    let block = (r * factor..((r + 1) * factor).min(h)).flat_map(|rr| {
-                        (c * factor..((c + 1) * factor).min(w))
-                            .map(move |cc| layer.values[rr * w + cc])
-                    });
-                    let data = block.filter(|v| !v.is_nan());
-                    if classes {
-                        most_common(data)
-                    } else {
-                        let (sum, n) =
-                            data.fold((0.0f64, 0usize), |(sum, n), v| (sum + f64::from(v), n + 1));
-                        if n == 0 {
-                            f32::NAN
-                        } else {
-                            (sum / n as f64) as f32
-                        }
-                    }
-                })
-                .collect();
-            Layer {
-                name: layer.name.clone(),
-                values,
-                kind: layer.kind,
-            }
-        })
-        .collect();
-    let [sx, sy] = map.geo.cell_size();
-    // A block clipped by the raster's edge spans only the cells it holds.
-    let (fx, fy) = (factor.min(w) as f64, factor.min(h) as f64);
-    let geo = GeoRef {
-        width: pw as u32,
-        height: ph as u32,
-        resolution: sx * fx,
-        resolution_y: (map.geo.resolution_y.is_some() || fx != fy).then_some(sy * fy),
-        ..map.geo
-    };
-    Map {
-        name: map.name,
-        geo,
-        layers,
-    }
-}
-
-/// The most common of `values` (the smallest of equals; NaN when there are none).
-fn most_common(values: impl Iterator<Item = f32>) -> f32 {
-    let mut counts: Vec<(f32, usize)> = Vec::new();
-    for v in values {
-        match counts.iter_mut().find(|(c, _)| *c == v) {
-            Some((_, n)) => *n += 1,
-            None => counts.push((v, 1)),
-        }
-    }
-    counts
-        .into_iter()
-        .max_by(|(a, m), (b, n)| m.cmp(n).then(b.total_cmp(a)))
-        .map_or(f32::NAN, |(v, _)| v)
 }
 
 /// Value at share `q` of the finite values (sorted, index ⌊q(n − 1)⌋).
@@ -756,7 +672,9 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         let name = path
             .file_stem()
             .map_or("raster".into(), |s| s.to_string_lossy().into_owned());
-        let map = pooled(read_geotiff(path, &name)?, args.cells);
+        let raster = read_geotiff(path, &name)?;
+        let factor = factor_for_cells(&raster.geo, args.cells);
+        let map = coarsened(raster, factor, Edges::Whole);
         for &teacher in &teachers {
             // The raster is this command's only input: what its content makes fail
             // (features, teacher paths) is an input error naming it.
@@ -824,49 +742,6 @@ mod tests {
             )],
             geo,
         }
-    }
-
-    #[test]
-    fn pooling_keeps_a_raster_thinner_than_a_block() {
-        // One row of 500 cells, pooled by 4 to at most 160 a side: 125 cells, each the
-        // mean of its four, spanning one row's height (it panicked as zero rows).
-        let row = pooled(strip(500, 1), 160);
-        assert_eq!((row.geo.width, row.geo.height), (125, 1));
-        assert_eq!(row.geo.cell_size(), [120.0, 30.0]);
-        assert_eq!(row.layers[0].values[0], 1.5);
-        assert_eq!(row.layers[0].values[124], 497.5);
-        // Whole blocks otherwise, as before: 330 × 170 by 3, the last 2 rows left out.
-        let block = pooled(strip(330, 170), 160);
-        assert_eq!((block.geo.width, block.geo.height), (110, 56));
-        assert_eq!(block.geo.cell_size(), [90.0, 90.0]);
-    }
-
-    #[test]
-    fn class_layers_pool_to_their_most_common_class() {
-        // 322 × 2 cells of classes 3 and 7 (the first block of two columns: 3, 3, 7
-        // and nodata), pooled by 3 to 107 × 1 (a 2-row raster keeps one block row).
-        let mut map = strip(322, 2);
-        let values = &mut map.layers[0].values;
-        for (i, v) in values.iter_mut().enumerate() {
-            *v = if i % 3 == 2 { 7.0 } else { 3.0 };
-        }
-        values[0] = f32::NAN;
-        values[322] = 7.0;
-        values[323] = 7.0;
-        assert!(crate::grid::classes_of(values).is_some());
-        let pooled = pooled(map, 160);
-        assert_eq!((pooled.geo.width, pooled.geo.height), (107, 1));
-        // Block 0 holds 3, 7, 7, 7, 3 (and nodata): 7; every value is a class.
-        assert_eq!(pooled.layers[0].values[0], 7.0);
-        assert!(
-            pooled.layers[0]
-                .values
-                .iter()
-                .all(|&v| v == 3.0 || v == 7.0)
-        );
-        // Equal counts: the smaller class.
-        assert_eq!(most_common([7.0, 3.0, 3.0, 7.0].into_iter()), 3.0);
-        assert!(most_common(std::iter::empty()).is_nan());
     }
 
     #[test]

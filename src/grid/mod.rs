@@ -7,6 +7,7 @@
 //! row by row. Whatever the frame, features and planners measure in metres per axis
 //! ([`GeoRef::cell_metres`]), so cells need not be square.
 
+mod coarsen;
 mod demo;
 mod epsg;
 mod equal_area;
@@ -15,6 +16,7 @@ mod map;
 mod path;
 mod points;
 
+pub use coarsen::{Edges, coarsened, factor_for_cells, factor_for_metres};
 pub use demo::{Demonstration, Pose};
 pub use epsg::{EpsgCrs, epsg_crs};
 pub use equal_area::{Ellipsoid, EqualArea};

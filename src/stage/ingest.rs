@@ -12,7 +12,10 @@ use serde::{Deserialize, Serialize};
 use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, first_error_in_order};
-use crate::grid::{Demonstration, Map, PathError, check_map_name, rasterize};
+use crate::grid::{
+    Demonstration, Edges, Map, PathError, check_map_name, coarsened, factor_for_cells,
+    factor_for_metres, rasterize,
+};
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geotiff::read_geotiff;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
@@ -105,6 +108,18 @@ pub struct IngestParams {
     #[arg(long, value_name = "NAME")]
     #[serde(default)]
     pub default_map: Option<String>,
+    /// Coarsen every map so that its longer side has at most this many cells: blocks
+    /// of whole cells averaged (GDAL's `average`; class layers take each block's most
+    /// common class, as its `mode` does), the last block along an axis clipped to the
+    /// raster. For rasters finer than the plans need: time and memory grow with cells.
+    #[arg(long, value_name = "N", conflicts_with = "cell_size")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cells: Option<u32>,
+    /// Coarsen every map to cells of about this many metres on the ground: blocks of
+    /// the whole number of cells nearest it, averaged as with --cells.
+    #[arg(long, value_name = "METRES")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cell_size: Option<f64>,
     /// The dataset folder to write.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
@@ -188,6 +203,28 @@ impl IngestParams {
             transform,
             allow_truncated: self.allow_truncated,
         })
+    }
+
+    /// Each map coarsened as `cells` or `cell_size` asks (unchanged when neither does).
+    fn coarsen(&self, maps: Vec<Map>) -> Result<Vec<Map>> {
+        if let Some(metres) = self.cell_size
+            && !(metres.is_finite() && metres > 0.0)
+        {
+            return Err(Error::Usage(format!(
+                "cell_size must be a positive number of metres, not {metres}"
+            )));
+        }
+        Ok(maps
+            .into_iter()
+            .map(|map| {
+                let factor = match (self.cells, self.cell_size) {
+                    (Some(cells), _) => factor_for_cells(&map.geo, cells),
+                    (None, Some(metres)) => factor_for_metres(&map.geo, metres),
+                    (None, None) => 1,
+                };
+                coarsened(map, factor, Edges::Kept)
+            })
+            .collect())
     }
 
     /// The map of episodes that name none: `default_map`, or the only map given.
@@ -329,6 +366,7 @@ impl IngestParams {
             sources.resize(maps.len(), log.clone());
             demos.extend(log_demos.into_iter().map(|d| (d, log.clone())));
         }
+        let maps = self.coarsen(maps)?;
         let mut names = BTreeSet::new();
         for (map, path) in maps.iter().zip(&sources) {
             check_map_name(&map.name).map_err(|why| Error::input(path, why))?;

@@ -579,3 +579,38 @@ for code, lon, lat in [(2263, -73.8, 40.7), (2227, -121.5, 37.5), (3435, -88.0, 
                       "gdal": {"metres_per_unit": per_unit, "cell_units": size,
                                "south_west_units": [x - 5 * size, y - 5 * size],
                                "ground_metres_per_unit": along}}))
+
+
+# GDAL's average over blocks of whole cells (rasterio's `reproject` to the transform
+# scaled by the factor, the grid anchored at the north-west corner, the last blocks
+# along the south and east edges clipped to the raster): what `imitate ingest --cells`
+# must read a raster to. Float32 output, so that no mean is rounded to the source's
+# integers; NaN where a block holds no data. The world image holds two values, which the
+# reader takes for classes: GDAL's `mode` instead, as for a land-cover raster.
+for source, file, factor, method in [
+        ("spot", "osgeo_spot_chicago_utm.tif", 4, Resampling.average),
+        ("spot", "osgeo_spot_chicago_utm.tif", 7, Resampling.average),
+        ("world", "rasterio_world.byte.tif", 7, Resampling.mode)]:
+    with rasterio.open(os.path.join(src_dir, file)) as src:
+        data = src.read().astype("float32")
+        profile = src.profile.copy()
+        nodata = src.nodata
+    if nodata is not None:
+        data[data == nodata] = np.nan
+    height, width = -(-data.shape[1] // factor), -(-data.shape[2] // factor)
+    coarse = np.full((data.shape[0], height, width), np.nan, dtype="float32")
+    transform = profile["transform"] * Affine.scale(factor)
+    for band in range(data.shape[0]):
+        reproject(data[band], coarse[band], src_transform=profile["transform"],
+                  src_crs=profile["crs"], src_nodata=np.nan, dst_transform=transform,
+                  dst_crs=profile["crs"], dst_nodata=np.nan, resampling=method)
+    for key in ("compress", "predictor", "tiled", "blockxsize", "blockysize", "photometric",
+                "interleave"):
+        profile.pop(key, None)
+    profile.update(driver="GTiff", dtype="float32", nodata=float("nan"), width=width,
+                   height=height, transform=transform)
+    name = f"coarse--{source}-by{factor}"
+    with rasterio.open(os.path.join(out, name + ".tif"), "w", **profile) as dst:
+        dst.write(coarse)
+    print(json.dumps({"name": name, "source": "coarse", "lossless": True,
+                      "raster": file, "factor": factor}))
