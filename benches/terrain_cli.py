@@ -21,12 +21,15 @@ and scores the plans under the teacher's cost: mean and worst true-cost ratio (p
 teacher path) and the share of planned cells within 2 cells of the teacher's path.
 
     python3 benches/terrain_cli.py IMITATE RASTER WORKDIR [--teacher bright|contrast]
-        [--cells 160] [--paths 60] [--seed 7] [--in-tool] [-- LEARCH_ARGS...]
+        [--cells 160] [--paths 60] [--seed 7] [--in-tool] [--jitter CELLS]
+        [-- LEARCH_ARGS...]
 
 With `--in-tool` the tool is given the raster as it is and coarsens it itself
 (`ingest --cells`); the script's teacher lives on GDAL's grid of the same blocks
 (rasterio's `reproject` to the transform scaled by the factor, `average`), which is the
-grid the tool's costmap comes back on.
+grid the tool's costmap comes back on. With `--jitter CELLS` the demonstrations' poses
+wander off the teacher's cells by a drift of that many cells (correlated over about
+five poses), as a real track does.
 
 Needs numpy, pyarrow and rasterio (`scripts/python-deps.sh` installs them).
 """
@@ -177,6 +180,18 @@ def within(plan, teacher, radius=2.0):
     return near
 
 
+def jitter(rng, n, cells):
+    """A drift of `cells` standard deviation per axis, correlated over about five
+    poses, as a GNSS or odometry track wanders around where the robot went."""
+    if cells == 0:
+        return np.zeros((n, 2))
+    white = rng.standard_normal((n + 30, 2))
+    kernel = np.exp(-0.5 * (np.arange(-15, 16) / 5.0) ** 2)
+    smooth = np.stack([np.convolve(white[:, k], kernel, mode="same") for k in (0, 1)],
+                      axis=1)[15:15 + n]
+    return smooth / smooth.std() * cells
+
+
 def main():
     argv = sys.argv[1:]
     extra = argv[argv.index("--") + 1:] if "--" in argv else []
@@ -190,6 +205,8 @@ def main():
     parser.add_argument("--paths", type=int, default=60)
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--in-tool", action="store_true")
+    parser.add_argument("--jitter", type=float, default=0.0,
+                        help="poses off the teacher's cells by a drift of this many cells")
     args = parser.parse_args(argv)
     os.makedirs(args.workdir, exist_ok=True)
     name = "terrain"
@@ -215,8 +232,11 @@ def main():
     for i, path in enumerate(paths):
         if i in held:
             continue
+        drift = jitter(rng, len(path), args.jitter)
         for t, (r, c) in enumerate(path):
-            x, y = transform * (c + 0.5, r + 0.5)
+            col = min(max(c + 0.5 + drift[t, 0], 0.01), w - 0.01)
+            row = min(max(r + 0.5 + drift[t, 1], 0.01), h - 0.01)
+            x, y = transform * (col, row)
             rows["episode"].append(f"teacher-{i:03}")
             rows["map"].append(name)
             rows["t"].append(float(t))

@@ -258,3 +258,105 @@ fn learch_trains_on_every_demonstration_unless_some_are_held_out() {
         "{report}"
     );
 }
+
+/// A track that wanders a cell around the teacher's route (the world's demonstrations
+/// with a smooth wobble of 1 m, its cells): LEARCH asked to make every wobble optimal
+/// learns dear ground as cheap, and `--corridor 1` (each demonstration taken as the
+/// cheapest path within a cell of it) plans the teacher's clean paths far closer to
+/// their true cost.
+#[test]
+fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
+    let ws = prepared_workspace();
+    let demos = imitate::io::demo_tables::read_demonstrations(
+        &repo().join("testdata/world/demonstrations.parquet"),
+    )
+    .unwrap();
+    let wobbling: Vec<imitate::grid::Demonstration> = demos
+        .iter()
+        .enumerate()
+        .map(|(e, d)| {
+            let mut d = d.clone();
+            for p in &mut d.poses {
+                p.x = (p.x + (0.7 * p.t + e as f64).sin()).clamp(0.01, 63.99);
+                p.y = (p.y + (0.45 * p.t + 2.0 * e as f64).cos()).clamp(0.01, 63.99);
+            }
+            d
+        })
+        .collect();
+    imitate::io::tables::write_demonstrations(&ws.path().join("wobbling.parquet"), &wobbling)
+        .unwrap();
+    let maps: Vec<String> = (0..4)
+        .map(|i| format!("testdata/world/maps/terrain-00{i}.parquet"))
+        .collect();
+    let mut ingest = vec![
+        "ingest",
+        "--demonstrations",
+        "wobbling.parquet",
+        "--out",
+        "dw",
+    ];
+    for map in &maps {
+        ingest.extend(["--map", map.as_str()]);
+    }
+    let run = |args: &[&str]| {
+        let out = imitate(ws.path(), args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    };
+    run(&ingest);
+    run(&["features", "--dataset", "dw", "--out", "fw"]);
+    let truth: Vec<String> = (0..4)
+        .map(|i| format!("testdata/world/truth/terrain-00{i}.parquet"))
+        .collect();
+    let mut scores = Vec::new();
+    for corridor in ["0", "1"] {
+        let costmap = format!("c{corridor}");
+        run(&[
+            "learch",
+            "--dataset",
+            "dw",
+            "--features",
+            "fw",
+            "--rounds",
+            "40",
+            "--members",
+            "1",
+            "--corridor",
+            corridor,
+            "--out",
+            &costmap,
+        ]);
+        // Scored on the teacher's own paths (the clean dataset) under the true costs.
+        let evaluation = format!("e{corridor}");
+        let mut evaluate = vec![
+            "evaluate",
+            &costmap,
+            "--dataset",
+            "ds",
+            "--out",
+            &evaluation,
+        ];
+        for t in &truth {
+            evaluate.extend(["--reference", t.as_str()]);
+        }
+        run(&evaluate);
+        let summary: serde_json::Value = serde_json::from_slice(
+            &std::fs::read(ws.path().join(&evaluation).join("evaluation.json")).unwrap(),
+        )
+        .unwrap();
+        let ratio = summary["summary"]["mean_reference_cost_ratio"]
+            .as_f64()
+            .unwrap();
+        scores.push(ratio);
+        let lineage =
+            std::fs::read_to_string(ws.path().join(&costmap).join("manifest.json")).unwrap();
+        assert_eq!(
+            lineage.contains("\"corridor\""),
+            corridor != "0",
+            "{lineage}"
+        );
+    }
+    assert!(
+        scores[1] < 1.06 && scores[0] > scores[1] + 0.05,
+        "mean true-cost ratios without and with the corridor: {scores:?}"
+    );
+}

@@ -167,6 +167,10 @@ pub struct TerrainArgs {
     /// LEARCH with trees: models trained and averaged (1: the staged model alone).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::ioc::MEMBERS.len() as u64))]
     pub members: Option<u64>,
+    /// LEARCH and MMP take each demonstration as the cheapest path through the cells
+    /// within this many cells of it (`imitate learch --corridor`).
+    #[arg(long, value_name = "CELLS")]
+    pub corridor: Option<u32>,
     /// Also plans the held-out pairs on the hidden cost itself, off by a smooth random
     /// factor e^(ε g) (repeat the flag for several ε; 0 is the hidden cost): g is a
     /// seeded Gaussian field of unit spread, correlated over `--off-by-cells`. How far
@@ -631,6 +635,9 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         config.widen_in_stages &= !args.all_scales_at_once;
         if let Some(members) = args.members {
             config.members = members as usize;
+        }
+        if let Some(cells) = args.corridor {
+            config.corridor = cells;
         }
     }
     for m in &args.methods {

@@ -91,6 +91,13 @@ mod defaults {
     pub fn horizon_factor() -> f64 {
         crate::ioc::MAXENT_HORIZON_FACTOR
     }
+    pub fn corridor() -> u32 {
+        0
+    }
+    /// Left out of the stage's parameters, so that runs from before it stay fresh.
+    pub fn is_no_corridor(cells: &u32) -> bool {
+        *cells == 0
+    }
     pub fn window_margin() -> u32 {
         6
     }
@@ -201,6 +208,17 @@ pub struct LearchParams {
     #[arg(long, default_value_t = defaults::members())]
     #[serde(default = "defaults::members")]
     pub members: usize,
+    /// LEARCH and MMP: take each demonstration as the cheapest path, under the cost
+    /// learned so far, through the cells within this many cells of it: for tracks
+    /// that wander around the route driven (GNSS or odometry noise, a driver's
+    /// weaving), which LEARCH would otherwise learn every wobble of. 0 takes the
+    /// demonstrations as they are.
+    #[arg(long, value_name = "CELLS", default_value_t = defaults::corridor())]
+    #[serde(
+        default = "defaults::corridor",
+        skip_serializing_if = "defaults::is_no_corridor"
+    )]
+    pub corridor: u32,
     /// Fraction of demonstrations held out to measure the costmap on paths it never
     /// learned from (`holdout` in metrics.json); 0 trains on every one. Early stopping
     /// watches `validation`, not these.
@@ -526,6 +544,7 @@ impl LearchParams {
             calibrate_contrast: !self.keep_contrast,
             widen_in_stages: !self.all_scales_at_once,
             members: self.members,
+            corridor: self.corridor,
         }
     }
 

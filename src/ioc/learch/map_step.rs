@@ -396,9 +396,11 @@ fn planned_gradient(
 ) -> Result<ExampleStatistics, String> {
     let loss = config.loss;
     let geo = &stack.geo;
+    let corridor = corridor::corridor_path(costs, &ex.path, config.corridor);
+    let demonstration: &[Cell] = corridor.as_deref().unwrap_or(&ex.path);
     // μ: how often the demonstration visits each cell.
     let mut visits: BTreeMap<usize, i64> = BTreeMap::new();
-    for &cell in &ex.path {
+    for &cell in demonstration {
         *visits.entry(geo.index(cell)).or_default() -= 1;
     }
     let augmented = if loss > 0.0 {
@@ -418,7 +420,7 @@ fn planned_gradient(
         _ => shortest_path(&augmented, start, goal),
     }
     .ok_or_else(|| unreachable(ex))?;
-    let demo_cost = path_cost(&augmented, &ex.path);
+    let demo_cost = path_cost(&augmented, demonstration);
     // μ* − μ, with μ already subtracted above.
     for &cell in &route.cells {
         *visits.entry(geo.index(cell)).or_default() += 1;
@@ -432,7 +434,7 @@ fn planned_gradient(
     let lengths = StepLengths::of(geo);
     if config.method == GridMethod::Mmp {
         // Φ(plan) − Φ(demo).
-        let incidence = length_difference(geo, &lengths, &route.cells, &ex.path, 1.0);
+        let incidence = length_difference(geo, &lengths, &route.cells, demonstration, 1.0);
         direction = weighted_features(model, stack, incidence.into_iter());
     } else {
         // A path's cost changes with a cell's log-cost by the cost times the length of
@@ -441,7 +443,7 @@ fn planned_gradient(
         // before; diagonals √2, and a geographic raster's narrow rows near the poles
         // little).
         let unit = straight_step(geo, &lengths);
-        for (i, difference) in length_difference(geo, &lengths, &route.cells, &ex.path, unit) {
+        for (i, difference) in length_difference(geo, &lengths, &route.cells, demonstration, unit) {
             if difference.abs() < SHARED_STEPS {
                 continue;
             }

@@ -34,6 +34,7 @@
 //! reduce step (`reduce_step`: the statistics merged and the next weak learner
 //! fitted); this module runs the rounds, the members and the calibration around them.
 
+mod corridor;
 mod map_step;
 mod reduce_step;
 
@@ -307,6 +308,11 @@ pub struct LearchConfig {
     /// LEARCH with trees widened in stages: how many of `MEMBERS` to train, in turn
     /// (1 or 2); the cost is the geometric mean of theirs.
     pub members: usize,
+    /// LEARCH and MMP: each round compares the plan with the cheapest path under the
+    /// current cost through the cells within this many cells of the demonstration,
+    /// not with the demonstration itself: tracks that wander around the route meant
+    /// (`corridor`); 0 takes demonstrations as they are.
+    pub corridor: u32,
 }
 
 impl Default for LearchConfig {
@@ -335,6 +341,7 @@ impl Default for LearchConfig {
             calibrate_contrast: true,
             widen_in_stages: true,
             members: MEMBERS.len(),
+            corridor: 0,
         }
     }
 }
