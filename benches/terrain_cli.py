@@ -21,7 +21,7 @@ and scores the plans under the teacher's cost: mean and worst true-cost ratio (p
 teacher path) and the share of planned cells within 2 cells of the teacher's path.
 
     python3 benches/terrain_cli.py IMITATE RASTER WORKDIR [--teacher bright|contrast]
-        [--cells 160] [--paths 60] [--seed 7] [--in-tool] [--jitter CELLS]
+        [--cells 160] [--paths 60] [--seed 7] [--in-tool] [--jitter CELLS] [--poses-per-cell K]
         [-- LEARCH_ARGS...]
 
 With `--in-tool` the tool is given the raster as it is and coarsens it itself
@@ -207,6 +207,10 @@ def main():
     parser.add_argument("--in-tool", action="store_true")
     parser.add_argument("--jitter", type=float, default=0.0,
                         help="poses off the teacher's cells by a drift of this many cells")
+    parser.add_argument("--poses-per-cell", type=int, default=1,
+                        help="poses logged per step of the path, on straight lines between "
+                             "its cells, each path a fixed sub-cell offset off their centres "
+                             "(a densely logged track)")
     args = parser.parse_args(argv)
     os.makedirs(args.workdir, exist_ok=True)
     name = "terrain"
@@ -233,9 +237,16 @@ def main():
         if i in held:
             continue
         drift = jitter(rng, len(path), args.jitter)
-        for t, (r, c) in enumerate(path):
-            col = min(max(c + 0.5 + drift[t, 0], 0.01), w - 0.01)
-            row = min(max(r + 0.5 + drift[t, 1], 0.01), h - 0.01)
+        centres = np.array(path, dtype="float64")[:, ::-1] + 0.5 + drift
+        if args.poses_per_cell > 1:
+            k = args.poses_per_cell
+            steps = np.arange(k * (len(path) - 1) + 1) / k
+            centres = np.stack([np.interp(steps, np.arange(len(path)), centres[:, a])
+                                for a in (0, 1)], axis=1)
+            centres += rng.uniform(-0.3, 0.3, size=2)
+        for t, (col, row) in enumerate(centres):
+            col = min(max(col, 0.01), w - 0.01)
+            row = min(max(row, 0.01), h - 0.01)
             x, y = transform * (col, row)
             rows["episode"].append(f"teacher-{i:03}")
             rows["map"].append(name)

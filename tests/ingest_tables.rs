@@ -365,3 +365,74 @@ fn maps_coarsened_at_ingest_carry_the_demonstrations_on_their_cells() {
         assert!(!dir.path().join("bad").exists());
     }
 }
+
+/// A track logged many times a cell (as a robot's pose topic is, at 10–50 Hz) crosses
+/// a cell's row and column edges one pose apart on every diagonal drive. Ingest reads
+/// it as the drive the planner would take, not as a staircase of orthogonal steps: the
+/// world's teacher episodes, logged ten times between each of their poses, give paths
+/// about as long as the sparse poses joined by lines, where the staircase is longer by
+/// a tenth or more.
+#[test]
+fn a_densely_logged_track_is_read_without_its_staircase() {
+    let dir = tempfile::tempdir().unwrap();
+    let world = repo().join("testdata/world");
+    let sparse = terrain_000();
+    let dense: Vec<Demonstration> = sparse
+        .iter()
+        .map(|d| {
+            let mut dense = d.clone();
+            dense.poses = d
+                .poses
+                .windows(2)
+                .flat_map(|w| {
+                    (0..10).map(move |k| {
+                        let s = f64::from(k) / 10.0;
+                        imitate::grid::Pose {
+                            t: w[0].t + s * (w[1].t - w[0].t),
+                            x: w[0].x + s * (w[1].x - w[0].x),
+                            y: w[0].y + s * (w[1].y - w[0].y),
+                            yaw: None,
+                        }
+                    })
+                })
+                .chain(d.poses.last().cloned())
+                .collect();
+            dense
+        })
+        .collect();
+    imitate::io::tables::write_demonstrations(&dir.path().join("dense.parquet"), &dense).unwrap();
+    let map = world.join("maps/terrain-000.parquet");
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--map",
+            map.to_str().unwrap(),
+            "--demonstrations",
+            "dense.parquet",
+            "--out",
+            "ds",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let geo = imitate::io::tables::read_map(&map).unwrap().geo;
+    let paths = imitate::io::tables::read_paths(&dir.path().join("ds/paths.parquet")).unwrap();
+    let (mut read, mut joined, mut staircase) = (0, 0, 0);
+    for d in &dense {
+        let path = paths.iter().find(|p| p.episode == d.episode).unwrap();
+        assert!(imitate::grid::is_connected8(&path.cells), "{}", d.episode);
+        read += path.cells.len();
+        let original = sparse.iter().find(|s| s.episode == d.episode).unwrap();
+        joined += imitate::grid::rasterize(&geo, &original.xy())
+            .unwrap()
+            .len();
+        staircase += imitate::grid::rasterize_polyline(&geo, &d.xy())
+            .unwrap()
+            .len();
+    }
+    let (read, joined, staircase) = (read as f64, joined as f64, staircase as f64);
+    assert!(
+        read <= 1.02 * joined && staircase >= 1.1 * joined,
+        "cells read {read}, sparse poses joined {joined}, the staircase {staircase}"
+    );
+}

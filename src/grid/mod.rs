@@ -26,7 +26,7 @@ pub use map::{
     Layer, LayerKind, MAX_CLASSES, MAX_DECLARED_CLASSES, Map, check_map_name, classes_of,
     distinct_integers,
 };
-pub use path::{CellPath, PathError, is_connected8, rasterize};
+pub use path::{CellPath, PathError, is_connected8, rasterize, rasterize_polyline};
 pub use points::locate;
 
 use serde::{Deserialize, Serialize};

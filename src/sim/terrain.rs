@@ -200,7 +200,7 @@ fn draw_road(geo: &GeoRef, road: &mut [f32], rng: &mut ChaCha8Rng) {
             )
         })
         .collect();
-    let cells = crate::grid::rasterize(geo, &waypoints).expect("waypoints lie on the map");
+    let cells = crate::grid::rasterize_polyline(geo, &waypoints).expect("waypoints lie on the map");
     for cell in cells {
         for (dr, dc) in [(0, 0), (0, 1), (1, 0)] {
             let (r, c) = (cell.row + dr, cell.col + dc);

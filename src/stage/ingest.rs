@@ -28,8 +28,9 @@ pub const KIND: &str = "ingest";
 /// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
 /// metres per axis, more compressions, band units and descriptions). 4: layers of
 /// palette GeoTIFFs, and of bands GDAL's sidecar declares classes, stored as declared
-/// classes.
-const VERSION: u32 = 4;
+/// classes. 5: staircase corners that a densely logged track only clipped are left out
+/// of its cell path (`grid::rasterize`).
+const VERSION: u32 = 5;
 
 fn default_split() -> Split {
     Split::File
