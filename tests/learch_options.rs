@@ -151,43 +151,84 @@ fn a_killed_run_resumes_from_its_checkpoint_to_the_same_artifact() {
         0
     );
 
+    // Into the second member's rounds (60 each), so that the resumed run picks up the
+    // first member's finished model too.
     let ws = workspace_with_regional_features();
+    kill_once_checkpointed(&ws, &[&LONG_RUN[..], &["c"]].concat(), ".json", 65, 120);
+    let resumed = imitate(
+        ws.path(),
+        &[&LONG_RUN[..], &["c", "--resume", "-v"]].concat(),
+    );
+    assert_eq!(digest(&resumed), expected);
+}
+
+/// Runs `imitate ARGS` (writing `c`) in `ws` and kills it once a checkpoint whose
+/// name ends in `suffix` holds `rounds` rounds (or the run ends, having run `all`).
+fn kill_once_checkpointed(
+    ws: &tempfile::TempDir,
+    args: &[&str],
+    suffix: &str,
+    rounds: usize,
+    all: usize,
+) {
     let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_imitate"))
         .current_dir(ws.path())
-        .args([&LONG_RUN[..], &["c"]].concat())
+        .args(args)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
-    // Kill it once a few rounds are checkpointed.
     let rounds_done = || -> usize {
         let dir = ws.path().join(".imitate/checkpoints");
-        let Some(file) = std::fs::read_dir(&dir).ok().and_then(|mut d| d.next()) else {
+        let Ok(files) = std::fs::read_dir(&dir) else {
             return 0;
         };
-        std::fs::read(file.unwrap().path())
-            .ok()
-            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-            .and_then(|v| v["rounds"].as_array().map(|r| r.len()))
+        files
+            .flatten()
+            .filter(|f| f.file_name().to_string_lossy().ends_with(suffix))
+            .filter_map(|f| std::fs::read(f.path()).ok())
+            .filter_map(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+            .filter_map(|v| v["rounds"].as_array().map(|r| r.len()))
+            .max()
             .unwrap_or(0)
     };
     let started = std::time::Instant::now();
-    // Into the second member's rounds (60 each), so that the resumed run picks up the
-    // first member's finished model too.
-    while rounds_done() < 65 && child.try_wait().unwrap().is_none() {
-        assert!(started.elapsed().as_secs() < 120, "no checkpoint appeared");
+    while rounds_done() < rounds && child.try_wait().unwrap().is_none() {
+        assert!(started.elapsed().as_secs() < 240, "no checkpoint appeared");
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     let _ = child.kill();
     let _ = child.wait();
     let done = rounds_done();
-    assert!(done >= 65, "{done} rounds checkpointed");
-    assert!(!ws.path().join("c/manifest.json").exists() || done == 120);
+    assert!(done >= rounds, "{done} rounds checkpointed");
+    assert!(!ws.path().join("c/manifest.json").exists() || done == all);
+}
 
-    let resumed = imitate(
-        ws.path(),
-        &[&LONG_RUN[..], &["c", "--resume", "-v"]].concat(),
-    );
+/// `--corridor auto` killed in its retrain resumes both trainings from their
+/// checkpoints: the first to its end (the same choice), the retrain where it stopped.
+#[test]
+fn a_killed_auto_corridor_run_resumes_to_the_same_artifact() {
+    let run: [&str; 12] = [
+        "learch",
+        "--dataset",
+        "dw",
+        "--features",
+        "fw",
+        "--rounds",
+        "40",
+        "--members",
+        "1",
+        "--corridor",
+        "auto",
+        "--out",
+    ];
+    let uninterrupted = workspace_with_wobbling_tracks();
+    let expected = digest(&imitate(uninterrupted.path(), &[&run[..], &["c"]].concat()));
+    let checkpoints = uninterrupted.path().join(".imitate/checkpoints");
+    assert_eq!(std::fs::read_dir(&checkpoints).unwrap().count(), 0);
+    let ws = workspace_with_wobbling_tracks();
+    kill_once_checkpointed(&ws, &[&run[..], &["c"]].concat(), "-corridor-1.json", 5, 40);
+    let resumed = imitate(ws.path(), &[&run[..], &["c", "--resume", "-v"]].concat());
     assert_eq!(digest(&resumed), expected);
 }
 
@@ -263,9 +304,11 @@ fn learch_trains_on_every_demonstration_unless_some_are_held_out() {
 /// with a smooth wobble of 1 m, its cells): LEARCH asked to make every wobble optimal
 /// learns dear ground as cheap, and `--corridor 1` (each demonstration taken as the
 /// cheapest path within a cell of it) plans the teacher's clean paths far closer to
-/// their true cost.
-#[test]
-fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
+/// their true cost. `--corridor auto` sees the wobble and keeps the corridor's model;
+/// on the clean demonstrations it keeps the model learned without one.
+/// The prepared workspace with the world's demonstrations wobbling a cell around the
+/// teacher's routes: dataset `dw`, features `fw`.
+fn workspace_with_wobbling_tracks() -> tempfile::TempDir {
     let ws = prepared_workspace();
     let demos = imitate::io::demo_tables::read_demonstrations(
         &repo().join("testdata/world/demonstrations.parquet"),
@@ -298,24 +341,30 @@ fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
     for map in &maps {
         ingest.extend(["--map", map.as_str()]);
     }
+    for args in [&ingest[..], &["features", "--dataset", "dw", "--out", "fw"]] {
+        let out = imitate(ws.path(), args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    }
+    ws
+}
+
+#[test]
+fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
+    let ws = workspace_with_wobbling_tracks();
     let run = |args: &[&str]| {
         let out = imitate(ws.path(), args);
         assert!(out.status.success(), "{args:?}: {}", stderr(&out));
     };
-    run(&ingest);
-    run(&["features", "--dataset", "dw", "--out", "fw"]);
     let truth: Vec<String> = (0..4)
         .map(|i| format!("testdata/world/truth/terrain-00{i}.parquet"))
         .collect();
-    let mut scores = Vec::new();
-    for corridor in ["0", "1"] {
-        let costmap = format!("c{corridor}");
+    let learch = |dataset: &str, features: &str, corridor: &str, costmap: &str| {
         run(&[
             "learch",
             "--dataset",
-            "dw",
+            dataset,
             "--features",
-            "fw",
+            features,
             "--rounds",
             "40",
             "--members",
@@ -323,8 +372,13 @@ fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
             "--corridor",
             corridor,
             "--out",
-            &costmap,
+            costmap,
         ]);
+    };
+    let mut scores = Vec::new();
+    for corridor in ["0", "1"] {
+        let costmap = format!("c{corridor}");
+        learch("dw", "fw", corridor, &costmap);
         // Scored on the teacher's own paths (the clean dataset) under the true costs.
         let evaluation = format!("e{corridor}");
         let mut evaluate = vec![
@@ -349,9 +403,8 @@ fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
         scores.push(ratio);
         let lineage =
             std::fs::read_to_string(ws.path().join(&costmap).join("manifest.json")).unwrap();
-        assert_eq!(
-            lineage.contains("\"corridor\""),
-            corridor != "0",
+        assert!(
+            lineage.contains(&format!("\"corridor\": {corridor}")),
             "{lineage}"
         );
     }
@@ -359,4 +412,36 @@ fn a_corridor_learns_the_route_a_wobbling_track_was_driven_along() {
         scores[1] < 1.06 && scores[0] > scores[1] + 0.05,
         "mean true-cost ratios without and with the corridor: {scores:?}"
     );
+    let read = |costmap: &str, file: &str| std::fs::read(ws.path().join(costmap).join(file));
+    let corridor_of = |costmap: &str| -> serde_json::Value {
+        let metrics: serde_json::Value =
+            serde_json::from_slice(&read(costmap, "metrics.json").unwrap()).unwrap();
+        metrics["corridor"].clone()
+    };
+    let costmap = "costmaps/terrain-000.parquet";
+    learch("dw", "fw", "auto", "wobbling-auto");
+    let chosen = corridor_of("wobbling-auto");
+    assert_eq!(
+        (&chosen["requested"], &chosen["cells"]),
+        (&"auto".into(), &1.into())
+    );
+    let share = chosen["plans_as_long"].as_f64().unwrap();
+    assert!(
+        share < chosen["retrains_below"].as_f64().unwrap(),
+        "{chosen}"
+    );
+    assert_eq!(
+        read("wobbling-auto", costmap).unwrap(),
+        read("c1", costmap).unwrap()
+    );
+    learch("ds", "fs", "auto", "clean-auto");
+    learch("ds", "fs", "0", "clean-0");
+    let chosen = corridor_of("clean-auto");
+    assert_eq!(chosen["cells"], 0, "{chosen}");
+    assert!(chosen["plans_as_long"].as_f64().unwrap() > 0.5, "{chosen}");
+    assert_eq!(
+        read("clean-auto", costmap).unwrap(),
+        read("clean-0", costmap).unwrap()
+    );
+    assert_eq!(corridor_of("clean-0")["requested"], 0);
 }

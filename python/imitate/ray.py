@@ -41,8 +41,8 @@ class _LearchWorker:
         os.chdir(workdir)
         self._shard = _native.LearchShard(params, start, stop)
 
-    def plan(self, model: str) -> str:
-        return self._shard.plan(model)
+    def plan(self, model: str, corridor: int) -> str:
+        return self._shard.plan(model, corridor)
 
     def examples(self) -> int:
         return self._shard.examples
@@ -122,11 +122,11 @@ def _learch_on_actors(
                for start, stop in shards(examples, actors)]
     rounds = [0]
 
-    def plan(model: str) -> list:
+    def plan(model: str, corridor: int) -> list:
         if on_round is not None:
             on_round(rounds[0], workers)
         rounds[0] += 1
-        return ray.get([w.plan.remote(model) for w in workers])
+        return ray.get([w.plan.remote(model, corridor) for w in workers])
 
     try:
         report = json.loads(_native.run_learch_distributed(text, plan, list(extra_deps)))

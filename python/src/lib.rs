@@ -310,9 +310,12 @@ impl LearchShard {
         })
     }
 
-    /// Plans the shard's examples under `model` (JSON, as the driver sends it) and
-    /// returns their statistics (JSON), in example order.
-    fn plan(&self, py: Python<'_>, model: &str) -> PyResult<String> {
+    /// Plans the shard's examples under `model` (JSON, as the driver sends it), each
+    /// demonstration taken through a corridor of `corridor` cells (the parameters' when
+    /// not given; `corridor: auto` retrains with one), and returns their statistics
+    /// (JSON), in example order.
+    #[pyo3(signature = (model, corridor = None))]
+    fn plan(&self, py: Python<'_>, model: &str, corridor: Option<u32>) -> PyResult<String> {
         let model: LogCostModel =
             serde_json::from_str(model).map_err(|e| UsageError::new_err(format!("model: {e}")))?;
         let statistics = py
@@ -323,7 +326,11 @@ impl LearchShard {
                     sums.fill(TreeSums::default());
                     sums
                 });
-                (self.prepared).plan_growing(&model, &self.stacks, &self.config, &mut sums)
+                let config = LearchConfig {
+                    corridor: corridor.unwrap_or(self.config.corridor),
+                    ..self.config.clone()
+                };
+                (self.prepared).plan_growing(&model, &self.stacks, &config, &mut sums)
             })
             .map_err(ImitateError::new_err)?;
         serde_json::to_string(&statistics)
@@ -338,8 +345,9 @@ impl LearchShard {
 }
 
 /// Runs the learch stage with `params` (JSON), the map step of every round done by
-/// `plan`: a callable given the model (JSON) that returns the statistics of every
-/// shard (JSON each, from `LearchShard.plan`), shards in example order. The artifact is
+/// `plan`: a callable given the model (JSON) and the round's corridor in cells that
+/// returns the statistics of every shard (JSON each, from `LearchShard.plan`), shards
+/// in example order. The artifact is
 /// the one `run_stage("learch", ...)` writes. Returns the stage's report (JSON).
 /// `extra_deps`: inputs a pipeline declares for the stage beyond its parameters'.
 #[pyfunction]
@@ -352,17 +360,19 @@ fn run_learch_distributed(
 ) -> PyResult<String> {
     let params = learch_params(params)?;
     let workers = Workers::new(plan);
-    let mut remote = |model: &LogCostModel| -> Result<Vec<ExampleStatistics>, String> {
-        let model = serde_json::to_string(model).map_err(|e| e.to_string())?;
-        let parts: Vec<String> = workers.call(|py, plan| plan.call1(py, (model,))?.extract(py))?;
-        let mut statistics = Vec::new();
-        for part in parts {
-            let shard: Vec<ExampleStatistics> =
-                serde_json::from_str(&part).map_err(|e| format!("a shard's statistics: {e}"))?;
-            statistics.extend(shard);
-        }
-        Ok(statistics)
-    };
+    let mut remote =
+        |model: &LogCostModel, corridor: u32| -> Result<Vec<ExampleStatistics>, String> {
+            let model = serde_json::to_string(model).map_err(|e| e.to_string())?;
+            let parts: Vec<String> =
+                workers.call(|py, plan| plan.call1(py, (model, corridor))?.extract(py))?;
+            let mut statistics = Vec::new();
+            for part in parts {
+                let shard: Vec<ExampleStatistics> = serde_json::from_str(&part)
+                    .map_err(|e| format!("a shard's statistics: {e}"))?;
+                statistics.extend(shard);
+            }
+            Ok(statistics)
+        };
     let report = py.detach(|| params.run_with(&extra_deps, Some(&mut remote)));
     workers.report(report)
 }

@@ -22,8 +22,8 @@ use crate::features::{FeatureSpec, Op, compute};
 use crate::grid::{Cell, FeatureStack, GeoRef, Grid, Layer, Map, rasterize};
 use crate::io::geotiff::read_geotiff;
 use crate::ioc::{
-    Example, GridMethod, LearchConfig, WeakLearnerKind, default_rounds_and_step, hold_out_every,
-    learch_evaluate, summarize, train,
+    Corridor, CorridorChoice, Example, GridMethod, LearchConfig, TrainedLearch, WeakLearnerKind,
+    choose_corridor, default_rounds_and_step, hold_out_every, learch_evaluate, summarize, train,
 };
 use crate::plan::shortest_path;
 use crate::sim::{WorldConfig, generate_world};
@@ -78,6 +78,9 @@ pub(super) struct MethodResult {
     /// plans were made on.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub off_by: Option<OffBy>,
+    /// `--corridor auto`: the corridor the kept model was trained with, and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub corridor: Option<CorridorChoice>,
 }
 
 /// A perturbation of the hidden cost: every cell's cost times e^(ε g), g a Gaussian
@@ -319,44 +322,53 @@ pub(super) fn methods(rounds: Option<usize>) -> Vec<(&'static str, LearchConfig)
     ]
 }
 
+/// Trains `method` on the terrain's training pairs with `config`, its corridor as
+/// `corridor` asks, and scores the held-out plans under the hidden cost.
 pub(super) fn measure(
     terrain: &Terrain,
     method: &'static str,
     config: &LearchConfig,
+    corridor: Corridor,
 ) -> Result<MethodResult> {
     let started = Instant::now();
-    let trained = train(
-        &terrain.stacks,
-        &terrain.names,
-        &terrain.training,
-        &[],
-        &[],
-        None,
-        config,
-        None,
-        |_| {},
-    )
-    .map_err(Error::Failed)?;
-    let seconds = started.elapsed().as_secs_f64();
-    let evaluations = learch_evaluate(
-        &trained.model,
-        &terrain.stacks,
-        &terrain.names,
-        &terrain.holdout,
-        Some(&terrain.truth),
-    )
-    .map_err(Error::Failed)?;
-    let agreement = summarize(&evaluations);
-    let training = summarize(
-        &learch_evaluate(
+    let evaluate = |trained: &TrainedLearch, examples: &[Example]| {
+        learch_evaluate(
             &trained.model,
             &terrain.stacks,
             &terrain.names,
-            &terrain.training,
+            examples,
             Some(&terrain.truth),
         )
-        .map_err(Error::Failed)?,
-    );
+        .map_err(Error::Failed)
+    };
+    let ((trained, training), choice) = choose_corridor(
+        corridor,
+        config.method,
+        |cells| {
+            let config = LearchConfig {
+                corridor: cells,
+                ..config.clone()
+            };
+            let trained = train(
+                &terrain.stacks,
+                &terrain.names,
+                &terrain.training,
+                &[],
+                &[],
+                None,
+                &config,
+                None,
+                |_| {},
+            )
+            .map_err(Error::Failed)?;
+            let training = evaluate(&trained, &terrain.training)?;
+            Ok::<_, Error>((trained, training))
+        },
+        |(_, training)| training,
+    )?;
+    let seconds = started.elapsed().as_secs_f64();
+    let agreement = summarize(&evaluate(&trained, &terrain.holdout)?);
+    let training = summarize(&training);
     Ok(MethodResult {
         training_within_radius: Some(training.within_radius),
         training_mean_cost_ratio: training.mean_reference_cost_ratio,
@@ -370,6 +382,7 @@ pub(super) fn measure(
         models: trained.members.len(),
         seconds,
         off_by: None,
+        corridor: (corridor == Corridor::Auto).then_some(choice),
     })
 }
 
@@ -383,7 +396,7 @@ pub fn run(args: IocMethodsArgs) -> Result<()> {
     let mut results = Vec::new();
     for terrain in &terrains {
         for (method, config) in methods(args.rounds) {
-            results.push(measure(terrain, method, &config)?);
+            results.push(measure(terrain, method, &config, Corridor::Auto)?);
         }
     }
     let report = IocMethodsReport {

@@ -25,6 +25,7 @@ use crate::features::{
 };
 use crate::grid::{Edges, GeoRef, Grid, Layer, Map, coarsened, factor_for_cells};
 use crate::io::geotiff::read_geotiff;
+use crate::ioc::Corridor;
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
 
 /// The hidden teachers: costs the features never state directly.
@@ -168,9 +169,10 @@ pub struct TerrainArgs {
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::ioc::MEMBERS.len() as u64))]
     pub members: Option<u64>,
     /// LEARCH and MMP take each demonstration as the cheapest path through the cells
-    /// within this many cells of it (`imitate learch --corridor`).
-    #[arg(long, value_name = "CELLS")]
-    pub corridor: Option<u32>,
+    /// within this many cells of it, or choose (`auto`, the default) as `imitate learch
+    /// --corridor` does.
+    #[arg(long, value_name = "CELLS|auto", default_value_t = Corridor::Auto)]
+    pub corridor: Corridor,
     /// Also plans the held-out pairs on the hidden cost itself, off by a smooth random
     /// factor e^(ε g) (repeat the flag for several ε; 0 is the hidden cost): g is a
     /// seeded Gaussian field of unit spread, correlated over `--off-by-cells`. How far
@@ -559,6 +561,7 @@ fn hidden_cost_off_by(terrain: &Terrain, field: &[f32], off: OffBy) -> MethodRes
         .collect();
     MethodResult {
         off_by: Some(off),
+        corridor: None,
         ..planned_on(terrain, &costs, "hidden-cost-off-by")
     }
 }
@@ -585,6 +588,7 @@ fn planned_on(terrain: &Terrain, costs: &[Grid<f32>], method: &'static str) -> M
         training_within_radius: None,
         training_mean_cost_ratio: None,
         off_by: None,
+        corridor: None,
     }
 }
 
@@ -635,9 +639,6 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         config.widen_in_stages &= !args.all_scales_at_once;
         if let Some(members) = args.members {
             config.members = members as usize;
-        }
-        if let Some(cells) = args.corridor {
-            config.corridor = cells;
         }
     }
     for m in &args.methods {
@@ -703,7 +704,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             for (method, config) in &all_methods {
                 if args.methods.is_empty() || args.methods.iter().any(|m| m == method) {
                     let started = Instant::now();
-                    let result = measure(&terrain, method, config)?;
+                    let result = measure(&terrain, method, config, args.corridor)?;
                     tracing::info!(
                         "{} {method}: {:.3} within, ratio {:.3} ({:.1} s)",
                         terrain.name,

@@ -21,8 +21,8 @@ use crate::io::tables::{
     EpisodePath, read_features, read_features_header, read_paths, write_costmap, write_paths,
 };
 use crate::ioc::{
-    self, Example, ExampleEvaluation, GridMethod, LearchConfig, LossKind, StepSchedule,
-    WeakLearnerKind,
+    self, Corridor, Example, ExampleEvaluation, GridMethod, LearchConfig, LossKind, StepSchedule,
+    TrainedLearch, WeakLearnerKind,
 };
 use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
@@ -37,10 +37,13 @@ pub const KIND: &str = "learch";
 /// feature constant over every map is scaled by its size (MMP's and ridge's steps).
 /// 14: MaxEnt answers an example whose paths within the horizon its layers cannot hold
 /// (a horizon that binds on a dear map) in the log domain. 15: MaxEnt's trees are
-/// fitted on one point per cell (their sums rounded in another order).
-const VERSION: u32 = 15;
+/// fitted on one point per cell (their sums rounded in another order). 16: metrics.json
+/// says which corridor the model was trained with (`--corridor auto`).
+const VERSION: u32 = 16;
 
 mod defaults {
+    use crate::ioc::Corridor;
+
     pub fn schedule() -> crate::ioc::StepSchedule {
         crate::ioc::StepSchedule::InverseSqrt
     }
@@ -91,12 +94,8 @@ mod defaults {
     pub fn horizon_factor() -> f64 {
         crate::ioc::MAXENT_HORIZON_FACTOR
     }
-    pub fn corridor() -> u32 {
-        0
-    }
-    /// Left out of the stage's parameters, so that runs from before it stay fresh.
-    pub fn is_no_corridor(cells: &u32) -> bool {
-        *cells == 0
+    pub fn corridor() -> Corridor {
+        Corridor::Auto
     }
     pub fn window_margin() -> u32 {
         6
@@ -212,13 +211,13 @@ pub struct LearchParams {
     /// learned so far, through the cells within this many cells of it: for tracks
     /// that wander around the route driven (GNSS or odometry noise, a driver's
     /// weaving), which LEARCH would otherwise learn every wobble of. 0 takes the
-    /// demonstrations as they are.
-    #[arg(long, value_name = "CELLS", default_value_t = defaults::corridor())]
-    #[serde(
-        default = "defaults::corridor",
-        skip_serializing_if = "defaults::is_no_corridor"
-    )]
-    pub corridor: u32,
+    /// demonstrations as they are. `auto` (the default) trains without one and, where
+    /// the plans on the learned cost shorten most training demonstrations (tracks that
+    /// wander do; exact ones do not), trains again with a corridor of 1 and keeps that
+    /// model (`corridor` in metrics.json says which and why).
+    #[arg(long, value_name = "CELLS|auto", default_value_t = defaults::corridor())]
+    #[serde(default = "defaults::corridor")]
+    pub corridor: Corridor,
     /// Fraction of demonstrations held out to measure the costmap on paths it never
     /// learned from (`holdout` in metrics.json); 0 trains on every one. Early stopping
     /// watches `validation`, not these.
@@ -544,7 +543,10 @@ impl LearchParams {
             calibrate_contrast: !self.keep_contrast,
             widen_in_stages: !self.all_scales_at_once,
             members: self.members,
-            corridor: self.corridor,
+            corridor: match self.corridor {
+                Corridor::Cells(cells) => cells,
+                Corridor::Auto => 0,
+            },
         }
     }
 
@@ -555,65 +557,47 @@ impl LearchParams {
         extra_deps: &[PathBuf],
         remote: Option<&mut ioc::RemoteRounds<'_>>,
     ) -> Result<StageReport> {
+        let inputs = self.inputs()?;
+        let stage_key = super::lineage(self, extra_deps)?.stage_key;
+        let all: Vec<Example> = (inputs.training.iter())
+            .chain(&inputs.validation)
+            .chain(&inputs.holdout)
+            .cloned()
+            .collect();
+        let mut remote = remote;
+        let mut checkpoints = Vec::new();
+        let ((trained, evaluations), corridor) = ioc::choose_corridor(
+            self.corridor,
+            self.method,
+            |cells| {
+                // The retrain `auto` chooses keeps its own checkpoint beside the first.
+                let retrain = (self.corridor == Corridor::Auto && cells != 0).then_some(cells);
+                let checkpoint = checkpoint_path(&stage_key, retrain);
+                checkpoints.push(checkpoint.clone());
+                let trained =
+                    self.train_pass(&inputs, cells, &checkpoint, remote.as_deref_mut())?;
+                let evaluations = ioc::learch_evaluate(
+                    &trained.model,
+                    &inputs.stacks,
+                    &inputs.map_names,
+                    &all,
+                    inputs.references.as_deref(),
+                )
+                .map_err(|e| Error::input(&self.dataset, e))?;
+                Ok::<_, Error>((trained, evaluations))
+            },
+            |(_, evaluations)| &evaluations[..inputs.training.len()],
+        )?;
         let LearchInputs {
             map_names,
             stacks,
             feature_spec,
-            references,
             training,
             validation,
             holdout,
-        } = self.inputs()?;
-        let config = self.config();
-        let progress = super::progress_bar(self.rounds(), "learch rounds");
-        let checkpoint = checkpoint_path(&super::lineage(self, extra_deps)?.stage_key);
-        let resume = if self.resume {
-            read_checkpoint(&checkpoint)?
-        } else {
-            None
-        };
-        if let Some(resumed) = &resume {
-            tracing::info!("resuming after round {}", resumed.rounds.len());
-            progress.inc(resumed.rounds.len() as u64);
-        }
-        let mut checkpoint_error = None;
-        let trained = ioc::train_with(
-            &stacks,
-            &map_names,
-            &training,
-            &validation,
-            &holdout,
-            references.as_deref(),
-            &config,
-            resume,
-            |state| {
-                progress.inc(1);
-                if checkpoint_error.is_none()
-                    && let Err(e) = write_bytes_atomic(&checkpoint, &to_json_bytes(state))
-                {
-                    checkpoint_error = Some(e);
-                }
-            },
-            remote,
-        )
-        // Everything train refuses is about what it was given (no examples, stacks
-        // that disagree, a demonstration whose goal cannot be reached).
-        .map_err(|e| Error::input(&self.dataset, e))?;
-        progress.finish_and_clear();
-        if let Some(e) = checkpoint_error {
-            return Err(e);
-        }
-
+            ..
+        } = inputs;
         let model = &trained.model;
-        let all: Vec<Example> = training
-            .iter()
-            .chain(&validation)
-            .chain(&holdout)
-            .cloned()
-            .collect();
-        let evaluations =
-            ioc::learch_evaluate(model, &stacks, &map_names, &all, references.as_deref())
-                .map_err(|e| Error::input(&self.dataset, e))?;
         let (train_eval, rest) = evaluations.split_at(training.len());
         let (validation_eval, holdout_eval) = rest.split_at(validation.len());
 
@@ -668,6 +652,7 @@ impl LearchParams {
             "schema": "imitate.learch-metrics/1",
             "rounds": trained.rounds,
             "members": trained.members,
+            "corridor": corridor,
             "training": { "summary": training_summary, "examples": train_eval },
             "validation": { "summary": ioc::summarize(validation_eval), "examples": validation_eval },
             "holdout": { "summary": holdout_summary, "examples": holdout_eval },
@@ -733,19 +718,93 @@ impl LearchParams {
         if let Some(ratio) = scored.mean_reference_cost_ratio {
             summary.push_str(&format!(", reference cost ratio {ratio:.3}"));
         }
+        if let (Corridor::Auto, Some(share), 1..) =
+            (corridor.requested, corridor.plans_as_long, corridor.cells)
+        {
+            summary.push_str(&format!(
+                "; the tracks wander ({:.0}% of plans as long as their demonstrations): \
+                 trained again through a corridor of {} cell(s)",
+                100.0 * share,
+                corridor.cells
+            ));
+        }
         let report = commit_artifact(self, extra_deps, out, "costmap", summary_metrics, summary)?;
-        // The artifact is in place: the checkpoint has served.
-        let _ = std::fs::remove_file(&checkpoint);
+        // The artifact is in place: the checkpoints have served.
+        for checkpoint in &checkpoints {
+            let _ = std::fs::remove_file(checkpoint);
+        }
         Ok(report)
+    }
+
+    /// One training of the model with a corridor of `corridor` cells, checkpointed after
+    /// every round at `checkpoint` (and resumed from it with `--resume`).
+    fn train_pass(
+        &self,
+        inputs: &LearchInputs,
+        corridor: u32,
+        checkpoint: &Path,
+        remote: Option<&mut ioc::RemoteRounds<'_>>,
+    ) -> Result<TrainedLearch> {
+        let config = LearchConfig {
+            corridor,
+            ..self.config()
+        };
+        let title = match self.corridor {
+            Corridor::Auto if corridor != 0 => format!("learch rounds, corridor {corridor}"),
+            _ => "learch rounds".into(),
+        };
+        let progress = super::progress_bar(self.rounds(), title);
+        let resume = if self.resume {
+            read_checkpoint(checkpoint)?
+        } else {
+            None
+        };
+        if let Some(resumed) = &resume {
+            tracing::info!("resuming after round {}", resumed.rounds.len());
+            progress.inc(resumed.rounds.len() as u64);
+        }
+        let mut checkpoint_error = None;
+        let trained = ioc::train_with(
+            &inputs.stacks,
+            &inputs.map_names,
+            &inputs.training,
+            &inputs.validation,
+            &inputs.holdout,
+            inputs.references.as_deref(),
+            &config,
+            resume,
+            |state| {
+                progress.inc(1);
+                if checkpoint_error.is_none()
+                    && let Err(e) = write_bytes_atomic(checkpoint, &to_json_bytes(state))
+                {
+                    checkpoint_error = Some(e);
+                }
+            },
+            remote,
+        )
+        // Everything train refuses is about what it was given (no examples, stacks
+        // that disagree, a demonstration whose goal cannot be reached).
+        .map_err(|e| Error::input(&self.dataset, e))?;
+        progress.finish_and_clear();
+        match checkpoint_error {
+            Some(e) => Err(e),
+            None => Ok(trained),
+        }
     }
 }
 
 /// Where the checkpoint of a run with this stage key lives (in the workspace, beside the
 /// output cache): the key covers inputs, parameters and version, so a checkpoint never
 /// resumes a different run.
-fn checkpoint_path(stage_key: &str) -> PathBuf {
+/// The retrain `--corridor auto` chooses (`retrain`: its corridor) has its own.
+fn checkpoint_path(stage_key: &str, retrain: Option<u32>) -> PathBuf {
     let hex = stage_key.strip_prefix("blake3:").unwrap_or(stage_key);
-    PathBuf::from(".imitate/checkpoints").join(format!("learch-{hex}.json"))
+    let name = match retrain {
+        Some(cells) => format!("learch-{hex}-corridor-{cells}.json"),
+        None => format!("learch-{hex}.json"),
+    };
+    PathBuf::from(".imitate/checkpoints").join(name)
 }
 
 fn read_checkpoint(path: &std::path::Path) -> Result<Option<ioc::Progress>> {

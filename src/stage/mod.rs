@@ -86,7 +86,10 @@ impl<T: StageParams> Stage for T {
 
 /// A progress bar for long work (rounds, maps, logs): drawn on stderr when it is a
 /// terminal, hidden otherwise (indicatif's default), so logs and pipes stay clean.
-pub(crate) fn progress_bar(len: usize, what: &'static str) -> indicatif::ProgressBar {
+pub(crate) fn progress_bar(
+    len: usize,
+    what: impl Into<std::borrow::Cow<'static, str>>,
+) -> indicatif::ProgressBar {
     let bar = indicatif::ProgressBar::new(len as u64).with_message(what);
     if let Ok(style) =
         indicatif::ProgressStyle::with_template("{msg} {wide_bar} {pos}/{len} ({elapsed})")

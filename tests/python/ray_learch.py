@@ -73,6 +73,23 @@ try:
     assert killed == [2], killed
     assert report["digest"] == expected, (report, expected)
     emit({"run": "3 actors, one killed", "digest": report["digest"]})
+
+    # The actors plan with the corridor the driver's round takes (what `corridor: auto`
+    # changes between its trainings), not only their parameters'.
+    corridor = os.path.abspath("single-corridor")
+    run = subprocess.run(
+        [binary, "learch", "--dataset", dataset, "--features", features, "--out",
+         corridor, "--rounds", str(rounds), "--corridor", "1"],
+        capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    with open(os.path.join(corridor, "manifest.json")) as f:
+        expected = json.load(f)["digest"]
+    emit({"run": "single machine, corridor 1", "digest": expected})
+    report = imitate.ray.learch(actors=3, dataset=dataset, features=features,
+                                out=os.path.abspath("ray-corridor"), rounds=rounds,
+                                corridor=1)
+    assert report["digest"] == expected, (report, expected)
+    emit({"run": "3 actors, corridor 1", "digest": report["digest"]})
 finally:
     ray.shutdown()
     cluster.shutdown()

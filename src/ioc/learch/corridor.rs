@@ -6,8 +6,141 @@
 //! from demonstration for autonomous navigation in complex unstructured terrain",
 //! IJRR 2010: the example replaced by the best path within a corridor around it).
 
+use serde::{Deserialize, Serialize};
+
+use super::super::ExampleEvaluation;
+use super::GridMethod;
 use crate::grid::{Cell, CellPath, GeoRef, Grid};
 use crate::plan::{Moves, dijkstra};
+
+/// The corridor a run asks for: a width in cells (0: the demonstrations as they are),
+/// or `auto`, chosen from how the demonstrations fit ([`choose_corridor`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Corridor {
+    Auto,
+    Cells(u32),
+}
+
+impl std::str::FromStr for Corridor {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        match text {
+            "auto" => Ok(Corridor::Auto),
+            _ => text
+                .parse()
+                .map(Corridor::Cells)
+                .map_err(|_| format!("'{text}' is neither 'auto' nor a number of cells")),
+        }
+    }
+}
+
+impl std::fmt::Display for Corridor {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Corridor::Auto => f.write_str("auto"),
+            Corridor::Cells(cells) => write!(f, "{cells}"),
+        }
+    }
+}
+
+/// In YAML and JSON as the command line has it: `auto` or a number.
+impl Serialize for Corridor {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Corridor::Auto => serializer.serialize_str("auto"),
+            Corridor::Cells(cells) => serializer.serialize_u32(*cells),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Corridor {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Given {
+            Cells(u32),
+            Word(String),
+        }
+        match Given::deserialize(deserializer)? {
+            Given::Cells(cells) => Ok(Corridor::Cells(cells)),
+            Given::Word(word) => word.parse().map_err(serde::de::Error::custom),
+        }
+    }
+}
+
+/// The corridor `auto` retrains with when the demonstrations wander.
+pub const AUTO_CORRIDOR_CELLS: u32 = 1;
+
+/// `auto` retrains with a corridor when fewer than this share of the training plans,
+/// on the cost learned from the demonstrations as they are, are as long (in cells) as
+/// their demonstrations. A learner fits exact tracks so that most plans retrace them
+/// (0.38–1.00 of them in 42 runs on 13 real rasters, 0.49–1.00 in 88 teacher-bench
+/// pairs); a track that wanders by half a cell or more holds detours no cost makes
+/// optimal, and plans shorten most of them (0.00–0.49 in 31 runs, 27 below this).
+/// Low on purpose: a corridor costs an exact track more than a missed one gains.
+/// BENCHMARKS.md, "Choosing the corridor".
+pub const AUTO_CORRIDOR_BELOW: f64 = 0.36;
+
+/// What a run used as its corridor and why (`corridor` in metrics.json).
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CorridorChoice {
+    /// What the parameters asked for.
+    pub requested: Corridor,
+    /// The corridor the kept model was trained with, in cells.
+    pub cells: u32,
+    /// `auto`: the share of training plans as long as their demonstrations on the
+    /// cost learned without a corridor, and the share below which it retrains.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub plans_as_long: Option<f64>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub retrains_below: Option<f64>,
+}
+
+/// The share of `evaluations` whose plan has at least as many cells as the
+/// demonstration (0 for none).
+pub fn plans_as_long(evaluations: &[ExampleEvaluation]) -> f64 {
+    let long = evaluations
+        .iter()
+        .filter(|e| e.planned_cells >= e.demonstrated_cells)
+        .count();
+    long as f64 / evaluations.len().max(1) as f64
+}
+
+/// Trains as `requested` asks: `train(cells)` trains with a corridor of that many
+/// cells. `auto` trains without one and, where the model's plans on the training
+/// examples (`training_plans`) shorten most demonstrations, trains again with
+/// [`AUTO_CORRIDOR_CELLS`] and keeps that model; a method that takes no corridor
+/// (MaxEnt, whose visitation already spreads over the paths near a track) trains once.
+pub fn choose_corridor<T, E>(
+    requested: Corridor,
+    method: GridMethod,
+    mut train: impl FnMut(u32) -> Result<T, E>,
+    training_plans: impl Fn(&T) -> &[ExampleEvaluation],
+) -> Result<(T, CorridorChoice), E> {
+    let cells = match requested {
+        Corridor::Cells(cells) => cells,
+        Corridor::Auto => 0,
+    };
+    let trained = train(cells)?;
+    let mut choice = CorridorChoice {
+        requested,
+        cells,
+        plans_as_long: None,
+        retrains_below: None,
+    };
+    if requested != Corridor::Auto || method == GridMethod::Maxent {
+        return Ok((trained, choice));
+    }
+    let share = plans_as_long(training_plans(&trained));
+    choice.plans_as_long = Some(share);
+    choice.retrains_below = Some(AUTO_CORRIDOR_BELOW);
+    if share >= AUTO_CORRIDOR_BELOW {
+        return Ok((trained, choice));
+    }
+    choice.cells = AUTO_CORRIDOR_CELLS;
+    Ok((train(AUTO_CORRIDOR_CELLS)?, choice))
+}
 
 /// The cheapest path under `costs` between the ends of `track` through the cells
 /// within `radius` cells of one of its cells (round on the grid: a cell whose offset
@@ -117,6 +250,84 @@ mod tests {
         );
         assert!(wide.iter().all(|cell| (2..=8).contains(&cell.row)));
         assert_eq!(corridor_path(&grid, &track, 0), None);
+    }
+
+    #[test]
+    fn the_corridor_reads_as_written_on_the_command_line_and_in_yaml() {
+        assert_eq!("auto".parse::<Corridor>(), Ok(Corridor::Auto));
+        assert_eq!("2".parse::<Corridor>(), Ok(Corridor::Cells(2)));
+        assert!("wide".parse::<Corridor>().unwrap_err().contains("'wide'"));
+        assert!("-1".parse::<Corridor>().is_err());
+        for corridor in [Corridor::Auto, Corridor::Cells(0), Corridor::Cells(3)] {
+            let json = serde_json::to_string(&corridor).unwrap();
+            assert_eq!(serde_json::from_str::<Corridor>(&json).unwrap(), corridor);
+            assert_eq!(corridor.to_string().parse::<Corridor>(), Ok(corridor));
+        }
+        assert_eq!(serde_json::to_string(&Corridor::Cells(1)).unwrap(), "1");
+        assert_eq!(serde_json::to_string(&Corridor::Auto).unwrap(), "\"auto\"");
+        assert!(serde_json::from_str::<Corridor>("\"narrow\"").is_err());
+    }
+
+    /// Plans of `planned` cells for demonstrations of 10 cells.
+    fn plans(planned: &[usize]) -> Vec<ExampleEvaluation> {
+        planned
+            .iter()
+            .map(|&planned_cells| ExampleEvaluation {
+                example: "e".into(),
+                map: "m".into(),
+                planned_cells,
+                demonstrated_cells: 10,
+                within_radius: 1.0,
+                reference_cost_ratio: None,
+                planned: Vec::new(),
+            })
+            .collect()
+    }
+
+    /// `choose_corridor` with a trainer whose plans have `planned` cells without a
+    /// corridor (and 10 with one): the corridors it trained with, and its choice.
+    fn chosen(requested: Corridor, planned: &[usize]) -> (Vec<u32>, CorridorChoice) {
+        let mut trained = Vec::new();
+        let (kept, choice) = choose_corridor(
+            requested,
+            GridMethod::Learch,
+            |cells| {
+                trained.push(cells);
+                Ok::<_, ()>(plans(if cells == 0 { planned } else { &[10] }))
+            },
+            |plans| plans,
+        )
+        .unwrap();
+        assert_eq!(
+            kept.len(),
+            if choice.cells == 0 { planned.len() } else { 1 }
+        );
+        (trained, choice)
+    }
+
+    #[test]
+    fn auto_retrains_with_a_corridor_where_plans_shorten_most_demonstrations() {
+        // Two of ten plans as long as their demonstrations: the tracks wander.
+        let (trained, choice) = chosen(Corridor::Auto, &[10, 11, 9, 9, 8, 9, 9, 8, 9, 9]);
+        assert_eq!(trained, [0, AUTO_CORRIDOR_CELLS]);
+        assert_eq!(choice.cells, AUTO_CORRIDOR_CELLS);
+        assert_eq!(choice.plans_as_long, Some(0.2));
+        assert_eq!(choice.retrains_below, Some(AUTO_CORRIDOR_BELOW));
+        // Seven of ten: the demonstrations are fitted as they are.
+        let (trained, choice) = chosen(Corridor::Auto, &[10, 10, 12, 10, 10, 9, 10, 9, 11, 9]);
+        assert_eq!((trained, choice.cells), (vec![0], 0));
+        assert_eq!(choice.plans_as_long, Some(0.7));
+    }
+
+    #[test]
+    fn a_corridor_given_in_cells_trains_once_with_it() {
+        for cells in [0, 2] {
+            let (trained, choice) = chosen(Corridor::Cells(cells), &[9, 9, 9]);
+            assert_eq!(trained, [cells]);
+            assert_eq!(choice.cells, cells);
+            assert_eq!((choice.plans_as_long, choice.retrains_below), (None, None));
+        }
+        assert_eq!(plans_as_long(&[]), 0.0);
     }
 
     #[test]

@@ -41,6 +41,9 @@ mod reduce_step;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+pub use corridor::{
+    AUTO_CORRIDOR_BELOW, AUTO_CORRIDOR_CELLS, Corridor, CorridorChoice, choose_corridor,
+};
 pub use map_step::{ExampleStatistics, PreparedExamples};
 use reduce_step::members_to_train;
 pub use reduce_step::{FittedRound, fit_round};
@@ -457,9 +460,11 @@ pub fn train(
     trained
 }
 
-/// The map step of a round done elsewhere: given the model, the statistics of every
+/// The map step of a round done elsewhere: given the model and the corridor the round
+/// takes demonstrations through (`LearchConfig::corridor`), the statistics of every
 /// training example in order (e.g. gathered from workers that hold shards of them).
-pub type RemoteRounds<'a> = dyn FnMut(&LogCostModel) -> Result<Vec<ExampleStatistics>, String> + 'a;
+pub type RemoteRounds<'a> =
+    dyn FnMut(&LogCostModel, u32) -> Result<Vec<ExampleStatistics>, String> + 'a;
 
 /// `train`, with the map step of every round done by `remote` when given (the
 /// training examples are then not planned here; the rest is as `train`).
@@ -647,7 +652,7 @@ impl<F: FnMut(&Progress)> MemberRun<'_, '_, F> {
                 break;
             }
             let statistics = match (&mut self.remote, self.prepared) {
-                (Some(remote), _) => remote(&self.model)?,
+                (Some(remote), _) => remote(&self.model, config.corridor)?,
                 (None, Some(prepared)) => {
                     prepared.plan_growing(&self.model, stacks, config, &mut tree_sums)?
                 }
