@@ -414,6 +414,8 @@ fn reports_have_pictures_and_metrics() {
     let dir = workspace().join("report");
     let md = std::fs::read_to_string(dir.join("report.md")).unwrap();
     assert!(md.contains("| held out | 16 |"), "{md}");
+    // The exact quickstart demonstrations: `--corridor auto` kept the first model.
+    assert!(md.contains("Corridor: none (`auto`)."), "{md}");
     for line in md.lines().filter(|l| l.starts_with("![")) {
         let file = line.split('(').nth(1).unwrap().trim_end_matches(')');
         assert!(dir.join(file).is_file(), "{file}");

@@ -19,8 +19,9 @@ use crate::report::costmap_artifact::CostmapArtifact;
 use crate::report::picture::side_by_side;
 
 pub const KIND: &str = "report";
-/// 3: previews with a colour bar and a scale bar.
-const VERSION: u32 = 3;
+/// 3: previews with a colour bar and a scale bar. 4: the corridor `--corridor auto`
+/// chose, and why.
+const VERSION: u32 = 4;
 
 /// Parameters of `imitate report` and of `uses: report`.
 #[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
@@ -221,6 +222,7 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
     ];
     let lineage = &manifest.lineage;
     let params = serde_json::to_string(&lineage.params).unwrap_or_default();
+    let corridor = corridor_choice(&artifact.metrics);
 
     let mut md = String::new();
     let _ = writeln!(
@@ -233,6 +235,9 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
         lineage.stage_version,
         lineage.tool_version,
     );
+    if let Some(corridor) = &corridor {
+        let _ = writeln!(md, "{corridor}\n");
+    }
     let _ = writeln!(
         md,
         "| set | {} | {} | {} | {} |",
@@ -253,14 +258,15 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
          table{{border-collapse:collapse}}td,th{{border:1px solid #bbb;padding:.3em .6em}}\
          img{{image-rendering:pixelated;max-width:100%}}code{{overflow-wrap:anywhere}}</style>\
          <h1>Costmap report: {}</h1><p>Artifact <code>{}</code> ({}), made by <code>{}</code> v{} \
-         with imitate {}.</p><p>Parameters: <code>{}</code></p><table><tr><th>set</th>",
+         with imitate {}.</p><p>Parameters: <code>{}</code></p>{}<table><tr><th>set</th>",
         escape(&costmap.display().to_string()),
         manifest.digest,
         escape(&manifest.kind),
         escape(&lineage.stage),
         lineage.stage_version,
         escape(&lineage.tool_version),
-        escape(&params)
+        escape(&params),
+        corridor.map_or(String::new(), |c| format!("<p>{}</p>", escape(&c))),
     );
     for h in &header[1..] {
         let _ = write!(html, "<th>{h}</th>");
@@ -296,9 +302,61 @@ fn write_report(costmap: &std::path::Path, out: &mut ArtifactBuilder) -> Result<
     Ok(pictures.len())
 }
 
+/// What `--corridor auto` chose and why, from the costmap's metrics (`None` where the
+/// corridor was given, or the artifact predates the choice).
+fn corridor_choice(metrics: &serde_json::Value) -> Option<String> {
+    let corridor = metrics.get("corridor")?;
+    let share = corridor.get("plans_as_long")?.as_f64()?;
+    let below = corridor.get("retrains_below")?.as_f64()?;
+    let cells = corridor.get("cells")?.as_u64()?;
+    let found = format!(
+        "{:.0} % of the training plans on the cost learned without a corridor were as long \
+         as their demonstrations",
+        100.0 * share
+    );
+    Some(match cells {
+        0 => format!(
+            "Corridor: none (`auto`). {found}, {:.0} % or more: the demonstrations were \
+             learned as they are.",
+            100.0 * below
+        ),
+        _ => format!(
+            "Corridor: {cells} cell(s) (`auto`). {found}, under {:.0} %: the tracks wander, \
+             and the model was trained again taking each demonstration as the cheapest path \
+             within {cells} cell(s) of it.",
+            100.0 * below
+        ),
+    })
+}
+
 fn escape(text: &str) -> String {
     text.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
         .replace('"', "&quot;")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_report_says_what_the_automatic_corridor_chose() {
+        let metrics = |cells: u32, share: f64| {
+            serde_json::json!({"corridor": {"requested": "auto", "cells": cells,
+                "plans_as_long": share, "retrains_below": 0.36}})
+        };
+        let kept = corridor_choice(&metrics(0, 0.85)).unwrap();
+        assert!(kept.starts_with("Corridor: none (`auto`). 85 %"), "{kept}");
+        let retrained = corridor_choice(&metrics(1, 0.2)).unwrap();
+        assert!(
+            retrained.starts_with("Corridor: 1 cell(s) (`auto`). 20 %"),
+            "{retrained}"
+        );
+        assert!(retrained.contains("under 36 %"), "{retrained}");
+        // A corridor given in cells, and artifacts from before the choice: nothing.
+        let given = serde_json::json!({"corridor": {"requested": 1, "cells": 1}});
+        assert_eq!(corridor_choice(&given), None);
+        assert_eq!(corridor_choice(&serde_json::json!({"rounds": []})), None);
+    }
 }
