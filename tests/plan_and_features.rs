@@ -705,12 +705,7 @@ fn bench_terrain_measures_the_learners_ceiling_on_the_hidden_cost() {
     assert!(out.status.success(), "{}", stderr(&out));
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert_eq!(report["features"], "oracle");
-    let tree = report["results"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|r| r["method"] == "learch-tree")
-        .unwrap();
+    let tree = method_result(&report, "learch-tree");
     let ratio = tree["mean_cost_ratio"].as_f64().unwrap();
     assert!((1.0 - 1e-9..1.02).contains(&ratio), "{tree}");
 }
@@ -879,4 +874,45 @@ fn a_palette_land_cover_gets_an_indicator_per_class_past_32_codes() {
     // The sidecar is an input: without it the dataset is stale and made again.
     std::fs::remove_file(dir.path().join("labelled.tif.aux.xml")).unwrap();
     assert_eq!(ingest("labelled"), LayerKind::Values);
+}
+
+/// `--wander`: the training demonstrations as tracks that drift around the teacher's
+/// paths, which `--corridor auto` (the default) sees and retrains for; the report says
+/// how far they wander and what was chosen.
+#[test]
+fn bench_terrain_trains_on_wandering_tracks_when_asked() {
+    let dir = tempfile::tempdir().unwrap();
+    let raster = waves_raster(dir.path());
+    let run = |extra: &[&str]| {
+        let mut args = vec!["bench", "terrain", raster.to_str().unwrap()];
+        args.extend(["--teacher", "threshold", "--method", "learch-tree"]);
+        args.extend(["--rounds", "20", "--paths", "16", "--json"]);
+        args.extend(extra);
+        imitate(dir.path(), &args)
+    };
+    let out = run(&["--wander", "1"]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(report["wander"], 1.0, "{report}");
+    let tree = method_result(&report, "learch-tree");
+    let corridor = &tree["corridor"];
+    assert_eq!(corridor["requested"], "auto", "{tree}");
+    let share = corridor["plans_as_long"].as_f64().unwrap();
+    assert_eq!(corridor["cells"], u64::from(share < 0.36), "{tree}");
+    assert!(share < 0.5, "tracks a cell off are rarely retraced: {tree}");
+    // Exact paths report no wander.
+    let out = run(&[]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(report.get("wander").is_none(), "{report}");
+    let bad = run(&["--wander", "NaN"]);
+    assert_eq!(bad.status.code(), Some(2), "{}", stderr(&bad));
+    assert!(stderr(&bad).contains("--wander"), "{}", stderr(&bad));
+}
+
+/// The result of `method` in a `bench terrain --json` report (its first terrain).
+fn method_result<'a>(report: &'a serde_json::Value, method: &str) -> &'a serde_json::Value {
+    let results = report["results"].as_array().unwrap();
+    (results.iter().find(|r| r["method"] == method))
+        .unwrap_or_else(|| panic!("{method} in {report}"))
 }

@@ -23,9 +23,10 @@ use crate::features::{
     Bank, FeatureSpec, compute, gaussian_blur, gaussian_blur_by_row, gradient, ground_windows,
     local_std_by_row,
 };
+use crate::grid::rasterize;
 use crate::grid::{Edges, GeoRef, Grid, Layer, Map, coarsened, factor_for_cells};
 use crate::io::geotiff::read_geotiff;
-use crate::ioc::Corridor;
+use crate::ioc::{Corridor, Example};
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
 
 /// The hidden teachers: costs the features never state directly.
@@ -184,6 +185,13 @@ pub struct TerrainArgs {
     /// cell on its own).
     #[arg(long, default_value_t = 4.0, value_name = "CELLS")]
     pub off_by_cells: f64,
+    /// The training demonstrations as recorded tracks that wander around the teacher's
+    /// paths: a pose at each cell's centre, moved by a drift of this many cells per axis
+    /// (Gaussian, correlated over about five poses, seeded), read into cells as
+    /// `imitate ingest` reads a track. The held-out pairs are scored against the
+    /// teacher's own paths, as always.
+    #[arg(long, default_value_t = 0.0, value_name = "CELLS")]
+    pub wander: f64,
     #[arg(long)]
     pub json: bool,
 }
@@ -194,7 +202,14 @@ struct TerrainReport {
     features: Features,
     cells: u32,
     paths: usize,
+    /// `--wander`: the training tracks' drift, in cells (absent for exact paths).
+    #[serde(skip_serializing_if = "is_zero")]
+    wander: f64,
     results: Vec<MethodResult>,
+}
+
+fn is_zero(value: &f64) -> bool {
+    *value == 0.0
 }
 
 /// Value at share `q` of the finite values (sorted, index ⌊q(n − 1)⌋).
@@ -481,6 +496,7 @@ fn terrain(map: &Map, teacher: Teacher, args: &TerrainArgs) -> Result<Terrain> {
     .map_err(Error::Failed)?;
     let examples = teacher_paths(&truth, args.paths, args.seed, "teacher")?;
     let (training, holdout) = hold_out_every(examples, 4);
+    let training = wandering(training, &geo, args.wander, args.seed)?;
     Ok(Terrain {
         name: format!("{}/{}", map.name, teacher_name(teacher)),
         names: vec![map.name.clone()],
@@ -523,6 +539,12 @@ fn uniform(terrain: &Terrain) -> MethodResult {
 fn smooth_field(geo: &GeoRef, cells: f64, seed: u64) -> Vec<f32> {
     let (width, height) = (geo.width as usize, geo.height as usize);
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x9e37);
+    smoothed_noise(&mut rng, width, height, [cells, cells])
+}
+
+/// Seeded Gaussian noise on a `width` × `height` grid, blurred by `sigma` cells per
+/// axis (0: none) and scaled to zero mean and unit spread.
+fn smoothed_noise(rng: &mut ChaCha8Rng, width: usize, height: usize, sigma: [f64; 2]) -> Vec<f32> {
     // Box–Muller: one standard normal value from each pair of uniform ones.
     let white: Vec<f32> = (0..width * height)
         .map(|_| {
@@ -531,8 +553,8 @@ fn smooth_field(geo: &GeoRef, cells: f64, seed: u64) -> Vec<f32> {
         })
         .collect();
     let mut field = white.clone();
-    if cells > 0.0 {
-        gaussian_blur(&white, width, height, [cells, cells], &mut field);
+    if sigma.iter().all(|&s| s > 0.0) {
+        gaussian_blur(&white, width, height, sigma, &mut field);
     }
     let n = field.len() as f64;
     let mean = field.iter().map(|&g| f64::from(g)).sum::<f64>() / n;
@@ -545,6 +567,47 @@ fn smooth_field(geo: &GeoRef, cells: f64, seed: u64) -> Vec<f32> {
     field
         .iter()
         .map(|&g| ((f64::from(g) - mean) / spread.max(f64::MIN_POSITIVE)) as f32)
+        .collect()
+}
+
+/// Poses a drift correlates over (σ of the Gaussian along the track), as a GNSS or
+/// odometry track wanders around where the robot went.
+const WANDER_CORRELATION_POSES: f64 = 5.0;
+
+/// `--wander`: each example as a track that wanders around its path by a drift of
+/// `cells` per axis (a seeded Gaussian per example, correlated over
+/// `WANDER_CORRELATION_POSES`), read back into cells with `grid::rasterize` as ingest
+/// reads a track. The examples as they are when `cells` is 0.
+fn wandering(examples: Vec<Example>, geo: &GeoRef, cells: f64, seed: u64) -> Result<Vec<Example>> {
+    if cells == 0.0 {
+        return Ok(examples);
+    }
+    let [sx, sy] = geo.cell_size();
+    let (width, height) = (f64::from(geo.width), f64::from(geo.height));
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x3a1d);
+    examples
+        .into_iter()
+        .map(|mut example| {
+            let n = example.path.len();
+            // Along the track (one row of n poses), each axis drifting on its own.
+            let sigma = [WANDER_CORRELATION_POSES, WANDER_CORRELATION_POSES];
+            let col_drift = smoothed_noise(&mut rng, n, 1, sigma);
+            let row_drift = smoothed_noise(&mut rng, n, 1, sigma);
+            let poses: Vec<(f64, f64)> = (example.path.iter().enumerate())
+                .map(|(i, cell)| {
+                    let col = f64::from(cell.col) + 0.5 + cells * f64::from(col_drift[i]);
+                    let row = f64::from(cell.row) + 0.5 + cells * f64::from(row_drift[i]);
+                    let (col, row) = (
+                        col.clamp(0.01, width - 0.01),
+                        row.clamp(0.01, height - 0.01),
+                    );
+                    (geo.origin[0] + col * sx, geo.origin[1] + row * sy)
+                })
+                .collect();
+            example.path = rasterize(geo, &poses)
+                .map_err(|e| Error::Failed(format!("{}: a wandering track: {e}", example.id)))?;
+            Ok(example)
+        })
         .collect()
 }
 
@@ -661,6 +724,11 @@ pub fn run(args: TerrainArgs) -> Result<()> {
             "--hidden-cost-off-by and --off-by-cells take finite values of 0 or more".into(),
         ));
     }
+    if !finite_and_positive(args.wander) {
+        return Err(Error::Usage(
+            "--wander takes a finite number of cells of 0 or more".into(),
+        ));
+    }
     let teachers = if args.teachers.is_empty() {
         vec![
             Teacher::Threshold,
@@ -722,6 +790,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         features: args.features,
         cells: args.cells,
         paths: args.paths,
+        wander: args.wander,
         results,
     };
     emit(&report, args.json, |r| {
@@ -739,6 +808,34 @@ pub fn run(args: TerrainArgs) -> Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_wandering_track_drifts_around_its_path_and_is_read_as_ingest_reads_it() {
+        let geo = GeoRef::square(80, 60, 30.0, [500.0, 900.0], "map");
+        let straight = |row: u32| Example {
+            id: format!("row-{row}"),
+            map: 0,
+            path: (5..75)
+                .map(|col| crate::grid::Cell::new(row, col))
+                .collect(),
+        };
+        let paths = vec![straight(20), straight(40)];
+        let same = wandering(paths.clone(), &geo, 0.0, 7).unwrap();
+        assert_eq!(same[1].path, paths[1].path);
+        let wander = wandering(paths.clone(), &geo, 1.0, 7).unwrap();
+        assert_eq!(
+            wander[0].path,
+            wandering(paths.clone(), &geo, 1.0, 7).unwrap()[0].path
+        );
+        for (track, path) in wander.iter().zip(&paths) {
+            assert!(crate::grid::is_connected8(&track.path), "{:?}", track.path);
+            assert_ne!(track.path, path.path);
+            let row = path.path[0].row as f64;
+            let off: Vec<f64> = track.path.iter().map(|c| c.row as f64 - row).collect();
+            let spread = (off.iter().map(|d| d * d).sum::<f64>() / off.len() as f64).sqrt();
+            assert!((0.3..2.5).contains(&spread), "{spread} cells off, {off:?}");
+        }
+    }
 
     fn strip(width: u32, height: u32) -> Map {
         let geo = GeoRef::square(width, height, 30.0, [0.0, 0.0], "map");
