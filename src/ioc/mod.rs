@@ -11,9 +11,10 @@ pub mod tabular;
 pub use learch::{
     AUTO_CORRIDOR_BELOW, AUTO_CORRIDOR_CELLS, Corridor, CorridorChoice, Example, ExampleStatistics,
     FittedRound, GridMethod, LearchConfig, LossKind, MAXENT_HORIZON_FACTOR, MEMBERS,
-    PreparedExamples, Progress, RemoteRounds, RoundMetrics, StepSchedule, TREE_BINS, TREE_LEAF_L2,
-    TrainedLearch, TrainedMember, WeakLearnerKind, choose_corridor, default_rounds_and_step,
-    evaluate as learch_evaluate, fit_round, hold_out_every, train, train_with,
+    OFF_TRACK_PREMIUM, PreparedExamples, Progress, RemoteRounds, RoundMetrics, StepSchedule,
+    TREE_BINS, TREE_LEAF_L2, TrainedLearch, TrainedMember, WeakLearnerKind, choose_corridor,
+    default_rounds_and_step, evaluate as learch_evaluate, fit_round, hold_out_every, train,
+    train_with,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
 pub use model::{CostLink, LogCostModel, TreeSums, WeakLearner};

@@ -20,8 +20,8 @@ use crate::report::picture::side_by_side;
 
 pub const KIND: &str = "report";
 /// 3: previews with a colour bar and a scale bar. 4: the corridor `--corridor auto`
-/// chose, and why.
-const VERSION: u32 = 4;
+/// chose, and why. 5: and that it prices the cells off the track dearer.
+const VERSION: u32 = 5;
 
 /// Parameters of `imitate report` and of `uses: report`.
 #[derive(Debug, Clone, clap::Args, Serialize, Deserialize)]
@@ -323,8 +323,9 @@ fn corridor_choice(metrics: &serde_json::Value) -> Option<String> {
         _ => format!(
             "Corridor: {cells} cell(s) (`auto`). {found}, under {:.0} %: the tracks wander, \
              and the model was trained again taking each demonstration as the cheapest path \
-             within {cells} cell(s) of it.",
-            100.0 * below
+             within {cells} cell(s) of it, its cells off the track priced {:.0} % dearer.",
+            100.0 * below,
+            100.0 * crate::ioc::OFF_TRACK_PREMIUM
         ),
     })
 }
@@ -354,6 +355,7 @@ mod tests {
             "{retrained}"
         );
         assert!(retrained.contains("under 36 %"), "{retrained}");
+        assert!(retrained.ends_with("priced 5 % dearer."), "{retrained}");
         // A corridor given in cells, and artifacts from before the choice: nothing.
         let given = serde_json::json!({"corridor": {"requested": 1, "cells": 1}});
         assert_eq!(corridor_choice(&given), None);

@@ -42,7 +42,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 pub use corridor::{
-    AUTO_CORRIDOR_BELOW, AUTO_CORRIDOR_CELLS, Corridor, CorridorChoice, choose_corridor,
+    AUTO_CORRIDOR_BELOW, AUTO_CORRIDOR_CELLS, Corridor, CorridorChoice, OFF_TRACK_PREMIUM,
+    choose_corridor,
 };
 pub use map_step::{ExampleStatistics, PreparedExamples};
 use reduce_step::members_to_train;
