@@ -82,7 +82,10 @@ impl<'de> Deserialize<'de> for Corridor {
 /// 0.05 and 1.261 at 0.1. BENCHMARKS.md, "A corridor that prefers the track".
 pub const OFF_TRACK_PREMIUM: f32 = 0.05;
 
-/// The corridor `auto` retrains with when the demonstrations wander.
+/// The corridor `auto` retrains with when the demonstrations wander. Two cells, priced
+/// by their distance from the track, gain at a cell's wander (1.235 -> 1.202) and lose
+/// at half a cell's (1.062 -> 1.069), which `auto` cannot tell apart. BENCHMARKS.md,
+/// "A corridor of 2 cells priced by its distance from the track: not kept".
 pub const AUTO_CORRIDOR_CELLS: u32 = 1;
 
 /// `auto` retrains with a corridor when fewer than this share of the training plans,
