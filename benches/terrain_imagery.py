@@ -64,6 +64,25 @@ and a LiDAR DEM, never tuned on, from the lidar wheel (its example data), copied
   15N on NAD83, 400 × 400, tiled. (The wheel's `dsm.tif` is the DEM upside down, 510.76 m
   minus it, and `sink.tif` its depressions alone: neither is another terrain.)
 
+and five, never tuned on, from localtileserver's wheel (its sample data: Cloud Optimized
+GeoTIFFs with overviews, tiled), copied as they are:
+
+- `bahamas_rgb.tif`: a Landsat true-colour scene of the Bahamas resampled by GDAL to
+  cells of 300.038 × 300.042 m (UTM zone 18N; the scene of the issue that asked for
+  rasters as they come), uint8 with nodata 0, Deflate, 791 × 718;
+- `co_elevation_roi.tif`: a DEM of the Elk Mountains near Crested Butte, Colorado
+  (float32 metres, 2558–3890 m, 1/3″ cells in EPSG:4269, NAD83 degrees; nodata
+  −3.4 × 10³⁸), LZW, 1007 × 633;
+- `landsat_salt_lake.tif`: seven Landsat bands (B1–B7, the thermal one among them;
+  uint8) west of the Great Salt Lake, Utah, 0.000269° cells in EPSG:4326, LZW,
+  1489 × 1482;
+- `landsat7_bay_area.tif`: a Landsat 7 true-colour image of the San Francisco Bay area
+  in Web Mercator (EPSG:3857, 30 m cells on the map, 23 m on the ground), uint8 with
+  nodata 0, Deflate, 2181 × 1917;
+- `srtm90_sierra.tif`: SRTM elevation of the Sierra Nevada and Owens Valley (int16
+  metres, 27–4263 m, 3″ cells in EPSG:4326, its band described as `elevation`),
+  Deflate, 4269 × 2465.
+
     python3 benches/terrain_imagery.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/modis_miriam.tif OUT_DIR/natural_earth_relief.tif
     target/release/imitate bench terrain OUT_DIR/landsat8_224078.tif OUT_DIR/rgbn.tif
@@ -74,6 +93,8 @@ and a LiDAR DEM, never tuned on, from the lidar wheel (its example data), copied
     target/release/imitate bench terrain OUT_DIR/mcd12c1_conus.tif --teacher classes
     target/release/imitate bench terrain OUT_DIR/rmnp_dem.tif OUT_DIR/rmnp_rgb.tif
     target/release/imitate bench terrain OUT_DIR/lidar_dem.tif
+    target/release/imitate bench terrain OUT_DIR/bahamas_rgb.tif OUT_DIR/co_elevation_roi.tif \
+        OUT_DIR/landsat_salt_lake.tif OUT_DIR/landsat7_bay_area.tif OUT_DIR/srtm90_sierra.tif
 
 Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
 """
@@ -233,3 +254,16 @@ with tempfile.TemporaryDirectory() as tmp:
         with z.open("lidar/data/dem.tif") as source, open(path, "wb") as dst:
             shutil.copyfileobj(source, dst)
         print(path)
+
+    wheel = wheels.download("localtileserver==1.0.0", tmp)
+    with zipfile.ZipFile(wheel) as z:
+        for member, name in [("bahamas_rgb.tif", "bahamas_rgb"),
+                             ("co_elevation_roi.tif", "co_elevation_roi"),
+                             ("landsat.tif", "landsat_salt_lake"),
+                             ("landsat7.tif", "landsat7_bay_area"),
+                             ("srtm90.tif", "srtm90_sierra")]:
+            path = os.path.join(out, name + ".tif")
+            with z.open("localtileserver/tiler/data/" + member) as source, \
+                    open(path, "wb") as dst:
+                shutil.copyfileobj(source, dst)
+            print(path)
