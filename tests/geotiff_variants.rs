@@ -8,7 +8,7 @@ mod common;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use common::{assert_input_error, imitate, python_script, shared_data};
+use common::{assert_input_error, imitate, python_script, shared_data, stderr, stdout};
 use imitate::features::{Bank, FeatureSpec, Op, compute};
 use imitate::grid::{Edges, GroundScale, LayerKind, Map, coarsened};
 use imitate::io::geotiff::{read_geotiff, write_geotiff};
@@ -168,7 +168,7 @@ fn jpeg_xl_variants_read_as_their_baselines() {
 }
 
 #[test]
-fn projected_units_in_feet_become_metres() {
+fn projected_units_in_feet_keep_their_coordinates_measured_in_metres() {
     let dir = tempfile::tempdir().unwrap();
     if write_variants(dir.path()).is_none() {
         return;
@@ -176,12 +176,106 @@ fn projected_units_in_feet_become_metres() {
     let feet = read_geotiff(&dir.path().join("units--us-feet.tif"), "m").unwrap();
     let spot = read_geotiff(&dir.path().join("spot--none.tif"), "m").unwrap();
     assert_eq!(feet.geo.frame, "EPSG:2263");
+    // The CRS's own coordinates (the SPOT image's numbers, read as feet), as the user's
+    // demonstrations in that CRS are given...
+    assert_eq!(feet.geo.cell_size(), spot.geo.cell_size());
+    assert_eq!(feet.geo.origin, spot.geo.origin);
+    // ... measured on the ground in metres: a foot times the State Plane's scale, far
+    // from 1 where the SPOT image's grid lies, far north of New York's zone.
     let foot = 1200.0 / 3937.0;
-    // The frame's metres: the SPOT image's grid is far north of the New York State
-    // Plane's zone, where its ground scale (in `cell_metres`) is far from 1.
-    let ([fx, fy], [sx, sy]) = (feet.geo.cell_size(), spot.geo.cell_size());
-    assert!((fx - sx * foot).abs() < 1e-9 && (fy - sy * foot).abs() < 1e-9);
-    assert!((feet.geo.origin[0] - spot.geo.origin[0] * foot).abs() < 1e-6);
+    let [gx, gy] = feet.geo.ground_scale.unwrap().per_axis();
+    assert!((gx / foot - 1.0).abs() > 0.01 && (gy / foot - 1.0).abs() > 0.01);
+    let ([mx, my], [fx, fy]) = (feet.geo.cell_metres(), feet.geo.cell_size());
+    assert!((mx - fx * gx).abs() < 1e-9 && (my - fy * gy).abs() < 1e-9);
+}
+
+/// A user whose DEM is in New York State Plane (US survey feet) gives their tracks in
+/// that CRS, as every GIS tool has them: ingest takes the poses in feet, plans are asked
+/// and answered in feet and priced in ground metres, and the costmap comes back as a
+/// GeoTIFF on the DEM's very grid and CRS.
+#[test]
+fn a_raster_in_feet_takes_poses_in_feet_and_plans_in_ground_metres() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("feet_raster.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let text = |key: &str| info[key].as_str().unwrap().to_string();
+    let point = |key: &str| {
+        let p: Vec<f64> = serde_json::from_value(info[key].clone()).unwrap();
+        format!("{},{}", p[0], p[1])
+    };
+    let (raster, walks) = (text("raster"), text("demonstrations"));
+    let run = |args: &[&str]| {
+        let out = imitate(dir.path(), args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        out
+    };
+    run(&[
+        "ingest",
+        "--map",
+        &raster,
+        "--demonstrations",
+        &walks,
+        "--out",
+        "ds",
+    ]);
+    for command in [
+        "features --dataset ds --bank auto --out fs",
+        "learch --dataset ds --features fs --out costmap --rounds 10",
+    ] {
+        run(&command.split(' ').collect::<Vec<_>>());
+    }
+    let (start, goal) = (point("start"), point("goal"));
+    let planned = run(&["plan", "costmap", "--start", &start, "--goal", &goal]);
+    let json: serde_json::Value = serde_json::from_str(&stdout(&planned)).unwrap();
+    let world = json["world"].as_array().unwrap();
+    let bounds: Vec<f64> = serde_json::from_value(info["bounds"].clone()).unwrap();
+    assert_eq!(world[0], info["start"]);
+    assert_eq!(world[world.len() - 1], info["goal"]);
+    for p in world {
+        let (x, y) = (p[0].as_f64().unwrap(), p[1].as_f64().unwrap());
+        assert!(
+            x > bounds[0] && x < bounds[2] && y > bounds[1] && y < bounds[3],
+            "{p}"
+        );
+    }
+    // Ten straight 50-foot steps on the raster's cheap cells (cost 10): 152.4 ground
+    // metres at 10 a metre (New York's zone is true to scale there).
+    let straight = run(&[
+        "plan",
+        &raster,
+        "--start",
+        "980175,199875",
+        "--goal",
+        "980675,199875",
+    ]);
+    let json: serde_json::Value = serde_json::from_str(&stdout(&straight)).unwrap();
+    let cost = json["cost"].as_f64().unwrap();
+    assert!(
+        (cost - 10.0 * 500.0 * 1200.0 / 3937.0).abs() < 1e-6,
+        "{cost}"
+    );
+    // Poses converted to metres are off the map, which says where it is.
+    let out = imitate(
+        dir.path(),
+        &["plan", &raster, "--start", "298760,60920", "--goal", &goal],
+    );
+    assert_input_error(
+        &out,
+        &["--start 298760,60920 lies outside map", "x 980000..982000"],
+    );
+    run(&[
+        "export", "costmap", "--format", "geotiff", "--out", "export",
+    ]);
+    let exported = dir.path().join("export/feet.tif");
+    let Some(checked) = python_script("same_crs.py", &[Path::new(&raster), &exported]) else {
+        return;
+    };
+    let pair = &checked[0];
+    assert_eq!(pair["same_crs"], true, "{pair}");
+    assert_eq!(pair["bounds"], pair["written_bounds"], "{pair}");
+    assert_eq!(pair["res"], pair["written_res"], "{pair}");
 }
 
 #[test]
@@ -190,7 +284,7 @@ fn rasters_written_back_keep_the_crs_they_were_read_with() {
     if write_variants(dir.path()).is_none() {
         return;
     }
-    // A CRS in US survey feet (read in metres), projections GDAL writes by their
+    // A CRS in US survey feet (read in feet), projections GDAL writes by their
     // parameters (Albers, LAEA, LCC), an EPSG code, and degrees.
     let names = [
         "units--us-feet",
@@ -703,7 +797,8 @@ fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
 
 /// GDAL's order of georeferences: the PAM sidecar's geotransform and CRS before the
 /// TIFF's own tags, and a CRS in US survey feet given as WKT 2 (its unit in its axes)
-/// measured in feet, each read to where GDAL (rasterio) puts the raster.
+/// read in feet and measured on the ground in metres, each read to where GDAL
+/// (rasterio) puts the raster.
 #[test]
 fn sidecars_georeference_before_the_tiff_as_gdal_reads_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -722,8 +817,8 @@ fn sidecars_georeference_before_the_tiff_as_gdal_reads_them() {
         let t: Vec<f64> = serde_json::from_value(gdal["transform"].clone()).unwrap();
         let metres = gdal["metres_per_unit"].as_f64().unwrap();
         let [a, c, e, f] = [t[0], t[2], t[4], t[5]];
-        let west = c * metres;
-        let south = (f + e * f64::from(map.geo.height)) * metres;
+        let west = c;
+        let south = f + e * f64::from(map.geo.height);
         let [x, y] = map.geo.cell_size();
         let close = |p: f64, q: f64| (p - q).abs() <= 1e-6 * q.abs().max(1.0);
         assert!(
@@ -731,16 +826,25 @@ fn sidecars_georeference_before_the_tiff_as_gdal_reads_them() {
             "{name}: origin {:?}, GDAL's {west} {south}",
             map.geo.origin
         );
-        assert!(
-            close(x, a * metres) && close(y, e.abs() * metres),
-            "{name}: {x} × {y}"
-        );
+        assert!(close(x, a) && close(y, e.abs()), "{name}: {x} × {y}");
+        // Ground metres: the unit's, times the projection's scale where it is far
+        // from 1.
+        let ground = map.geo.ground_scale.map_or([1.0; 2], GroundScale::per_axis);
+        if metres != 1.0 {
+            assert!(
+                ground.iter().all(|g| (g / metres - 1.0).abs() < 0.2),
+                "{name}: {ground:?}"
+            );
+        } else {
+            assert_eq!(map.geo.ground_scale, None, "{name}");
+        }
         assert_eq!(map.geo.frame, format!("EPSG:{}", gdal["epsg"]), "{name}");
     }
 }
 
 /// A DEM whose sidecar gives a compound CRS (GDAL's COMPD_CS for EPSG:2263+6360): cells
-/// and heights in US survey feet, read in metres.
+/// and heights in US survey feet; the cells keep the CRS's coordinates and are measured
+/// in metres, the heights are read in metres.
 #[test]
 fn a_sidecars_compound_crs_gives_cells_and_heights_in_metres() {
     let dir = tempfile::tempdir().unwrap();
@@ -755,10 +859,12 @@ fn a_sidecars_compound_crs_gives_cells_and_heights_in_metres() {
     let gdal = &file["gdal"];
     let foot = gdal["metres_per_unit"].as_f64().unwrap();
     assert!((foot - 1200.0 / 3937.0).abs() < 1e-12, "{foot}");
-    let [x, y] = map.geo.cell_size();
+    assert_eq!(map.geo.cell_size(), [10.0, 10.0]);
+    // Inside New York's zone: true to scale within 0.1 %, a foot on the ground.
+    let [x, y] = map.geo.cell_metres();
     assert!(
         (x - 10.0 * foot).abs() < 1e-9 && (y - 10.0 * foot).abs() < 1e-9,
-        "{x} × {y}"
+        "{x} × {y} m"
     );
     assert_eq!(map.geo.frame, "EPSG:2263");
     let first = gdal["first_value"].as_f64().unwrap();
@@ -789,15 +895,15 @@ fn grids_known_from_the_registry_read_in_its_units_and_ground_metres() {
         let per_unit = gdal["metres_per_unit"].as_f64().unwrap();
         let [x, y] = map.geo.cell_size();
         assert!(
-            (x - cell * per_unit).abs() < 1e-9 && (y - cell * per_unit).abs() < 1e-9,
-            "{name}: {x} × {y}, GDAL's unit {per_unit} m"
+            (x - cell).abs() < 1e-9 && (y - cell).abs() < 1e-9,
+            "{name}: {x} × {y}, GDAL's {cell} (a unit of {per_unit} m)"
         );
         let south_west: Vec<f64> =
             serde_json::from_value(gdal["south_west_units"].clone()).unwrap();
         for (ours, theirs) in map.geo.origin.iter().zip(&south_west) {
             assert!(
-                (ours - theirs * per_unit).abs() < 1e-6,
-                "{name}: origin {ours}"
+                (ours - theirs).abs() < 1e-6,
+                "{name}: origin {ours} (a unit of {per_unit} m)"
             );
         }
         assert_eq!(map.geo.frame, name.replace("registry--", "EPSG:"));
@@ -839,9 +945,8 @@ fn sidecars_with_no_epsg_code_read_as_their_crs_by_code() {
         let transform: Vec<f64> = serde_json::from_value(gdal["transform"].clone()).unwrap();
         let [x, y] = map.geo.cell_size();
         assert!(
-            (x - transform[0] * per_unit).abs() < 1e-9
-                && (y + transform[4] * per_unit).abs() < 1e-9,
-            "{name}: {x} × {y} against GDAL's {transform:?} at {per_unit} m per unit"
+            (x - transform[0]).abs() < 1e-9 && (y + transform[4]).abs() < 1e-9,
+            "{name}: {x} × {y} against GDAL's {transform:?} (a unit of {per_unit} m)"
         );
         let (ours, theirs) = (map.geo.cell_metres(), reference.geo.cell_metres());
         assert!(

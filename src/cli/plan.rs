@@ -18,7 +18,7 @@ pub struct PlanArgs {
     /// A costmap artifact folder (written by `learch`), a `costmap/1` Parquet file, a
     /// GeoTIFF of costs (nodata and zero cells blocked) or a MovingAI `.map` grid.
     pub costmap: PathBuf,
-    /// Start as "x,y" in the map frame (metres), or "row,col" with --cells.
+    /// Start as "x,y" in the map frame (metres, or a GeoTIFF's CRS units: degrees, feet), or "row,col" with --cells.
     #[arg(long, allow_hyphen_values = true)]
     pub start: String,
     /// Goal, as --start.

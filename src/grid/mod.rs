@@ -37,7 +37,8 @@ use serde::{Deserialize, Serialize};
 pub struct GeoRef {
     pub width: u32,
     pub height: u32,
-    /// Cell size along x (east) in frame units: metres, or degrees of longitude.
+    /// Cell size along x (east) in frame units: metres, degrees of longitude, or a
+    /// projected CRS's own unit (feet).
     pub resolution: f64,
     /// Cell size along y (north) in frame units, where it differs from `resolution`
     /// (GeoTIFFs as GDAL writes them are rarely exactly square).
@@ -56,8 +57,9 @@ pub struct GeoRef {
     /// Lengths on the ground then come from the northing (`cell_metres`).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub web_mercator: bool,
-    /// Ground metres per frame unit where a projected CRS's scale is far from 1 and
-    /// the reader measured it at the raster's centre: 0.962 for a cell at 60° N in
+    /// Ground metres per frame unit where a projected CRS's unit is not the metre
+    /// (0.3048006 for US survey feet, times the scale below where that is far from 1)
+    /// or its scale is far from 1 and the reader measured it at the raster's centre: 0.962 for a cell at 60° N in
     /// NSIDC's Arctic grid (EPSG:3413), 1.010 along x and 0.990 along y in Conus Albers
     /// (EPSG:5070) at 37.5° N. Taken for the whole raster, as rasters in these grids
     /// are small beside their scale's variation.
@@ -74,8 +76,8 @@ pub struct GeoRef {
 /// geographic frame) per unit of its coordinates. Kept so that a costmap exported as
 /// a GeoTIFF carries the very CRS it was learned on, in that CRS's own units: whether an
 /// EPSG code names it or its parameters define it (ESRI's codes, PROJ strings), and
-/// whether its coordinates are feet or radians, which the reader turned into metres or
-/// degrees.
+/// whether its coordinates are feet (which the frame keeps) or radians (which the reader
+/// turned into degrees).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TiffCrs {
@@ -86,7 +88,8 @@ pub struct TiffCrs {
     pub doubles: Vec<f64>,
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub ascii: String,
-    /// Frame units per unit of the CRS's coordinates (0.3048 for international feet).
+    /// Frame units per unit of the CRS's coordinates: 1 for projected CRSs, whose
+    /// coordinates the frame keeps (feet included); 0.9 for a geographic CRS in grads.
     pub frame_units_per_unit: f64,
 }
 

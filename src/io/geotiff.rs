@@ -14,7 +14,9 @@
 //! degrees as frame units and is measured in metres from the latitude, Web Mercator
 //! from the northing (`GeoRef::cell_metres`), projections far from true scale (polar
 //! stereographic, Lambert conformal, equal-area) with their scale per axis at the
-//! raster's centre (`projection`); projected units and heights in feet become metres.
+//! raster's centre (`projection`); a projected CRS in feet keeps its coordinates (the
+//! user's other data in that CRS are in feet) and is measured in metres by the same
+//! ground scale; heights in feet become metres.
 //! Rasters stored north-up (row 0 at the top) are flipped to our south-first rows.
 
 use std::io::Cursor;
@@ -329,15 +331,23 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         (c, f)
     };
     let north_up = e < 0.0;
-    let (x_size, y_size) = (a * units.scale, e.abs() * units.scale);
+    // Angles become degrees; a projected CRS keeps its coordinates in its own unit
+    // (feet, as the user's other data in that CRS are), measured on the ground by
+    // `ground_scale`.
+    let (coordinates, metres_per_unit) = if units.degrees {
+        (units.scale, 1.0)
+    } else {
+        (1.0, units.scale)
+    };
+    let (x_size, y_size) = (a * coordinates, e.abs() * coordinates);
     let mut geo = GeoRef {
         width,
         height,
         resolution: x_size,
         resolution_y: (y_size != x_size).then_some(y_size),
         origin: [
-            c * units.scale,
-            units.scale
+            c * coordinates,
+            coordinates
                 * if north_up {
                     f + e * f64::from(height)
                 } else {
@@ -377,12 +387,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         double: &double,
         citations: &ascii,
     };
-    if let Some(projection) =
-        projection::of_keys(&geo_keys, units.scale).filter(|_| !geo.varies_by_row())
-    {
-        projection::set_ground_scale(&mut geo, &projection, path);
+    if !geo.varies_by_row() {
+        let projection = projection::of_keys(&geo_keys, metres_per_unit);
+        projection::set_ground_scale(&mut geo, projection.as_ref(), metres_per_unit, path);
     }
-    geo.tiff_crs = tiff_crs(&keys, doubles, ascii, units.scale);
+    geo.tiff_crs = tiff_crs(&keys, doubles, ascii, coordinates);
     geo.validate().map_err(problem)?;
     if let Some([south, north]) = geo.latitudes()
         && (south < -90.0 - 1e-6 || north > 90.0 + 1e-6)

@@ -29,8 +29,9 @@ pub const KIND: &str = "ingest";
 /// metres per axis, more compressions, band units and descriptions). 4: layers of
 /// palette GeoTIFFs, and of bands GDAL's sidecar declares classes, stored as declared
 /// classes. 5: staircase corners that a densely logged track only clipped are left out
-/// of its cell path (`grid::rasterize`).
-const VERSION: u32 = 5;
+/// of its cell path (`grid::rasterize`). 6: a projected CRS in feet keeps its
+/// coordinates (poses are given in them), measured in metres by `ground_scale`.
+const VERSION: u32 = 6;
 
 fn default_split() -> Split {
     Split::File

@@ -350,29 +350,44 @@ fn ellipsoid_of(keys: &GeoKeys) -> Ellipsoid {
     }
 }
 
-/// Sets `geo`'s ground metres per projected metre from `projection`'s scale at the
-/// raster's centre, and warns where it varies by more than 5 % across the raster or
-/// where the axes are more than 3° from square on the ground (diagonal steps are then
-/// measured that much off).
-pub(super) fn set_ground_scale(geo: &mut GeoRef, projection: &Projection, path: &Path) {
-    let [x0, y0, x1, y1] = geo.bounds();
+/// Sets `geo`'s ground metres per frame unit: the CRS's linear unit (`metres_per_unit`:
+/// 0.3048 for international feet, whose coordinates the frame keeps) times
+/// `projection`'s scale at the raster's centre. Warns where the scale varies by more
+/// than 5 % across the raster or where the axes are more than 3° from square on the
+/// ground (diagonal steps are then measured that much off).
+pub(super) fn set_ground_scale(
+    geo: &mut GeoRef,
+    projection: Option<&Projection>,
+    metres_per_unit: f64,
+    path: &Path,
+) {
+    let unit = |geo: &mut GeoRef| {
+        geo.ground_scale =
+            (metres_per_unit != 1.0).then_some(GroundScale::Uniform(metres_per_unit));
+    };
+    let Some(projection) = projection else {
+        // Not measured: a national grid, true to scale over its country.
+        return unit(geo);
+    };
+    let [x0, y0, x1, y1] = geo.bounds().map(|v| v * metres_per_unit);
     let ([sx, sy], skew) = projection.axis_scales((x0 + x1) / 2.0, (y0 + y1) / 2.0);
     if !(sx.is_finite() && sy.is_finite() && sx > 0.0 && sy > 0.0) {
-        // Outside the projection's domain: leave the frame's metres as they are.
-        return;
+        // Outside the projection's domain: the frame's units as they are.
+        return unit(geo);
     }
     if [sx, sy]
         .iter()
         .all(|s| (s - 1.0).abs() <= TRUE_SCALE_TOLERANCE)
     {
         // True to scale within 0.1 % (UTM inside its zone, a State Plane grid): the
-        // frame's metres are read as ground metres.
-        return;
+        // frame's units are read as ground lengths.
+        return unit(geo);
     }
-    geo.ground_scale = Some(if (sx - sy).abs() <= 1e-12 * sx {
-        GroundScale::Uniform(sx)
+    let [gx, gy] = [sx, sy].map(|s| s * metres_per_unit);
+    geo.ground_scale = Some(if (gx - gy).abs() <= 1e-12 * gx {
+        GroundScale::Uniform(gx)
     } else {
-        GroundScale::PerAxis([sx, sy])
+        GroundScale::PerAxis([gx, gy])
     });
     let variation = [(x0, y0), (x0, y1), (x1, y0), (x1, y1)]
         .into_iter()
