@@ -136,6 +136,36 @@ fn a_pose_off_the_map_is_named() {
     assert!(!ws.path().join("out").exists());
 }
 
+/// Poses said to be in another CRS cannot be moved into a map that names none (a
+/// Parquet map in its own metres), nor from a CRS that is not one.
+#[test]
+fn a_demonstrations_crs_needs_a_map_crs_and_a_crs() {
+    let ws = quickstart_workspace();
+    let demos = [demo("fine", &[(1.5, 1.5), (9.5, 9.5)])];
+    write_demonstrations(&ws.path().join("demos.parquet"), &demos).unwrap();
+    for (crs, says) in [
+        ("EPSG:4326", "its frame 'map' names no EPSG code"),
+        ("WGS 84", "'WGS 84' is not a CRS"),
+    ] {
+        let out = imitate(
+            ws.path(),
+            &[
+                "ingest",
+                "--map",
+                MAP,
+                "--demonstrations",
+                "demos.parquet",
+                "--demonstrations-crs",
+                crs,
+                "--out",
+                "out/dataset",
+            ],
+        );
+        assert_input_error(&out, &["demonstrations_crs", says]);
+        assert!(!ws.path().join("out").exists());
+    }
+}
+
 #[test]
 fn a_demonstration_needs_two_poses() {
     let ws = quickstart_workspace();

@@ -220,6 +220,44 @@ fn a_raster_in_feet_takes_poses_in_feet_and_plans_in_ground_metres() {
         "--out",
         "ds",
     ]);
+    // The same walks as a GPS logs them, in longitude and latitude: refused with the way
+    // out, then moved into the map's feet onto the very same cells.
+    let gps = text("gps");
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--map",
+            &raster,
+            "--demonstrations",
+            &gps,
+            "--out",
+            "gps",
+        ],
+    );
+    assert_input_error(
+        &out,
+        &[
+            "walks_gps.parquet",
+            "lies outside the map 'feet'",
+            "look like longitude and latitude",
+            "--demonstrations-crs EPSG:4326",
+        ],
+    );
+    assert!(!dir.path().join("gps").exists());
+    run(&[
+        "ingest",
+        "--map",
+        &raster,
+        "--demonstrations",
+        &gps,
+        "--demonstrations-crs",
+        "EPSG:4326",
+        "--out",
+        "gps",
+    ]);
+    let cells = |dataset: &str| std::fs::read(dir.path().join(dataset).join("paths.parquet"));
+    assert_eq!(cells("gps").unwrap(), cells("ds").unwrap());
     for command in [
         "features --dataset ds --bank auto --out fs",
         "learch --dataset ds --features fs --out costmap --rounds 10",

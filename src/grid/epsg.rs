@@ -26,6 +26,18 @@ pub fn epsg_crs(code: u16) -> Option<EpsgCrs> {
     Some(EpsgCrs { terms })
 }
 
+/// Metres per linear unit, for the EPSG unit codes rasters use (GeoTIFF's
+/// ProjLinearUnits and VerticalUnits keys).
+pub fn metres_per_epsg_unit(code: u16) -> Option<f64> {
+    match code {
+        9001 => Some(1.0),             // metre
+        9002 => Some(0.3048),          // international foot
+        9003 => Some(1200.0 / 3937.0), // US survey foot
+        9036 => Some(1000.0),          // kilometre
+        _ => None,
+    }
+}
+
 /// Metres per unit of PROJ's named linear units (`+units=`).
 fn metres_per_named_unit(name: &str) -> Option<f64> {
     Some(match name {

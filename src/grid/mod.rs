@@ -15,10 +15,11 @@ mod geodesy;
 mod map;
 mod path;
 mod points;
+mod reproject;
 
 pub use coarsen::{Edges, coarsened, factor_for_cells, factor_for_metres};
 pub use demo::{Demonstration, Pose};
-pub use epsg::{EpsgCrs, epsg_crs};
+pub use epsg::{EpsgCrs, epsg_crs, metres_per_epsg_unit};
 pub use equal_area::{Ellipsoid, EqualArea};
 pub use geodesy::{Projection, TRUE_SCALE_TOLERANCE, metres_per_degree};
 
@@ -28,6 +29,7 @@ pub use map::{
 };
 pub use path::{CellPath, PathError, is_connected8, rasterize, rasterize_polyline};
 pub use points::locate;
+pub use reproject::Reprojection;
 
 use serde::{Deserialize, Serialize};
 

@@ -27,7 +27,7 @@ use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
 use crate::error::{Error, Result, read_input};
-use crate::grid::{GeoRef, Layer, Map, TiffCrs};
+use crate::grid::{GeoRef, Layer, Map, TiffCrs, metres_per_epsg_unit};
 
 mod chunks;
 mod grey;
@@ -72,8 +72,8 @@ const VERTICAL_UNITS: u16 = 4099;
 /// GDAL writes the vertical CRS of a compound CRS (EPSG:2263+6360) but not its units.
 fn metres_per_height_unit(vertical_crs: u16) -> Option<f64> {
     match vertical_crs {
-        6360 | 5702 => metres_per_linear_unit(9003),
-        8228 => metres_per_linear_unit(9002),
+        6360 | 5702 => metres_per_epsg_unit(9003),
+        8228 => metres_per_epsg_unit(9002),
         _ => None,
     }
 }
@@ -83,7 +83,7 @@ fn metres_per_height_unit(vertical_crs: u16) -> Option<f64> {
 /// neither says feet (or there is none).
 fn height_scale(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<f64, String> {
     match key(VERTICAL_UNITS) {
-        Some(code) => metres_per_linear_unit(code).ok_or_else(|| {
+        Some(code) => metres_per_epsg_unit(code).ok_or_else(|| {
             format!(
                 "the vertical unit {code} (GeoKey VerticalUnits) cannot be measured in \
                  metres"
@@ -92,17 +92,6 @@ fn height_scale(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<f64, St
         None => Ok(key(VERTICAL_CRS)
             .and_then(metres_per_height_unit)
             .unwrap_or(1.0)),
-    }
-}
-
-/// Metres per linear unit, for the EPSG unit codes rasters use.
-fn metres_per_linear_unit(code: u16) -> Option<f64> {
-    match code {
-        9001 => Some(1.0),             // metre
-        9002 => Some(0.3048),          // international foot
-        9003 => Some(1200.0 / 3937.0), // US survey foot
-        9036 => Some(1000.0),          // kilometre
-        _ => None,
     }
 }
 
@@ -576,7 +565,7 @@ fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, Str
                 .unwrap_or(1.0),
             degrees: false,
         }),
-        Some(code) => metres_per_linear_unit(code)
+        Some(code) => metres_per_epsg_unit(code)
             .map(|scale| Units {
                 scale,
                 degrees: false,

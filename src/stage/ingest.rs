@@ -13,8 +13,8 @@ use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, first_error_in_order};
 use crate::grid::{
-    Demonstration, Edges, Map, PathError, check_map_name, coarsened, factor_for_cells,
-    factor_for_metres, rasterize,
+    Demonstration, Edges, GeoRef, Map, PathError, Reprojection, check_map_name, coarsened,
+    factor_for_cells, factor_for_metres, rasterize,
 };
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geotiff::read_geotiff;
@@ -63,6 +63,13 @@ pub struct IngestParams {
     #[arg(long = "column", value_name = "ROLE=COLUMN")]
     #[serde(default)]
     pub columns: Vec<String>,
+    /// The CRS the demonstrations table's and LeRobot datasets' poses are given in,
+    /// where it is not their map's: EPSG:CODE (EPSG:4326 for GPS longitude and
+    /// latitude, x the longitude) or a PROJ string. Each pose (and heading) is moved
+    /// into its map's CRS, which the map must name (GeoTIFF maps do).
+    #[arg(long, value_name = "CRS")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub demonstrations_crs: Option<String>,
     /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
     /// is read from observation.state elements named x, y (yaw) unless --column says.
     #[arg(long = "lerobot", value_name = "DIR", num_args = 1..)]
@@ -152,6 +159,71 @@ fn load_map(path: &Path) -> Result<Map> {
             ),
         )),
     }
+}
+
+/// Moves every pose of `demos` from `crs` into its map's frame. Episodes on maps not
+/// given are left for the check that names them.
+fn reproject_into_maps(
+    demos: &mut [(Demonstration, PathBuf)],
+    crs: &str,
+    maps: &[Map],
+) -> Result<()> {
+    let mut reprojections = std::collections::BTreeMap::new();
+    for (demo, source) in demos.iter_mut() {
+        let source = &*source;
+        let Some(map) = maps.iter().find(|m| m.name == demo.map) else {
+            continue;
+        };
+        if !reprojections.contains_key(&map.name) {
+            let reprojection = Reprojection::new(crs, &map.geo).map_err(|why| {
+                Error::Usage(format!(
+                    "demonstrations_crs: poses cannot be moved into map '{}': {why}",
+                    map.name
+                ))
+            })?;
+            reprojections.insert(map.name.clone(), reprojection);
+        }
+        let reprojection = &reprojections[&map.name];
+        for (index, pose) in demo.poses.iter_mut().enumerate() {
+            let moved = reprojection.point(pose.x, pose.y).and_then(|(x, y)| {
+                let yaw = match pose.yaw {
+                    Some(yaw) => Some(reprojection.heading(pose.x, pose.y, yaw)?),
+                    None => None,
+                };
+                Ok((x, y, yaw))
+            });
+            let (x, y, yaw) = moved.map_err(|why| {
+                Error::input(
+                    source,
+                    format!(
+                        "episode '{}': pose {index} at (x {}, y {}) of {crs} cannot be \
+                         moved into map '{}' ({}): {why}",
+                        demo.episode, pose.x, pose.y, map.name, map.geo.frame
+                    ),
+                )
+            })?;
+            (pose.x, pose.y, pose.yaw) = (x, y, yaw);
+        }
+    }
+    Ok(())
+}
+
+/// Why poses may lie off a map although the user meant them on it: they look like
+/// longitude and latitude, and the map's CRS is projected.
+fn off_map_hint(geo: &GeoRef, demo: &Demonstration, crs_given: bool) -> String {
+    let degrees_like = demo
+        .poses
+        .iter()
+        .all(|p| p.x.abs() <= 180.0 && p.y.abs() <= 90.0);
+    if crs_given || geo.degrees || !geo.frame.starts_with("EPSG:") || !degrees_like {
+        return String::new();
+    }
+    format!(
+        "; the poses look like longitude and latitude: name their CRS \
+         (--demonstrations-crs EPSG:4326, or demonstrations_crs in a pipeline) to move \
+         them into the map's {}",
+        geo.frame
+    )
 }
 
 /// Refuses a map file given twice, or two GeoTIFF/MovingAI files that would get one
@@ -254,6 +326,9 @@ impl IngestParams {
         for folder in &self.lerobot {
             let dataset = read_lerobot(folder, &self.columns, default_map)?;
             demos.extend(dataset.into_iter().map(|d| (d, folder.clone())));
+        }
+        if let Some(crs) = &self.demonstrations_crs {
+            reproject_into_maps(&mut demos, crs, maps)?;
         }
         Ok(demos)
     }
@@ -403,7 +478,11 @@ impl IngestParams {
             let cells = rasterize(&map.geo, &demo.xy()).map_err(|e| match e {
                 PathError::OffMap { .. } => {
                     let [x0, y0, x1, y1] = map.geo.bounds();
-                    problem(format!("{e} '{}' (x {x0}..{x1}, y {y0}..{y1})", map.name))
+                    let hint = off_map_hint(&map.geo, demo, self.demonstrations_crs.is_some());
+                    problem(format!(
+                        "{e} '{}' (x {x0}..{x1}, y {y0}..{y1}){hint}",
+                        map.name
+                    ))
                 }
                 PathError::TooFewPoses(_) => problem(e.to_string()),
             })?;

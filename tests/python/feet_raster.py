@@ -1,7 +1,8 @@
 """A DEM-like raster in New York State Plane (Long Island, EPSG:2263: coordinates in US
 survey feet), written by rasterio, and demonstrations beside it as a GIS user has them:
-poses in the same CRS, in feet, written by pyarrow. Prints one JSON line: the files, the
-grid, and a start and goal in feet."""
+poses in the same CRS, in feet, written by pyarrow, and the same poses as a GPS logs
+them (longitude and latitude, EPSG:4326, moved by rasterio's PROJ). Prints one JSON line:
+the files, the grid, and a start and goal in feet."""
 
 import json
 import os
@@ -12,6 +13,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import rasterio
 from rasterio.transform import from_origin
+from rasterio.warp import transform
 
 out = sys.argv[1]
 west, north, cell = 980000.0, 200000.0, 50.0  # feet; Manhattan's latitude, in the zone
@@ -44,8 +46,11 @@ for episode, row in enumerate([5, 10, 27]):
         episodes["y"].append(y)
 demonstrations = os.path.join(out, "walks.parquet")
 pq.write_table(pa.table(episodes), demonstrations)
+longitudes, latitudes = transform("EPSG:2263", "EPSG:4326", episodes["x"], episodes["y"])
+gps = os.path.join(out, "walks_gps.parquet")
+pq.write_table(pa.table({**episodes, "x": longitudes, "y": latitudes}), gps)
 print(json.dumps({
-    "raster": raster, "demonstrations": demonstrations,
+    "raster": raster, "demonstrations": demonstrations, "gps": gps,
     "bounds": [west, north - height * cell, west + width * cell, north],
     "start": list(centre(15, 3)), "goal": list(centre(15, 36)),
 }))
