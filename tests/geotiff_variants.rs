@@ -10,8 +10,9 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data, stderr, stdout};
 use imitate::features::{Bank, FeatureSpec, Op, compute};
-use imitate::grid::{Edges, GroundScale, LayerKind, Map, coarsened};
+use imitate::grid::{Demonstration, Edges, GroundScale, LayerKind, Map, Pose, coarsened};
 use imitate::io::geotiff::{read_geotiff, write_geotiff};
+use imitate::io::tables::write_demonstrations;
 
 /// Writes the variants into `out` with rasterio (see [`python_script`]).
 fn write_variants(out: &Path) -> Option<Vec<serde_json::Value>> {
@@ -1116,4 +1117,100 @@ fn coarsened_maps_are_gdals_average_over_whole_blocks() {
         checked += 1;
     }
     assert_eq!(checked, 3);
+}
+
+/// A site's rasters as they come (a DEM, a finer image in its CRS, a coarser band, an
+/// image in degrees) stacked into one map on the DEM's grid: each layer as GDAL's warp
+/// lays it (`average` from finer cells, `bilinear` from coarser, through the CRSs), and a
+/// costmap learned on all of them.
+#[test]
+fn rasters_of_one_site_stack_into_one_map_as_gdal_warps_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("stack_rasters.py", &[Path::new("write"), dir.path()]) else {
+        return;
+    };
+    let file = |key: &str| written[0][key].as_str().unwrap().to_string();
+    let stack = format!(
+        "site={},{},{},{}",
+        file("dem"),
+        file("ortho"),
+        file("coarse"),
+        file("gps_ortho")
+    );
+    // Two walks across the DEM, in its UTM metres.
+    let walks = dir.path().join("walks.parquet");
+    let poses = |episode: &str, ends: [(f64, f64); 2]| Demonstration {
+        episode: episode.into(),
+        map: "site".into(),
+        poses: ends
+            .iter()
+            .enumerate()
+            .map(|(t, &(x, y))| Pose {
+                t: t as f64,
+                x,
+                y,
+                yaw: None,
+            })
+            .collect(),
+    };
+    write_demonstrations(
+        &walks,
+        &[
+            poses("a", [(500_100.0, 4_998_600.0), (501_500.0, 4_999_500.0)]),
+            poses("b", [(500_050.0, 4_999_900.0), (501_700.0, 4_998_700.0)]),
+        ],
+    )
+    .unwrap();
+    let walks = walks.to_str().unwrap();
+    let run = |args: &[&str]| {
+        let out = imitate(dir.path(), args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+    };
+    run(&[
+        "ingest",
+        "--stack",
+        &stack,
+        "--demonstrations",
+        walks,
+        "--out",
+        "ds",
+    ]);
+    let map = dir.path().join("ds/maps/site.parquet");
+    let Some(checks) = python_script("stack_rasters.py", &[Path::new("check"), dir.path(), &map])
+    else {
+        return;
+    };
+    assert_eq!(checks.len(), 6, "{checks:?}");
+    for check in &checks {
+        let difference = check["max_difference"].as_f64().unwrap();
+        let range = check["range"].as_f64().unwrap();
+        // Aligned blocks and bilinear weights are GDAL's to float precision; through
+        // the CRSs, its partial cells weigh in: within 0.5 % of the layer's range.
+        assert!(difference <= 0.005 * range, "{check}");
+        assert_eq!(check["data_disagree"], 0.0, "{check}");
+    }
+    for command in [
+        "features --dataset ds --bank auto --out fs",
+        "learch --dataset ds --features fs --out costmap --rounds 5",
+    ] {
+        run(&command.split(' ').collect::<Vec<_>>());
+    }
+    // Two layers of one name are refused, naming the file.
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--stack",
+            &format!("site={},{}", file("dem"), file("dem")),
+            "--demonstrations",
+            walks,
+            "--out",
+            "twice",
+        ],
+    );
+    assert_input_error(
+        &out,
+        &["dem.tif", "a second layer named 'dem' in the stack 'site'"],
+    );
+    assert!(!dir.path().join("twice").exists());
 }

@@ -117,7 +117,7 @@ pub fn coarsened(map: Map, factor: usize, edges: Edges) -> Map {
 }
 
 /// The most common of `values` (the smallest of equals; NaN when there are none).
-fn most_common(values: impl Iterator<Item = f32>) -> f32 {
+pub(super) fn most_common(values: impl Iterator<Item = f32>) -> f32 {
     let mut counts: Vec<(f32, usize)> = Vec::new();
     for v in values {
         match counts.iter_mut().find(|(c, _)| *c == v) {

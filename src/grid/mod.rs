@@ -16,6 +16,7 @@ mod map;
 mod path;
 mod points;
 mod reproject;
+mod resample;
 
 pub use coarsen::{Edges, coarsened, factor_for_cells, factor_for_metres};
 pub use demo::{Demonstration, Pose};
@@ -30,6 +31,7 @@ pub use map::{
 pub use path::{CellPath, PathError, is_connected8, rasterize, rasterize_polyline};
 pub use points::locate;
 pub use reproject::Reprojection;
+pub use resample::resampled_layers;
 
 use serde::{Deserialize, Serialize};
 

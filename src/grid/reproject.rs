@@ -62,18 +62,13 @@ fn parse_user_crs(spec: &str) -> Result<Crs, String> {
 fn map_crs(geo: &GeoRef) -> Result<Crs, String> {
     let code = geo.frame.strip_prefix("EPSG:").ok_or_else(|| {
         format!(
-            "its frame '{}' names no EPSG code, so poses in another CRS cannot be moved \
-             into it: give them in the map's own coordinates",
+            "its frame '{}' names no EPSG code, so nothing in another CRS can be moved \
+             into it or out of it",
             geo.frame
         )
     })?;
     let mut definition = epsg_definition(code)?.to_string();
-    let keyed_unit = geo.tiff_crs.as_ref().and_then(|crs| {
-        crs.keys
-            .iter()
-            .find(|k| k[0] == PROJ_LINEAR_UNITS && k[1] == 0)
-            .and_then(|k| metres_per_epsg_unit(k[3]))
-    });
+    let keyed_unit = keyed_linear_unit(geo).and_then(metres_per_epsg_unit);
     if let Some(metres) = keyed_unit.filter(|_| !geo.degrees) {
         definition = definition
             .split_whitespace()
@@ -85,7 +80,23 @@ fn map_crs(geo: &GeoRef) -> Result<Crs, String> {
     Crs::from_proj_string(&definition).map_err(|why| format!("its CRS EPSG:{code}: {why}"))
 }
 
-/// Moves points from a CRS the user names into one map's frame.
+/// Whether two maps' frames are one CRS in one unit, so that their coordinates need
+/// no transformation between them.
+pub fn same_crs(a: &GeoRef, b: &GeoRef) -> bool {
+    a.frame == b.frame && a.degrees == b.degrees && keyed_linear_unit(a) == keyed_linear_unit(b)
+}
+
+/// The linear unit a map's GeoTIFF keys give (ProjLinearUnits), if they give one.
+fn keyed_linear_unit(geo: &GeoRef) -> Option<u16> {
+    geo.tiff_crs.as_ref().and_then(|crs| {
+        crs.keys
+            .iter()
+            .find(|k| k[0] == PROJ_LINEAR_UNITS && k[1] == 0)
+            .map(|k| k[3])
+    })
+}
+
+/// Moves points from one CRS into one map's frame.
 pub struct Reprojection {
     source: Crs,
     target: Crs,
@@ -98,6 +109,14 @@ impl Reprojection {
         Ok(Reprojection {
             source: parse_user_crs(source)?,
             target: map_crs(geo).map_err(|why| format!("the map's CRS: {why}"))?,
+        })
+    }
+
+    /// From the frame of one map into another's; both must name their EPSG code.
+    pub fn between(source: &GeoRef, target: &GeoRef) -> Result<Reprojection, String> {
+        Ok(Reprojection {
+            source: map_crs(source)?,
+            target: map_crs(target)?,
         })
     }
 

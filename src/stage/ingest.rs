@@ -13,8 +13,8 @@ use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::ArtifactBuilder;
 use crate::error::{Error, Result, first_error_in_order};
 use crate::grid::{
-    Demonstration, Edges, GeoRef, Map, PathError, Reprojection, check_map_name, coarsened,
-    factor_for_cells, factor_for_metres, rasterize,
+    Demonstration, Edges, GeoRef, Layer, Map, PathError, Reprojection, check_map_name, coarsened,
+    factor_for_cells, factor_for_metres, rasterize, resampled_layers,
 };
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geotiff::read_geotiff;
@@ -52,6 +52,15 @@ pub struct IngestParams {
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
     pub maps: Vec<PathBuf>,
+    /// A map made of several rasters of one site, as they come (a DEM and an
+    /// orthophoto): NAME=FIRST,SECOND,... The map takes the first raster's grid and CRS;
+    /// every band of every raster is a layer, the others laid on that grid (bilinear
+    /// from coarser cells, averaged from finer ones, through the CRSs where they
+    /// differ). A raster's undescribed bands are named after its file: `dem` for a
+    /// single band, `ortho_band1`, ... for several. Repeat for several maps.
+    #[arg(long = "stack", value_name = "NAME=FILE,FILE")]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stacks: Vec<String>,
     /// Demonstrations as a Parquet table (columns episode, map, t, x, y[, yaw], or as
     /// --column renames them).
     #[arg(long, value_name = "FILE")]
@@ -161,6 +170,88 @@ fn load_map(path: &Path) -> Result<Map> {
     }
 }
 
+/// A `--stack` entry: the map's name and its files, in order.
+fn parse_stack(entry: &str) -> Result<(String, Vec<PathBuf>)> {
+    let usage = || {
+        Error::Usage(format!(
+            "stack '{entry}' is not NAME=FILE,FILE,...: a map name, then its rasters"
+        ))
+    };
+    let (name, files) = entry.split_once('=').ok_or_else(usage)?;
+    let files: Vec<PathBuf> = files
+        .split(',')
+        .map(str::trim)
+        .filter(|f| !f.is_empty())
+        .map(PathBuf::from)
+        .collect();
+    if name.trim().is_empty() || files.is_empty() {
+        return Err(usage());
+    }
+    Ok((name.trim().to_string(), files))
+}
+
+/// The layers of one file of a stack, named as the stack names them: bands the file
+/// describes keep their descriptions; a single undescribed band takes the file's stem,
+/// several take `<stem>_bandN`.
+fn stack_layer_names(path: &Path, map: &mut Map) {
+    let stem = file_stem(path);
+    let single = map.layers.len() == 1;
+    for (i, layer) in map.layers.iter_mut().enumerate() {
+        if layer.name == format!("band{}", i + 1) {
+            layer.name = if single {
+                stem.clone()
+            } else {
+                format!("{stem}_band{}", i + 1)
+            };
+        }
+    }
+}
+
+/// The map of a `--stack` entry: the first file's grid with every file's layers.
+fn load_stack(entry: &str) -> Result<Map> {
+    let (name, files) = parse_stack(entry)?;
+    let parts = first_error_in_order(files.par_iter().map(|p| load_map(p)).collect())?;
+    let geo = parts[0].geo.clone();
+    let mut layers: Vec<Layer> = Vec::new();
+    for (mut part, path) in parts.into_iter().zip(&files) {
+        stack_layer_names(path, &mut part);
+        let laid = resampled_layers(&part.layers, &part.geo, &geo).map_err(|why| {
+            Error::input(
+                path,
+                format!(
+                    "cannot be laid on the grid of {}: {why}; warp it to that raster's CRS \
+                     first (gdalwarp -t_srs)",
+                    files[0].display()
+                ),
+            )
+        })?;
+        for layer in laid {
+            if layers.iter().any(|l| l.name == layer.name) {
+                return Err(Error::input(
+                    path,
+                    format!(
+                        "a second layer named '{}' in the stack '{name}' (name the bands, \
+                         or the files, apart)",
+                        layer.name
+                    ),
+                ));
+            }
+            if layer.values.iter().all(|v| v.is_nan()) {
+                return Err(Error::input(
+                    path,
+                    format!(
+                        "layer '{}' has no data on the grid of {}: the rasters do not overlap",
+                        layer.name,
+                        files[0].display()
+                    ),
+                ));
+            }
+            layers.push(layer);
+        }
+    }
+    Ok(Map { name, geo, layers })
+}
+
 /// Moves every pose of `demos` from `crs` into its map's frame. Episodes on maps not
 /// given are left for the check that names them.
 fn reproject_into_maps(
@@ -177,7 +268,8 @@ fn reproject_into_maps(
         if !reprojections.contains_key(&map.name) {
             let reprojection = Reprojection::new(crs, &map.geo).map_err(|why| {
                 Error::Usage(format!(
-                    "demonstrations_crs: poses cannot be moved into map '{}': {why}",
+                    "demonstrations_crs: poses cannot be moved into map '{}': {why}; give \
+                     them in the map's own coordinates",
                     map.name
                 ))
             })?;
@@ -279,6 +371,19 @@ impl IngestParams {
         })
     }
 
+    /// The maps of the map files and of the stacks, and the file each is named after
+    /// (a stack's first) for messages.
+    fn load_maps(&self) -> Result<(Vec<Map>, Vec<PathBuf>)> {
+        refuse_repeated_maps(&self.maps)?;
+        let mut maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
+        let mut sources = self.maps.clone();
+        for entry in &self.stacks {
+            maps.push(load_stack(entry)?);
+            sources.push(parse_stack(entry)?.1.swap_remove(0));
+        }
+        Ok((maps, sources))
+    }
+
     /// Each map coarsened as `cells` or `cell_size` asks (unchanged when neither does).
     fn coarsen(&self, maps: Vec<Map>) -> Result<Vec<Map>> {
         if let Some(metres) = self.cell_size
@@ -340,7 +445,7 @@ impl IngestParams {
             .logs
             .get(index)
             .ok_or_else(|| Error::Usage(format!("log {index} of {} logs", self.logs.len())))?;
-        let maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
+        let (maps, _) = self.load_maps()?;
         let fallback = self
             .default_map(&maps)?
             .map(|m| (m.name.as_str(), m.geo.frame.as_str()));
@@ -377,14 +482,19 @@ impl StageParams for IngestParams {
     const VERSION: u32 = VERSION;
 
     fn deps(&self) -> Vec<PathBuf> {
-        let mut deps = self.maps.clone();
+        let stacked = self
+            .stacks
+            .iter()
+            .filter_map(|entry| parse_stack(entry).ok())
+            .flat_map(|(_, files)| files);
+        let mut deps: Vec<PathBuf> = self.maps.iter().cloned().chain(stacked).collect();
         // A GeoTIFF's sidecars can georeference it or declare its bands classes:
         // adding, changing or removing one makes the maps stale.
-        deps.extend(
-            self.maps
-                .iter()
-                .flat_map(|map| crate::io::geotiff::sidecars(map)),
-        );
+        let sidecars: Vec<PathBuf> = deps
+            .iter()
+            .flat_map(|map| crate::io::geotiff::sidecars(map))
+            .collect();
+        deps.extend(sidecars);
         deps.extend(self.demonstrations.clone());
         deps.extend(self.logs.iter().cloned());
         deps.extend(self.lerobot.iter().cloned());
@@ -420,9 +530,7 @@ impl IngestParams {
                     .into(),
             ));
         }
-        refuse_repeated_maps(&self.maps)?;
-        let mut maps = first_error_in_order(self.maps.par_iter().map(|p| load_map(p)).collect())?;
-        let mut sources: Vec<PathBuf> = self.maps.clone();
+        let (mut maps, mut sources) = self.load_maps()?;
         let mut demos = self.read_tables(&maps)?;
         let parts = match remote {
             Some(remote) if !self.logs.is_empty() => {
