@@ -10,7 +10,9 @@ use std::path::{Path, PathBuf};
 
 use common::{assert_input_error, imitate, python_script, shared_data, stderr, stdout};
 use imitate::features::{Bank, FeatureSpec, Op, compute};
-use imitate::grid::{Demonstration, Edges, GroundScale, LayerKind, Map, Pose, coarsened};
+use imitate::grid::{
+    Demonstration, Edges, GroundScale, LayerKind, Map, Pose, Reprojection, coarsened,
+};
 use imitate::io::geotiff::{read_geotiff, write_geotiff};
 use imitate::io::tables::write_demonstrations;
 
@@ -1213,4 +1215,33 @@ fn rasters_of_one_site_stack_into_one_map_as_gdal_warps_them() {
         &["dem.tif", "a second layer named 'dem' in the stack 'site'"],
     );
     assert!(!dir.path().join("twice").exists());
+}
+
+/// CRSs with no EPSG code, as GDAL writes them from PROJ strings (the method and its
+/// parameters in user-defined GeoKeys): longitude and latitude are moved into each as
+/// PROJ moves them, feet and all.
+#[test]
+fn crss_defined_by_their_parameters_take_points_as_proj_moves_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(rasters) = python_script("custom_crs.py", &[dir.path()]) else {
+        return;
+    };
+    assert_eq!(rasters.len(), 7);
+    for raster in &rasters {
+        let name = raster["name"].as_str().unwrap();
+        let map = read_geotiff(Path::new(raster["file"].as_str().unwrap()), name).unwrap();
+        assert_eq!(map.geo.frame, "map", "{name}: GDAL wrote no EPSG code");
+        let reprojection =
+            Reprojection::new("EPSG:4326", &map.geo).unwrap_or_else(|why| panic!("{name}: {why}"));
+        for point in raster["points"].as_array().unwrap() {
+            let p: Vec<f64> = serde_json::from_value(point.clone()).unwrap();
+            let (x, y) = reprojection.point(p[0], p[1]).unwrap();
+            assert!(
+                (x - p[2]).abs() < 1e-3 && (y - p[3]).abs() < 1e-3,
+                "{name}: ({x}, {y}) against PROJ's ({}, {})",
+                p[2],
+                p[3]
+            );
+        }
+    }
 }

@@ -95,6 +95,11 @@ pub struct TiffCrs {
     /// Frame units per unit of the CRS's coordinates: 1 for projected CRSs, whose
     /// coordinates the frame keeps (feet included); 0.9 for a geographic CRS in grads.
     pub frame_units_per_unit: f64,
+    /// A PROJ string of a CRS that the keys define by its parameters alone (no EPSG
+    /// code, as ArcGIS and some GDAL writers leave them), in the frame's units, so that
+    /// poses and rasters in other CRSs can be moved into it ([`Reprojection`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub proj: Option<String>,
 }
 
 /// Ground metres per frame unit: one factor for both axes (conformal projections), or

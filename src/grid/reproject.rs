@@ -60,10 +60,16 @@ fn parse_user_crs(spec: &str) -> Result<Crs, String> {
 /// The CRS of a map's frame: its EPSG code, in the linear unit its GeoTIFF's keys
 /// gave where that is not the code's own (the frame keeps the TIFF's coordinates).
 fn map_crs(geo: &GeoRef) -> Result<Crs, String> {
+    let keyed = geo.tiff_crs.as_ref().and_then(|crs| crs.proj.as_deref());
+    if let (None, Some(definition)) = (geo.frame.strip_prefix("EPSG:"), keyed) {
+        return Crs::from_proj_string(definition)
+            .map_err(|why| format!("its CRS '{definition}': {why}"));
+    }
     let code = geo.frame.strip_prefix("EPSG:").ok_or_else(|| {
         format!(
-            "its frame '{}' names no EPSG code, so nothing in another CRS can be moved \
-             into it or out of it",
+            "its frame '{}' names no EPSG code, nor do its GeoTIFF keys define a \
+             projection PROJ knows, so nothing in another CRS can be moved into it or \
+             out of it",
             geo.frame
         )
     })?;
@@ -202,6 +208,7 @@ mod tests {
             doubles: Vec::new(),
             ascii: String::new(),
             frame_units_per_unit: 1.0,
+            proj: None,
         });
         let metres = Reprojection::new("EPSG:4326", &geo).unwrap();
         let p = metres.point(-73.98, 40.75).unwrap();

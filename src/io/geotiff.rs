@@ -380,7 +380,10 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         let projection = projection::of_keys(&geo_keys, metres_per_unit);
         projection::set_ground_scale(&mut geo, projection.as_ref(), metres_per_unit, path);
     }
-    geo.tiff_crs = tiff_crs(&keys, doubles, ascii, coordinates);
+    let proj = (geo.frame == "map")
+        .then(|| projection::proj_string(&geo_keys, metres_per_unit, units.degrees))
+        .flatten();
+    geo.tiff_crs = tiff_crs(&keys, doubles, ascii, coordinates).map(|crs| TiffCrs { proj, ..crs });
     geo.validate().map_err(problem)?;
     if let Some([south, north]) = geo.latitudes()
         && (south < -90.0 - 1e-6 || north > 90.0 + 1e-6)
@@ -661,6 +664,7 @@ fn tiff_crs(keys: &[u16], doubles: Vec<f64>, ascii: String, per_unit: f64) -> Op
             doubles,
             ascii,
             frame_units_per_unit: per_unit,
+            proj: None,
         })
 }
 

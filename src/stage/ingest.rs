@@ -30,8 +30,9 @@ pub const KIND: &str = "ingest";
 /// palette GeoTIFFs, and of bands GDAL's sidecar declares classes, stored as declared
 /// classes. 5: staircase corners that a densely logged track only clipped are left out
 /// of its cell path (`grid::rasterize`). 6: a projected CRS in feet keeps its
-/// coordinates (poses are given in them), measured in metres by `ground_scale`.
-const VERSION: u32 = 6;
+/// coordinates (poses are given in them), measured in metres by `ground_scale`. 7: a
+/// CRS the GeoTIFF keys define by parameters alone keeps its PROJ string with the map.
+const VERSION: u32 = 7;
 
 fn default_split() -> Split {
     Split::File

@@ -34,6 +34,9 @@ const SCALE_AT_NATURAL_ORIGIN: u16 = 3092;
 /// GeoTIFF's codes for the coordinate transformations (CT_TransverseMercator,
 /// CT_LambertConfConic_2SP and _1SP, CT_LambertAzimEqualArea, CT_AlbersEqualArea).
 const TRANSVERSE_MERCATOR: u16 = 1;
+const MERCATOR: u16 = 7;
+const POLAR_STEREOGRAPHIC: u16 = 15;
+const STRAIGHT_VERTICAL_POLE_LONGITUDE: u16 = 3095;
 const LAMBERT_CONFORMAL_2SP: u16 = 8;
 const LAMBERT_CONFORMAL_1SP: u16 = 9;
 const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
@@ -53,6 +56,27 @@ pub(super) struct GeoKeys<'a> {
     pub citations: &'a str,
 }
 
+impl GeoKeys<'_> {
+    /// Readers of the double parameters: angles in degrees (from the geographic CRS's
+    /// unit: radians, grads), lengths in metres (from the CRS's, `metres_per_unit`).
+    fn in_degrees_and_metres(
+        &self,
+        metres_per_unit: f64,
+    ) -> (
+        impl Fn(u16) -> Option<f64> + '_,
+        impl Fn(u16) -> Option<f64> + '_,
+    ) {
+        let per_unit = (self.short)(GEOG_ANGULAR_UNITS)
+            .and_then(super::degrees_per_angular_unit)
+            .unwrap_or(1.0);
+        let double = self.double;
+        (
+            move |id: u16| double(id).map(|v| v * per_unit),
+            move |id: u16| double(id).map(|v| v * metres_per_unit),
+        )
+    }
+}
+
 /// The projection the keys name, where it is one whose scale the reader corrects;
 /// `metres_per_unit` converts false eastings and northings from the CRS's unit.
 pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection> {
@@ -60,12 +84,7 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
         return Some(projection);
     }
     let double = keys.double;
-    // Angles in the geographic CRS's unit (radians, grads), in degrees.
-    let per_unit = (keys.short)(GEOG_ANGULAR_UNITS)
-        .and_then(super::degrees_per_angular_unit)
-        .unwrap_or(1.0);
-    let degrees = |id: u16| double(id).map(|v| v * per_unit);
-    let metres = |id: u16| double(id).map(|v| v * metres_per_unit);
+    let (degrees, metres) = keys.in_degrees_and_metres(metres_per_unit);
     let either = |a: Option<f64>, b: Option<f64>| a.or(b).unwrap_or(0.0);
     let ellipsoid = ellipsoid_of(keys);
     let Some(transformation) = (keys.short)(COORDINATE_TRANSFORMATION) else {
@@ -161,6 +180,99 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
         _ => return None,
     };
     Some(Projection::equal_area(equal_area))
+}
+
+/// A PROJ string of the CRS the keys define by their parameters, for CRSs with no
+/// EPSG code: a geographic CRS, or a projection of the methods GeoTIFF codes that
+/// PROJ carries (Transverse Mercator, Lambert conformal of one or two parallels,
+/// Albers, Lambert azimuthal, Mercator, polar stereographic, sinusoidal, cylindrical
+/// equal-area), on the keys' ellipsoid. Coordinates in the CRS's linear unit
+/// (`metres_per_unit`), as the frame keeps them. `None` for any other method.
+pub(super) fn proj_string(
+    keys: &GeoKeys,
+    metres_per_unit: f64,
+    geographic: bool,
+) -> Option<String> {
+    let double = keys.double;
+    let (degrees, metres) = keys.in_degrees_and_metres(metres_per_unit);
+    let first = |ids: &[u16], of: &dyn Fn(u16) -> Option<f64>| {
+        ids.iter().find_map(|&id| of(id)).unwrap_or(0.0)
+    };
+    let ellipsoid = ellipsoid_of(keys);
+    let shape = format!(
+        "+a={} +b={}",
+        ellipsoid.a,
+        ellipsoid.a * (1.0 - ellipsoid.e2).sqrt()
+    );
+    if geographic {
+        return Some(format!("+proj=longlat {shape} +no_defs"));
+    }
+    let x_0 = first(
+        &[FALSE_EASTING, FALSE_ORIGIN_EASTING, CENTER_EASTING],
+        &metres,
+    );
+    let y_0 = first(
+        &[FALSE_NORTHING, FALSE_ORIGIN_NORTHING, CENTER_NORTHING],
+        &metres,
+    );
+    let lon_0 = first(
+        &[
+            NATURAL_ORIGIN_LONGITUDE,
+            FALSE_ORIGIN_LONGITUDE,
+            CENTER_LONGITUDE,
+        ],
+        &degrees,
+    );
+    let lat_0 = first(
+        &[
+            NATURAL_ORIGIN_LATITUDE,
+            FALSE_ORIGIN_LATITUDE,
+            CENTER_LATITUDE,
+        ],
+        &degrees,
+    );
+    let k_0 = double(SCALE_AT_NATURAL_ORIGIN).unwrap_or(1.0);
+    let parallels = || -> Option<(f64, f64)> {
+        let one = degrees(STANDARD_PARALLEL_1)?;
+        Some((one, degrees(STANDARD_PARALLEL_2).unwrap_or(one)))
+    };
+    let method = match (keys.short)(COORDINATE_TRANSFORMATION)? {
+        TRANSVERSE_MERCATOR => format!("+proj=tmerc +lat_0={lat_0} +lon_0={lon_0} +k_0={k_0}"),
+        LAMBERT_CONFORMAL_2SP => {
+            let (lat_1, lat_2) = parallels()?;
+            format!("+proj=lcc +lat_1={lat_1} +lat_2={lat_2} +lat_0={lat_0} +lon_0={lon_0}")
+        }
+        LAMBERT_CONFORMAL_1SP => {
+            format!("+proj=lcc +lat_1={lat_0} +lat_0={lat_0} +lon_0={lon_0} +k_0={k_0}")
+        }
+        ALBERS_EQUAL_AREA => {
+            let (lat_1, lat_2) = parallels()?;
+            format!("+proj=aea +lat_1={lat_1} +lat_2={lat_2} +lat_0={lat_0} +lon_0={lon_0}")
+        }
+        LAMBERT_AZIMUTHAL_EQUAL_AREA => format!("+proj=laea +lat_0={lat_0} +lon_0={lon_0}"),
+        MERCATOR => match degrees(STANDARD_PARALLEL_1) {
+            Some(lat_ts) => format!("+proj=merc +lat_ts={lat_ts} +lon_0={lon_0}"),
+            None => format!("+proj=merc +lon_0={lon_0} +k_0={k_0}"),
+        },
+        POLAR_STEREOGRAPHIC => {
+            let pole = if lat_0 < 0.0 { -90.0 } else { 90.0 };
+            let lon_0 = degrees(STRAIGHT_VERTICAL_POLE_LONGITUDE).unwrap_or(lon_0);
+            if lat_0.abs() < 90.0 {
+                format!("+proj=stere +lat_0={pole} +lat_ts={lat_0} +lon_0={lon_0}")
+            } else {
+                format!("+proj=stere +lat_0={pole} +lon_0={lon_0} +k_0={k_0}")
+            }
+        }
+        SINUSOIDAL => format!("+proj=sinu +lon_0={lon_0}"),
+        CYLINDRICAL_EQUAL_AREA => format!(
+            "+proj=cea +lat_ts={} +lon_0={lon_0}",
+            degrees(STANDARD_PARALLEL_1).unwrap_or(0.0)
+        ),
+        _ => return None,
+    };
+    Some(format!(
+        "{method} +x_0={x_0} +y_0={y_0} {shape} +to_meter={metres_per_unit} +no_defs"
+    ))
 }
 
 /// The projection of a WKT CRS in the citations, ESRI's, OGC's WKT 1 or WKT 2: GDAL

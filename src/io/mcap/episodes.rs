@@ -94,7 +94,7 @@ fn pick_topic<'a>(
 /// What one message of a log gives the demonstrations.
 enum Found {
     Poses(Vec<StampedPose>),
-    Map(Map),
+    Map(Box<Map>),
     Goal(u64),
     Transforms {
         transforms: Vec<ros2::FrameTransform>,
@@ -185,7 +185,7 @@ pub fn read_log(
             Found::Poses(ros2::poses(schema, &message, header.log_time).map_err(at)?)
         } else if Some(topic) == map_topic.as_deref() {
             let message = decode(channel, header.sequence, data)?;
-            Found::Map(ros2::grid(schema, &message, &stem).map_err(at)?)
+            Found::Map(Box::new(ros2::grid(schema, &message, &stem).map_err(at)?))
         } else if Some(topic) == goal_topic.as_deref() {
             Found::Goal(header.log_time)
         } else if (topic == "/tf" || topic == "/tf_static") && schema == "tf2_msgs/msg/TFMessage" {
@@ -207,7 +207,7 @@ pub fn read_log(
     let consume = |found: Found| {
         match found {
             Found::Poses(more) => poses.extend(more),
-            Found::Map(grid) => map = Some(grid),
+            Found::Map(grid) => map = Some(*grid),
             Found::Goal(time) => goals.push(time),
             Found::Transforms {
                 transforms,
