@@ -281,6 +281,62 @@ fn a_raster_in_feet_takes_poses_in_feet_and_plans_in_ground_metres() {
             "{p}"
         );
     }
+    // The same ends as GPS fixes: the same route, its points answered in longitude and
+    // latitude (the ends' within a micro-degree of PROJ's), and a fix given without
+    // --crs is refused with the way out.
+    let (start_gps, goal_gps) = (point("start_gps"), point("goal_gps"));
+    let gps = |args: &[&str]| {
+        let mut all = vec![
+            "plan", "costmap", "--start", &start_gps, "--goal", &goal_gps,
+        ];
+        all.extend(args);
+        imitate(dir.path(), &all)
+    };
+    let by_gps = gps(&["--crs", "EPSG:4326"]);
+    assert!(by_gps.status.success(), "{}", stderr(&by_gps));
+    let gps_json: serde_json::Value = serde_json::from_str(&stdout(&by_gps)).unwrap();
+    assert_eq!(gps_json["cells"], json["cells"]);
+    assert_eq!(gps_json["crs"], "EPSG:4326");
+    assert_eq!(json["crs"], "EPSG:2263");
+    let gps_world = gps_json["world"].as_array().unwrap();
+    let near = |p: &serde_json::Value, q: &serde_json::Value| {
+        (0..2).all(|i| (p[i].as_f64().unwrap() - q[i].as_f64().unwrap()).abs() < 1e-6)
+    };
+    assert!(near(&gps_world[0], &info["start_gps"]), "{}", gps_world[0]);
+    assert!(near(&gps_world[gps_world.len() - 1], &info["goal_gps"]));
+    assert_input_error(
+        &gps(&[]),
+        &[
+            "lies outside map 'feet'",
+            "looks like longitude and latitude",
+            "--crs EPSG:4326",
+        ],
+    );
+    assert_eq!(
+        gps(&["--crs", "EPSG:4326", "--cells"]).status.code(),
+        Some(2)
+    );
+    run(&[
+        "forecast",
+        "costmap",
+        "--observed",
+        &start_gps,
+        "--destination",
+        &goal_gps,
+        "--crs",
+        "EPSG:4326",
+        "--out",
+        "forecast",
+    ]);
+    let forecast = std::fs::read_to_string(dir.path().join("forecast/forecast.json")).unwrap();
+    let forecast: serde_json::Value = serde_json::from_str(&forecast).unwrap();
+    assert_eq!(forecast["crs"], "EPSG:4326");
+    let destination = &forecast["destinations"][0];
+    assert_eq!(destination["cell"], gps_world_cell(&gps_json));
+    assert!(
+        near(&destination["world"], &info["goal_gps"]),
+        "{destination}"
+    );
     // Ten straight 50-foot steps on the raster's cheap cells (cost 10): 152.4 ground
     // metres at 10 a metre (New York's zone is true to scale there).
     let straight = run(&[
@@ -317,6 +373,12 @@ fn a_raster_in_feet_takes_poses_in_feet_and_plans_in_ground_metres() {
     assert_eq!(pair["same_crs"], true, "{pair}");
     assert_eq!(pair["bounds"], pair["written_bounds"], "{pair}");
     assert_eq!(pair["res"], pair["written_res"], "{pair}");
+}
+
+/// The last cell of a plan's answer.
+fn gps_world_cell(plan: &serde_json::Value) -> serde_json::Value {
+    let cells = plan["cells"].as_array().unwrap();
+    cells[cells.len() - 1].clone()
 }
 
 #[test]

@@ -8,7 +8,7 @@ use serde::Serialize;
 
 use crate::artifact::load_costs;
 use crate::error::{Error, Result};
-use crate::grid::locate;
+use crate::grid::PointReader;
 use crate::io::png::write_png;
 use crate::plan::{Connectivity, GridPlanner, Moves, SearchKind};
 use crate::report::{Preview, render_preview};
@@ -25,8 +25,12 @@ pub struct PlanArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub goal: String,
     /// Read --start and --goal as "row,col" cells.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "crs")]
     pub cells: bool,
+    /// Read --start and --goal, and write the path's points, in this CRS (`EPSG:<code>`
+    /// or a PROJ string; EPSG:4326 for GPS longitude and latitude) rather than the map's.
+    #[arg(long, value_name = "CRS")]
+    pub crs: Option<String>,
     /// Which map of an artifact, or band of a GeoTIFF (band1, ...); default: its only one.
     #[arg(long)]
     pub map: Option<String>,
@@ -51,15 +55,24 @@ struct PlanOutput {
     map: String,
     cost: f64,
     cells: Vec<[u32; 2]>,
+    /// The CRS of `world`: the map's frame, or the one `--crs` named.
+    crs: String,
     world: Vec<[f64; 2]>,
 }
 
 pub fn run(args: PlanArgs) -> Result<()> {
     let (name, costs) = load_costs(&args.costmap, args.map.as_deref())?;
-    let geo = &costs.geo;
-    let locate =
-        |text: &str, what: &str| locate(&costs, &name, &args.costmap, text, what, args.cells);
-    let (start, goal) = (locate(&args.start, "start")?, locate(&args.goal, "goal")?);
+    let points = PointReader::new(
+        &costs,
+        &name,
+        &args.costmap,
+        args.cells,
+        args.crs.as_deref(),
+    )?;
+    let (start, goal) = (
+        points.locate(&args.start, "start")?,
+        points.locate(&args.goal, "goal")?,
+    );
     let moves = Moves {
         connectivity: args.connectivity,
         corner_cutting: !args.no_corner_cutting,
@@ -86,17 +99,15 @@ pub fn run(args: PlanArgs) -> Result<()> {
     }
     let output = PlanOutput {
         schema: "imitate.plan/1",
-        map: name,
-        cost: route.cost * crate::plan::unit_step_metres(geo),
+        cost: route.cost * crate::plan::unit_step_metres(&costs.geo),
         cells: route.cells.iter().map(|c| [c.row, c.col]).collect(),
+        crs: points.crs().to_string(),
         world: route
             .cells
             .iter()
-            .map(|&c| {
-                let (x, y) = geo.center_of(c);
-                [x, y]
-            })
-            .collect(),
+            .map(|&c| points.world(c))
+            .collect::<Result<_>>()?,
+        map: name.clone(),
     };
     outln!(
         "{}",

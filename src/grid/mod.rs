@@ -29,7 +29,7 @@ pub use map::{
     distinct_integers,
 };
 pub use path::{CellPath, PathError, is_connected8, rasterize, rasterize_polyline};
-pub use points::locate;
+pub use points::PointReader;
 pub use reproject::Reprojection;
 pub use resample::resampled_layers;
 

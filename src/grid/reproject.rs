@@ -118,6 +118,15 @@ impl Reprojection {
         })
     }
 
+    /// From the frame of `geo` into `target` (`EPSG:<code>` or a PROJ string): the
+    /// inverse of [`Reprojection::new`], to answer in the CRS a user asked in.
+    pub fn out_of(geo: &GeoRef, target: &str) -> Result<Reprojection, String> {
+        Ok(Reprojection {
+            source: map_crs(geo).map_err(|why| format!("the map's CRS: {why}"))?,
+            target: parse_user_crs(target)?,
+        })
+    }
+
     /// From the frame of one map into another's; both must name their EPSG code.
     pub fn between(source: &GeoRef, target: &GeoRef) -> Result<Reprojection, String> {
         Ok(Reprojection {
@@ -235,6 +244,24 @@ mod tests {
         let from_string = Reprojection::new(proj_string, &frame("EPSG:4326", true)).unwrap();
         let (lon2, _) = from_string.point(729591.0, 7183945.0).unwrap();
         assert!((lon2 - lon).abs() < 1e-8, "{lon2} {lon}");
+    }
+
+    #[test]
+    fn points_of_a_frame_in_feet_go_out_to_longitude_and_latitude_and_back() {
+        let feet = frame("EPSG:2263", false);
+        let out = Reprojection::out_of(&feet, "EPSG:4326").unwrap();
+        let (lon, lat) = out.point(989791.457348593, 212522.5192392543).unwrap();
+        assert!(close((lon, lat), (-73.98, 40.75), 1e-9), "{lon} {lat}");
+        let back = Reprojection::new("EPSG:4326", &feet).unwrap();
+        let p = back.point(lon, lat).unwrap();
+        assert!(
+            close(p, (989791.457348593, 212522.5192392543), 1e-6),
+            "{p:?}"
+        );
+        let why = Reprojection::out_of(&GeoRef::unit(4, 4), "EPSG:4326")
+            .err()
+            .unwrap();
+        assert!(why.contains("the map's CRS"), "{why}");
     }
 
     #[test]

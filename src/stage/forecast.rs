@@ -20,7 +20,7 @@ use serde::{Deserialize, Serialize};
 use super::{StageParams, StageReport, commit_artifact};
 use crate::artifact::{ArtifactBuilder, load_costs};
 use crate::error::{Error, Result};
-use crate::grid::{Cell, Grid, locate};
+use crate::grid::{Cell, Grid, PointReader};
 use crate::io::fs::write_bytes_atomic;
 use crate::io::png::write_png;
 use crate::io::tables::{Table, write_numeric_table};
@@ -32,8 +32,9 @@ pub const KIND: &str = "forecast";
 /// 2: MaxEnt's passes with their own exponential (the same bits on every machine).
 /// 3: the forward pass drops negligible mass. 4: a start whose paths within the
 /// horizon the layers cannot hold (a horizon that binds on a dear map) is answered in
-/// the log domain rather than as unreachable.
-const VERSION: u32 = 4;
+/// the log domain rather than as unreachable. 5: forecast.json names the CRS of its
+/// destinations' points (`--crs` reads and writes points in another CRS).
+const VERSION: u32 = 5;
 
 fn default_horizon_factor() -> f64 {
     1.5
@@ -63,9 +64,14 @@ pub struct ForecastParams {
     #[arg(long = "destination", allow_hyphen_values = true, required = true)]
     pub destinations: Vec<String>,
     /// Read points as "row,col" cells.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "crs")]
     #[serde(default)]
     pub cells: bool,
+    /// Read points, and write the destinations' in forecast.json, in this CRS
+    /// (`EPSG:<code>` or a PROJ string; EPSG:4326 for GPS longitude and latitude).
+    #[arg(long, value_name = "CRS")]
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub crs: Option<String>,
     /// Which map of an artifact (default: its only one).
     #[arg(long)]
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -126,6 +132,8 @@ struct ForecastOutput {
     schema: &'static str,
     map: String,
     observed_cells: usize,
+    /// The CRS of the destinations' `world`: the map's frame, or the one `--crs` named.
+    crs: String,
     destinations: Vec<Destination>,
 }
 
@@ -147,7 +155,14 @@ fn forecast(args: &ForecastParams, out: &mut ArtifactBuilder) -> Result<Forecast
         return Err(Error::Usage("--scale must be in 1..=64".into()));
     }
     let (name, costs) = load_costs(&args.costmap, args.map.as_deref())?;
-    let at = |text: &str, what: &str| locate(&costs, &name, &args.costmap, text, what, args.cells);
+    let points = PointReader::new(
+        &costs,
+        &name,
+        &args.costmap,
+        args.cells,
+        args.crs.as_deref(),
+    )?;
+    let at = |text: &str, what: &str| points.locate(text, what);
     let observed: Vec<Cell> = args
         .observed
         .split([' ', ';'])
@@ -253,20 +268,20 @@ fn forecast(args: &ForecastParams, out: &mut ArtifactBuilder) -> Result<Forecast
     )?;
     let output = ForecastOutput {
         schema: "imitate.forecast/1",
-        map: name,
+        map: name.clone(),
         observed_cells: observed.len(),
+        crs: points.crs().to_string(),
         destinations: destinations
             .iter()
             .zip(&posterior)
             .map(|(&c, &probability)| {
-                let (x, y) = geo.center_of(c);
-                Destination {
+                Ok(Destination {
                     cell: [c.row, c.col],
-                    world: [x, y],
+                    world: points.world(c)?,
                     probability,
-                }
+                })
             })
-            .collect(),
+            .collect::<Result<_>>()?,
     };
     let json = serde_json::to_string_pretty(&output).expect("forecasts serialise");
     write_bytes_atomic(&out.file("forecast.json", "forecast")?, json.as_bytes())?;

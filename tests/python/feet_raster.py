@@ -2,7 +2,7 @@
 survey feet), written by rasterio, and demonstrations beside it as a GIS user has them:
 poses in the same CRS, in feet, written by pyarrow, and the same poses as a GPS logs
 them (longitude and latitude, EPSG:4326, moved by rasterio's PROJ). Prints one JSON line:
-the files, the grid, and a start and goal in feet."""
+the files, the grid, and a start and goal in feet and in longitude and latitude."""
 
 import json
 import os
@@ -49,8 +49,11 @@ pq.write_table(pa.table(episodes), demonstrations)
 longitudes, latitudes = transform("EPSG:2263", "EPSG:4326", episodes["x"], episodes["y"])
 gps = os.path.join(out, "walks_gps.parquet")
 pq.write_table(pa.table({**episodes, "x": longitudes, "y": latitudes}), gps)
+start, goal = centre(15, 3), centre(15, 36)
+ends_lon, ends_lat = transform("EPSG:2263", "EPSG:4326", [start[0], goal[0]], [start[1], goal[1]])
 print(json.dumps({
     "raster": raster, "demonstrations": demonstrations, "gps": gps,
     "bounds": [west, north - height * cell, west + width * cell, north],
-    "start": list(centre(15, 3)), "goal": list(centre(15, 36)),
+    "start": list(start), "goal": list(goal),
+    "start_gps": [ends_lon[0], ends_lat[0]], "goal_gps": [ends_lon[1], ends_lat[1]],
 }))
