@@ -436,3 +436,62 @@ fn a_densely_logged_track_is_read_without_its_staircase() {
         "cells read {read}, sparse poses joined {joined}, the staircase {staircase}"
     );
 }
+
+/// A hiker's GPS tracks as their apps export them (GPX 1.1 with repeated one-second
+/// stamps and a lone fix, GPX 1.0 with course and speed and no times, both by gpxpy) on a
+/// DEM in UTM: every segment of two fixes or more is an episode, its fixes moved from
+/// longitude and latitude onto the cells rasterio's PROJ puts them in.
+#[test]
+fn gps_tracks_in_gpx_files_land_on_a_utm_dem() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("gpx_tracks.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let text = |value: &serde_json::Value| value.as_str().unwrap().to_string();
+    let raster = text(&info["raster"]);
+    let gpx: Vec<String> = info["gpx"].as_array().unwrap().iter().map(text).collect();
+    let mut args = vec!["ingest", "--map", &raster, "--gpx"];
+    args.extend(gpx.iter().map(String::as_str));
+    args.extend(["--out", "ds"]);
+    let out = imitate(dir.path(), &args);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let paths = imitate::io::tables::read_paths(&dir.path().join("ds/paths.parquet")).unwrap();
+    let ends = info["ends"].as_object().unwrap();
+    let names: Vec<&str> = paths.iter().map(|p| p.episode.as_str()).collect();
+    assert_eq!(
+        names,
+        ["ridge-track-000", "ridge-track-001-000", "valley-track-000"]
+    );
+    for path in &paths {
+        let cell = |c: &imitate::grid::Cell| serde_json::json!([c.row, c.col]);
+        let (first, last) = (&path.cells[0], &path.cells[path.cells.len() - 1]);
+        assert_eq!(
+            serde_json::json!([cell(first), cell(last)]),
+            ends[&path.episode],
+            "{}",
+            path.episode
+        );
+    }
+    let demos = imitate::io::demo_tables::read_demonstrations(
+        &dir.path().join("ds/demonstrations.parquet"),
+    )
+    .unwrap();
+    let times: Vec<f64> = demos[0].poses.iter().take(4).map(|p| p.t).collect();
+    assert_eq!(times, [0.0, 0.5, 1.0, 2.0]);
+
+    // Tracks on a map with no CRS cannot be placed; a file that is not GPX is named.
+    let out = ingest(dir.path(), &["--gpx", &gpx[0], "--out", "nowhere"]);
+    assert_input_error(
+        &out,
+        &["GPX tracks (WGS84)", "terrain-000", "names no EPSG code"],
+    );
+    let kml = dir.path().join("track.kml");
+    std::fs::write(&kml, "<kml><Document/></kml>").unwrap();
+    let out = ingest(
+        dir.path(),
+        &["--gpx", kml.to_str().unwrap(), "--out", "nowhere"],
+    );
+    assert_input_error(&out, &["track.kml", "root element is <kml>"]);
+    assert!(!dir.path().join("nowhere").exists());
+}

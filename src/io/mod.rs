@@ -3,6 +3,7 @@
 pub mod demo_tables;
 pub mod fs;
 pub mod geotiff;
+pub mod gpx;
 pub mod leftovers;
 pub mod mcap;
 pub mod mdp_tables;

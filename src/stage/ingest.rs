@@ -1,7 +1,8 @@
 //! `ingest`: maps and demonstrations in, a dataset out: the maps, the demonstrations,
 //! and each demonstration rasterised into a connected 8-neighbour cell path. Maps come
 //! from Parquet tables, GeoTIFF rasters, MovingAI `.map` files or the logs' map topic;
-//! demonstrations from a Parquet table or from robot logs (MCAP).
+//! demonstrations from a Parquet table, LeRobot datasets, GPS tracks (GPX) or robot
+//! logs (MCAP).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -18,6 +19,7 @@ use crate::grid::{
 };
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geotiff::read_geotiff;
+use crate::io::gpx::{GPX_CRS, read_gpx};
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
@@ -80,6 +82,13 @@ pub struct IngestParams {
     #[arg(long, value_name = "CRS")]
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub demonstrations_crs: Option<String>,
+    /// GPS tracks as GPX files: every track segment an episode on the default map, its
+    /// points moved from WGS84 longitude and latitude into the map's CRS (the map must
+    /// name one, as GeoTIFF maps do) and timed by their <time>. Several after one --gpx
+    /// or --gpx repeated.
+    #[arg(long = "gpx", value_name = "FILE", num_args = 1..)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gpx: Vec<PathBuf>,
     /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
     /// is read from observation.state elements named x, y (yaw) unless --column says.
     #[arg(long = "lerobot", value_name = "DIR", num_args = 1..)]
@@ -259,6 +268,7 @@ fn reproject_into_maps(
     demos: &mut [(Demonstration, PathBuf)],
     crs: &str,
     maps: &[Map],
+    what: &str,
 ) -> Result<()> {
     let mut reprojections = std::collections::BTreeMap::new();
     for (demo, source) in demos.iter_mut() {
@@ -269,8 +279,8 @@ fn reproject_into_maps(
         if !reprojections.contains_key(&map.name) {
             let reprojection = Reprojection::new(crs, &map.geo).map_err(|why| {
                 Error::Usage(format!(
-                    "demonstrations_crs: poses cannot be moved into map '{}': {why}; give \
-                     them in the map's own coordinates",
+                    "{what}: poses cannot be moved into map '{}': {why}; give them in the \
+                     map's own coordinates",
                     map.name
                 ))
             })?;
@@ -434,7 +444,23 @@ impl IngestParams {
             demos.extend(dataset.into_iter().map(|d| (d, folder.clone())));
         }
         if let Some(crs) = &self.demonstrations_crs {
-            reproject_into_maps(&mut demos, crs, maps)?;
+            reproject_into_maps(&mut demos, crs, maps, "demonstrations_crs")?;
+        }
+        if !self.gpx.is_empty() {
+            let map = default_map.ok_or_else(|| {
+                Error::Usage(
+                    "GPX tracks name no map: give the map they lie on (--default-map NAME, \
+                     or default_map in a pipeline)"
+                        .into(),
+                )
+            })?;
+            let mut tracks = Vec::new();
+            for path in &self.gpx {
+                let read = read_gpx(path, map)?;
+                tracks.extend(read.into_iter().map(|d| (d, path.clone())));
+            }
+            reproject_into_maps(&mut tracks, GPX_CRS, maps, "GPX tracks (WGS84)")?;
+            demos.extend(tracks);
         }
         Ok(demos)
     }
@@ -499,6 +525,7 @@ impl StageParams for IngestParams {
         deps.extend(self.demonstrations.clone());
         deps.extend(self.logs.iter().cloned());
         deps.extend(self.lerobot.iter().cloned());
+        deps.extend(self.gpx.iter().cloned());
         deps
     }
 
@@ -525,9 +552,14 @@ impl IngestParams {
         extra_deps: &[PathBuf],
         remote: Option<&mut RemoteLogs<'_>>,
     ) -> Result<StageReport> {
-        if self.demonstrations.is_none() && self.logs.is_empty() && self.lerobot.is_empty() {
+        if self.demonstrations.is_none()
+            && self.logs.is_empty()
+            && self.lerobot.is_empty()
+            && self.gpx.is_empty()
+        {
             return Err(Error::Usage(
-                "ingest needs demonstrations: a Parquet table, LeRobot datasets or logs (MCAP)"
+                "ingest needs demonstrations: a Parquet table, LeRobot datasets, GPS tracks \
+                 (GPX) or logs (MCAP)"
                     .into(),
             ));
         }
@@ -587,7 +619,8 @@ impl IngestParams {
             let cells = rasterize(&map.geo, &demo.xy()).map_err(|e| match e {
                 PathError::OffMap { .. } => {
                     let [x0, y0, x1, y1] = map.geo.bounds();
-                    let hint = off_map_hint(&map.geo, demo, self.demonstrations_crs.is_some());
+                    let moved = self.demonstrations_crs.is_some() || self.gpx.contains(source);
+                    let hint = off_map_hint(&map.geo, demo, moved);
                     problem(format!(
                         "{e} '{}' (x {x0}..{x1}, y {y0}..{y1}){hint}",
                         map.name
