@@ -229,3 +229,50 @@ fn pipeline_mistakes_point_at_the_line() {
         ],
     );
 }
+
+#[test]
+fn broken_ascii_grids_and_srtm_tiles_are_named() {
+    let ws = quickstart_workspace();
+    let demos = [demo("fine", &[(1.5, 1.5), (9.5, 9.5)])];
+    write_demonstrations(&ws.path().join("demos.parquet"), &demos).unwrap();
+    let header = "ncols 4\nnrows 3\nxllcorner 0\nyllcorner 0\ncellsize 5\nNODATA_value -9999\n";
+    for (name, bytes, says) in [
+        (
+            "short.asc",
+            format!("{header}1 2 3 4\n5 6 7 8\n").into_bytes(),
+            "holds 8 values; its header gives 4 × 3 = 12",
+        ),
+        (
+            "void.asc",
+            format!("{header}{}", "-9999 ".repeat(12)).into_bytes(),
+            "every cell is nodata",
+        ),
+        (
+            "huge.asc",
+            "ncols 100000 nrows 100000 xllcorner 0 yllcorner 0 cellsize 1 1 2".into(),
+            "more than its",
+        ),
+        (
+            "N46E007.hgt",
+            vec![0u8; 1000],
+            "1000 bytes are not an SRTM tile",
+        ),
+        ("dem.hgt", vec![0u8; 2 * 1201 * 1201], "south-west corner"),
+    ] {
+        std::fs::write(ws.path().join(name), bytes).unwrap();
+        let out = imitate(
+            ws.path(),
+            &[
+                "ingest",
+                "--map",
+                name,
+                "--demonstrations",
+                "demos.parquet",
+                "--out",
+                "out/dataset",
+            ],
+        );
+        assert_input_error(&out, &[name, says]);
+        assert!(!ws.path().join("out").exists());
+    }
+}

@@ -1307,3 +1307,64 @@ fn crss_defined_by_their_parameters_take_points_as_proj_moves_them() {
         }
     }
 }
+
+/// DEMs as they are handed out in other formats than GeoTIFF, written by GDAL from
+/// GeoTIFFs it also wrote: each reads to its GeoTIFF twin's grid, CRS and values (an
+/// Esri ASCII grid in UTM with its .prj, one in degrees with non-square cells, an SRTM
+/// tile), and ingest takes them as maps.
+#[test]
+fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("dem_formats.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (tif, twin) = (
+            PathBuf::from(pair[0].as_str().unwrap()),
+            PathBuf::from(pair[1].as_str().unwrap()),
+        );
+        let (a, b) = (
+            imitate::io::read_raster(&tif, "a").unwrap(),
+            imitate::io::read_raster(&twin, "a").unwrap(),
+        );
+        let what = twin.display();
+        assert_eq!(a.geo.frame, b.geo.frame, "{what}");
+        assert_eq!((a.geo.width, a.geo.height), (b.geo.width, b.geo.height));
+        for (x, y) in a.geo.bounds().into_iter().zip(b.geo.bounds()) {
+            assert!((x - y).abs() <= 1e-9 * x.abs().max(1.0), "{what}: {x} {y}");
+        }
+        let ([ax, ay], [bx, by]) = (a.geo.cell_metres(), b.geo.cell_metres());
+        assert!(
+            (ax - bx).abs() < 1e-9 * ax && (ay - by).abs() < 1e-9 * ay,
+            "{what}"
+        );
+        let (va, vb) = (&a.layers[0].values, &b.layers[0].values);
+        assert!(va.iter().any(|v| v.is_nan()) || !twin.ends_with("dem.asc"));
+        let same = va
+            .iter()
+            .zip(vb)
+            .all(|(x, y)| x == y || (x.is_nan() && y.is_nan()));
+        assert!(same, "{what}: values differ from {}", tif.display());
+    }
+    let asc = info["pairs"][0][1].as_str().unwrap();
+    let hgt = info["pairs"][2][1].as_str().unwrap();
+    let walks = info["demonstrations"].as_str().unwrap();
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--map",
+            asc,
+            hgt,
+            "--demonstrations",
+            walks,
+            "--out",
+            "ds",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    for map in ["dem", "N46E007"] {
+        assert!(dir.path().join(format!("ds/maps/{map}.parquet")).is_file());
+    }
+}

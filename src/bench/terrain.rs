@@ -25,7 +25,7 @@ use crate::features::{
 };
 use crate::grid::rasterize;
 use crate::grid::{Edges, GeoRef, Grid, Layer, Map, coarsened, factor_for_cells};
-use crate::io::geotiff::read_geotiff;
+use crate::io::read_raster;
 use crate::ioc::{Corridor, Example};
 use crate::ioc::{evaluate_example, hold_out_every, summarize};
 
@@ -108,7 +108,7 @@ pub enum Features {
 
 #[derive(Debug, clap::Args)]
 pub struct TerrainArgs {
-    /// GeoTIFF rasters (every band a layer).
+    /// Rasters (GeoTIFF, Esri ASCII grid, SRTM tile; every band a layer).
     #[arg(required = true, value_name = "RASTER")]
     pub rasters: Vec<PathBuf>,
     /// Teachers to run (repeat the flag); default: the first eight, `threshold` to
@@ -748,7 +748,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
         let name = path
             .file_stem()
             .map_or("raster".into(), |s| s.to_string_lossy().into_owned());
-        let raster = read_geotiff(path, &name)?;
+        let raster = read_raster(path, &name)?;
         let factor = factor_for_cells(&raster.geo, args.cells);
         let map = coarsened(raster, factor, Edges::Whole);
         for &teacher in &teachers {

@@ -41,7 +41,7 @@ mod samples;
 mod unpack;
 mod webp;
 
-pub use pam::{sidecar, sidecars};
+pub use pam::{sidecar, sidecars, wkt_geokeys};
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
 const GT_MODEL_TYPE: u16 = 1024;
@@ -279,89 +279,11 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             }
         },
     };
-    let [a, b, c, d, e, f] = transform;
-    let key = |id: u16| {
-        keys.get(4..)
-            .unwrap_or_default()
-            .chunks_exact(4)
-            .find(|k| k[0] == id && k[1] == 0)
-            .map(|k| k[3])
-    };
-    // PixelIsPoint moves the TIFF's own tiepoints; a sidecar's transform is GDAL's,
-    // from cell corners already.
-    let point = from_tags && key(GT_RASTER_TYPE) == Some(PIXEL_IS_POINT);
-    let frame = key(PROJECTED_CRS)
-        .or(key(GEOGRAPHIC_CRS))
-        .filter(|&code| code != 0 && code != USER_DEFINED)
-        .map_or_else(|| "map".to_string(), |code| format!("EPSG:{code}"));
-    let units = crs_units(&key).map_err(problem)?;
-    let heights = height_scale(&key).map_err(problem)?;
-
-    // Rotation terms below a billionth of a cell are the writer's float noise (a
-    // ModelTransformation computed in floating point): over a million rows they shift
-    // the raster by a thousandth of a cell.
-    let noise = 1e-9 * a.abs().min(e.abs());
-    if b.abs() > noise || d.abs() > noise {
-        return Err(problem(format!(
-            "the raster is rotated (geotransform row/column terms {b}, {d}); only \
-             axis-aligned rasters are supported: warp it first (gdalwarp)"
-        )));
-    }
-    if !(a > 0.0 && e != 0.0 && a.is_finite() && e.is_finite()) {
-        return Err(problem(format!(
-            "cells of {a} × {} are not a valid size with x growing east",
-            e.abs()
-        )));
-    }
-    // Tiepoints of PixelIsPoint rasters are cell centres; move them to corners.
-    let (c, f) = if point {
-        (c - a / 2.0, f - e / 2.0)
-    } else {
-        (c, f)
-    };
-    let north_up = e < 0.0;
-    // Angles become degrees; a projected CRS keeps its coordinates in its own unit
-    // (feet, as the user's other data in that CRS are), measured on the ground by
-    // `ground_scale`.
-    let (coordinates, metres_per_unit) = if units.degrees {
-        (units.scale, 1.0)
-    } else {
-        (1.0, units.scale)
-    };
-    let (x_size, y_size) = (a * coordinates, e.abs() * coordinates);
-    let mut geo = GeoRef {
-        width,
-        height,
-        resolution: x_size,
-        resolution_y: (y_size != x_size).then_some(y_size),
-        origin: [
-            c * coordinates,
-            coordinates
-                * if north_up {
-                    f + e * f64::from(height)
-                } else {
-                    f
-                },
-        ],
-        frame,
-        degrees: units.degrees,
-        web_mercator: !units.degrees
-            && key(PROJECTED_CRS).is_some_and(|code| WEB_MERCATOR.contains(&code)),
-        ground_scale: None,
-        tiff_crs: None,
-    };
     let doubles = decoder
         .find_tag(Tag::GeoDoubleParamsTag)
         .map_err(tiff_error)?
         .and_then(|v| v.into_f64_vec().ok())
         .unwrap_or_default();
-    let double = |id: u16| {
-        keys.get(4..)
-            .unwrap_or_default()
-            .chunks_exact(4)
-            .find(|k| k[0] == id && k[1] == GEO_DOUBLE_PARAMS && k[2] >= 1)
-            .and_then(|k| doubles.get(usize::from(k[3])).copied())
-    };
     // The sidecar's keys point into its citation, never into the TIFF's parameters.
     let ascii = match pam_citation {
         Some(citation) => citation,
@@ -371,27 +293,19 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             .and_then(|v| v.into_string().ok())
             .unwrap_or_default(),
     };
-    let geo_keys = projection::GeoKeys {
-        short: &key,
-        double: &double,
-        citations: &ascii,
-    };
-    if !geo.varies_by_row() {
-        let projection = projection::of_keys(&geo_keys, metres_per_unit);
-        projection::set_ground_scale(&mut geo, projection.as_ref(), metres_per_unit, path);
-    }
-    let proj = (geo.frame == "map")
-        .then(|| projection::proj_string(&geo_keys, metres_per_unit, units.degrees))
-        .flatten();
-    geo.tiff_crs = tiff_crs(&keys, doubles, ascii, coordinates).map(|crs| TiffCrs { proj, ..crs });
-    geo.validate().map_err(problem)?;
-    if let Some([south, north]) = geo.latitudes()
-        && (south < -90.0 - 1e-6 || north > 90.0 + 1e-6)
-    {
-        return Err(problem(format!(
-            "the raster is in degrees but spans latitudes {south} to {north}"
-        )));
-    }
+    let (geo, heights) = georeference(
+        path,
+        width,
+        height,
+        Georeferencing {
+            transform,
+            keys: &keys,
+            doubles,
+            ascii,
+            pixel_is_point_tags: from_tags,
+        },
+    )?;
+    let north_up = transform[4] < 0.0;
 
     let is_nodata = |v: f32| match nodata_sample {
         Some(n) if n.is_nan() => v.is_nan(),
@@ -514,6 +428,140 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
         geo,
         layers,
     })
+}
+
+/// Where a raster's cells lie, as GDAL gives it: its geotransform and its CRS as
+/// GeoKeys (a GeoTIFF's own, or those GDAL would write for a sidecar's or a `.prj`
+/// file's WKT).
+pub(crate) struct Georeferencing<'a> {
+    /// GDAL's geotransform as ours (x = a·col + b·row + c, y = d·col + e·row + f).
+    pub transform: [f64; 6],
+    /// The GeoKeyDirectory (header and keys); empty where there is no CRS.
+    pub keys: &'a [u16],
+    /// The GeoDoubleParams the keys point into.
+    pub doubles: Vec<f64>,
+    /// The GeoAsciiParams the keys point into.
+    pub ascii: String,
+    /// Whether the transform comes from TIFF tiepoints a PixelIsPoint key moves.
+    pub pixel_is_point_tags: bool,
+}
+
+/// The grid of a `width` × `height` raster read from `path`, and metres per unit of its
+/// heights (vertical GeoKeys); an error says why the raster cannot be a map.
+pub(crate) fn georeference(
+    path: &Path,
+    width: u32,
+    height: u32,
+    georeferencing: Georeferencing,
+) -> Result<(GeoRef, f64)> {
+    let problem = |message: String| Error::input(path, message);
+    let Georeferencing {
+        transform,
+        keys,
+        doubles,
+        ascii,
+        pixel_is_point_tags: from_tags,
+    } = georeferencing;
+    let [a, b, c, d, e, f] = transform;
+    let key = |id: u16| {
+        keys.get(4..)
+            .unwrap_or_default()
+            .chunks_exact(4)
+            .find(|k| k[0] == id && k[1] == 0)
+            .map(|k| k[3])
+    };
+    // PixelIsPoint moves the TIFF's own tiepoints; a sidecar's transform is GDAL's,
+    // from cell corners already.
+    let point = from_tags && key(GT_RASTER_TYPE) == Some(PIXEL_IS_POINT);
+    let frame = key(PROJECTED_CRS)
+        .or(key(GEOGRAPHIC_CRS))
+        .filter(|&code| code != 0 && code != USER_DEFINED)
+        .map_or_else(|| "map".to_string(), |code| format!("EPSG:{code}"));
+    let units = crs_units(&key).map_err(problem)?;
+    let heights = height_scale(&key).map_err(problem)?;
+
+    // Rotation terms below a billionth of a cell are the writer's float noise (a
+    // ModelTransformation computed in floating point): over a million rows they shift
+    // the raster by a thousandth of a cell.
+    let noise = 1e-9 * a.abs().min(e.abs());
+    if b.abs() > noise || d.abs() > noise {
+        return Err(problem(format!(
+            "the raster is rotated (geotransform row/column terms {b}, {d}); only \
+             axis-aligned rasters are supported: warp it first (gdalwarp)"
+        )));
+    }
+    if !(a > 0.0 && e != 0.0 && a.is_finite() && e.is_finite()) {
+        return Err(problem(format!(
+            "cells of {a} × {} are not a valid size with x growing east",
+            e.abs()
+        )));
+    }
+    // Tiepoints of PixelIsPoint rasters are cell centres; move them to corners.
+    let (c, f) = if point {
+        (c - a / 2.0, f - e / 2.0)
+    } else {
+        (c, f)
+    };
+    let north_up = e < 0.0;
+    // Angles become degrees; a projected CRS keeps its coordinates in its own unit
+    // (feet, as the user's other data in that CRS are), measured on the ground by
+    // `ground_scale`.
+    let (coordinates, metres_per_unit) = if units.degrees {
+        (units.scale, 1.0)
+    } else {
+        (1.0, units.scale)
+    };
+    let (x_size, y_size) = (a * coordinates, e.abs() * coordinates);
+    let mut geo = GeoRef {
+        width,
+        height,
+        resolution: x_size,
+        resolution_y: (y_size != x_size).then_some(y_size),
+        origin: [
+            c * coordinates,
+            coordinates
+                * if north_up {
+                    f + e * f64::from(height)
+                } else {
+                    f
+                },
+        ],
+        frame,
+        degrees: units.degrees,
+        web_mercator: !units.degrees
+            && key(PROJECTED_CRS).is_some_and(|code| WEB_MERCATOR.contains(&code)),
+        ground_scale: None,
+        tiff_crs: None,
+    };
+    let double = |id: u16| {
+        keys.get(4..)
+            .unwrap_or_default()
+            .chunks_exact(4)
+            .find(|k| k[0] == id && k[1] == GEO_DOUBLE_PARAMS && k[2] >= 1)
+            .and_then(|k| doubles.get(usize::from(k[3])).copied())
+    };
+    let geo_keys = projection::GeoKeys {
+        short: &key,
+        double: &double,
+        citations: &ascii,
+    };
+    if !geo.varies_by_row() {
+        let projection = projection::of_keys(&geo_keys, metres_per_unit);
+        projection::set_ground_scale(&mut geo, projection.as_ref(), metres_per_unit, path);
+    }
+    let proj = (geo.frame == "map")
+        .then(|| projection::proj_string(&geo_keys, metres_per_unit, units.degrees))
+        .flatten();
+    geo.tiff_crs = tiff_crs(keys, doubles, ascii, coordinates).map(|crs| TiffCrs { proj, ..crs });
+    geo.validate().map_err(problem)?;
+    if let Some([south, north]) = geo.latitudes()
+        && (south < -90.0 - 1e-6 || north > 90.0 + 1e-6)
+    {
+        return Err(problem(format!(
+            "the raster is in degrees but spans latitudes {south} to {north}"
+        )));
+    }
+    Ok((geo, heights))
 }
 
 /// What the CRS's units are: a factor to metres for projected units, or degrees.

@@ -17,14 +17,15 @@ use crate::grid::{
     Demonstration, Edges, GeoRef, Layer, Map, PathError, Reprojection, check_map_name, coarsened,
     factor_for_cells, factor_for_metres, rasterize, resampled_layers,
 };
+use crate::io::ascii_grid::ascii_grid_sidecars;
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
-use crate::io::geotiff::read_geotiff;
 use crate::io::gpx::{GPX_CRS, read_gpx};
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
 use crate::io::nav2::read_nav2_map;
 use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, write_paths};
+use crate::io::{RASTER_EXTENSIONS, read_raster};
 
 pub const KIND: &str = "ingest";
 /// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
@@ -49,9 +50,10 @@ fn default_gap() -> f64 {
 #[serde(deny_unknown_fields)]
 pub struct IngestParams {
     /// Map layers: a Parquet `map/1` table, a GeoTIFF (.tif, .tiff; bands become layers
-    /// band1, band2, ...) or a MovingAI .map (layer `blocked`); several after one --map
-    /// (as a shell glob gives them) or --map repeated. GeoTIFF and MovingAI maps are
-    /// named after their file.
+    /// band1, band2, ...), an Esri ASCII grid (.asc, its CRS from the .prj beside it;
+    /// layer band1), an SRTM tile (.hgt; layer elevation) or a MovingAI .map (layer
+    /// `blocked`); several after one --map (as a shell glob gives them) or --map
+    /// repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
     pub maps: Vec<PathBuf>,
@@ -167,14 +169,14 @@ fn load_map(path: &Path) -> Result<Map> {
         .unwrap_or_default();
     match extension.as_str() {
         "parquet" => read_map(path),
-        "tif" | "tiff" => read_geotiff(path, &file_stem(path)),
+        raster if RASTER_EXTENSIONS.contains(&raster) => read_raster(path, &file_stem(path)),
         "map" => movingai::read_map_layer(path, &file_stem(path)),
         "yaml" | "yml" => read_nav2_map(path, &file_stem(path)),
         other => Err(Error::input(
             path,
             format!(
-                "maps are .parquet, .tif/.tiff, .map (MovingAI) or .yaml (Nav2) files, \
-                 not '.{other}'"
+                "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
+                 (SRTM tile), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),
         )),
     }
@@ -519,7 +521,16 @@ impl StageParams for IngestParams {
         // adding, changing or removing one makes the maps stale.
         let sidecars: Vec<PathBuf> = deps
             .iter()
-            .flat_map(|map| crate::io::geotiff::sidecars(map))
+            .flat_map(|map| {
+                let ascii = map
+                    .extension()
+                    .is_some_and(|e| e.eq_ignore_ascii_case("asc"));
+                if ascii {
+                    ascii_grid_sidecars(map)
+                } else {
+                    crate::io::geotiff::sidecars(map)
+                }
+            })
             .collect();
         deps.extend(sidecars);
         deps.extend(self.demonstrations.clone());

@@ -78,10 +78,7 @@ pub(super) fn georeference(path: &Path) -> Result<PamGeoreference, String> {
         .map_err(|e| format!("{}: its XML is malformed: {e}", pam.display()))?;
     let mut citation = String::new();
     let keys = srs.map(|wkt| {
-        if let Some(keys) = geokeys_of_wkt(&wkt) {
-            return Ok(keys);
-        }
-        let (keys, ascii) = user_defined_geokeys(&wkt).ok_or_else(|| {
+        let (keys, ascii) = wkt_geokeys(&wkt).ok_or_else(|| {
             format!(
                 "{}: its CRS is neither a projected nor a geographic CRS in WKT: give the \
                  raster its GeoTIFF tags (gdal_translate -a_srs EPSG:<code>)",
@@ -96,6 +93,16 @@ pub(super) fn georeference(path: &Path) -> Result<PamGeoreference, String> {
         keys,
         citation,
     })
+}
+
+/// The GeoKeys GDAL would write for a CRS in WKT (a sidecar's `<SRS>`, a `.prj` file),
+/// with the GeoAsciiParams they point into (empty where the CRS has an EPSG code);
+/// `None` for what is neither a projected nor a geographic CRS.
+pub fn wkt_geokeys(wkt: &str) -> Option<(Vec<u16>, String)> {
+    match geokeys_of_wkt(wkt) {
+        Some(keys) => Some((keys, String::new())),
+        None => user_defined_geokeys(wkt),
+    }
 }
 
 /// The geotransform of the first world file beside `path` (`None` where there is none),

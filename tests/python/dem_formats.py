@@ -1,0 +1,67 @@
+"""DEMs in the formats other than GeoTIFF that they are handed out in, written by GDAL
+(rasterio) from GeoTIFFs it also writes: an Esri ASCII grid in UTM with nodata (its CRS
+in the .prj beside it), one in degrees with non-square cells (GDAL's dx and dy), and an
+SRTM tile (.hgt, 1201 x 1201 samples, voids). Beside them, walks on the UTM grid and on
+the tile written by pyarrow. Prints one JSON line: each pair (GeoTIFF, its twin) and
+the walks."""
+
+import json
+import os
+import sys
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import rasterio
+import rasterio.shutil
+from rasterio.transform import from_origin
+
+out = sys.argv[1]
+
+
+def geotiff(name, values, crs, transform, nodata):
+    path = os.path.join(out, name)
+    with rasterio.open(path, "w", driver="GTiff", width=values.shape[1],
+                       height=values.shape[0], count=1, dtype=values.dtype, crs=crs,
+                       transform=transform, nodata=nodata) as dst:
+        dst.write(values[None])
+    return path
+
+
+def twin(source, name, driver):
+    path = os.path.join(out, name)
+    rasterio.shutil.copy(source, path, driver=driver)
+    return path
+
+
+rows, cols = np.mgrid[0:30, 0:40]
+dem = (1200.0 + 2.5 * rows + 10.0 * np.sin(cols / 4.0)).astype("float32")
+dem[10:13, 20:24] = -9999.0
+utm = geotiff("dem.tif", dem, "EPSG:32632", from_origin(400000, 5160000, 10, 10), -9999.0)
+degrees = geotiff("geo.tif", (dem * 3).astype("int16"), "EPSG:4326",
+                  from_origin(7.0, 47.0, 0.001, 0.0005), None)
+tile = np.fromfunction(lambda r, c: 500 + (r + 2 * c) % 700, (1201, 1201)).astype("int16")
+tile[600:610, 100:120] = -32768
+half = 0.5 / 1200
+srtm = geotiff("N46E007.tif", tile, "EPSG:4326",
+               from_origin(7.0 - half, 47.0 + half, 1 / 1200, 1 / 1200), -32768)
+pairs = [
+    [utm, twin(utm, "dem.asc", "AAIGrid")],
+    [degrees, twin(degrees, "geo.asc", "AAIGrid")],
+    [srtm, twin(srtm, "N46E007.hgt", "SRTMHGT")],
+]
+
+walks = {"episode": [], "map": [], "t": [], "x": [], "y": []}
+for episode, map_name, points in [
+    ("across-dem", "dem", [(400005.0 + 10 * k, 5159705.0) for k in range(35)]),
+    ("up-the-tile", "N46E007", [(7.25, 46.1 + 0.01 * k) for k in range(40)]),
+]:
+    for t, (x, y) in enumerate(points):
+        walks["episode"].append(episode)
+        walks["map"].append(map_name)
+        walks["t"].append(float(t))
+        walks["x"].append(x)
+        walks["y"].append(y)
+demonstrations = os.path.join(out, "walks.parquet")
+pq.write_table(pa.table(walks), demonstrations)
+print(json.dumps({"pairs": pairs, "demonstrations": demonstrations}))
