@@ -168,7 +168,7 @@ fn planned(out: &std::process::Output) -> (f64, serde_json::Value) {
 }
 
 #[test]
-fn plans_on_a_geotiff_as_on_the_same_table() {
+fn plans_on_a_geotiff_and_an_ascii_grid_as_on_the_same_table() {
     let dir = tempfile::tempdir().unwrap();
     let table = walled(dir.path());
     let (_, costs) = imitate::io::tables::read_costmap(&table).unwrap();
@@ -184,6 +184,27 @@ fn plans_on_a_geotiff_as_on_the_same_table() {
     let mut args = vec!["plan", "walled.tif"];
     args.extend_from_slice(&query);
     assert_eq!(planned(&imitate(dir.path(), &args)), from_table);
+    // The same costs as an Esri ASCII grid (rows from the north, the wall as nodata).
+    let geo = &costs.geo;
+    let mut grid = format!(
+        "ncols {}\nnrows {}\nxllcorner {}\nyllcorner {}\ncellsize {}\nNODATA_value -9999\n",
+        geo.width, geo.height, geo.origin[0], geo.origin[1], geo.resolution
+    );
+    for row in (0..geo.height as usize).rev() {
+        let line = &values[row * geo.width as usize..][..geo.width as usize];
+        for v in line {
+            grid.push_str(&if v.is_nan() {
+                "-9999 ".into()
+            } else {
+                format!("{v} ")
+            });
+        }
+        grid.push('\n');
+    }
+    std::fs::write(dir.path().join("walled.asc"), grid).unwrap();
+    let mut ascii = vec!["plan", "walled.asc"];
+    ascii.extend_from_slice(&query);
+    assert_eq!(planned(&imitate(dir.path(), &ascii)), from_table);
 
     let mut negative = values.clone();
     negative[1] = -1.0;

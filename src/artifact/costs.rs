@@ -1,5 +1,5 @@
 //! The costmap a command or stage plans on: one map of a costmap artifact folder, a
-//! costmap table, a GeoTIFF cost raster or a MovingAI grid; and the reference costs
+//! costmap table, a cost raster (GeoTIFF, Esri ASCII grid) or a MovingAI grid; and the reference costs
 //! that plans are scored against.
 
 use std::path::{Path, PathBuf};
@@ -7,18 +7,19 @@ use std::path::{Path, PathBuf};
 use super::read_manifest;
 use crate::error::{Error, Result};
 use crate::grid::{GeoRef, Grid};
-use crate::io::geotiff::read_geotiff;
 use crate::io::movingai::read_map;
 use crate::io::tables::read_costmap;
+use crate::io::{RASTER_EXTENSIONS, read_raster};
 
 /// Loads the costmap named by `path` and its map name: an artifact folder (`map` picks
-/// one of its maps), a `costmap/1` table, a GeoTIFF of costs (`.tif`/`.tiff`; `map`
-/// picks a band when it has several) or a MovingAI `.map` grid (passable cells cost 1).
+/// one of its maps), a `costmap/1` table, a raster of costs (GeoTIFF, Esri ASCII grid;
+/// `map` picks a band when it has several) or a MovingAI `.map` grid (passable cells
+/// cost 1).
 pub fn load_costs(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {
     if !path.is_dir() {
         let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         return match extension.to_ascii_lowercase().as_str() {
-            "tif" | "tiff" => raster_costs(path, map),
+            raster if RASTER_EXTENSIONS.contains(&raster) => raster_costs(path, map),
             "map" => Ok((file_stem(path), read_map(path)?)),
             _ => read_costmap(path),
         };
@@ -61,11 +62,11 @@ fn file_stem(path: &Path) -> String {
         .unwrap_or_default()
 }
 
-/// A GeoTIFF band as costs: nodata cells are blocked (∞), as are zeros (a planner
+/// A raster's band as costs: nodata cells are blocked (∞), as are zeros (a planner
 /// cannot price a free cell); negative costs are refused.
 fn raster_costs(path: &Path, band: Option<&str>) -> Result<(String, Grid<f32>)> {
     let name = file_stem(path);
-    let raster = read_geotiff(path, &name)?;
+    let raster = read_raster(path, &name)?;
     let bands = || raster.layer_names().join(", ");
     let layer = match band {
         Some(b) => raster.layer(b).ok_or_else(|| {
