@@ -456,6 +456,7 @@ fn gps_tracks_in_gpx_files_land_on_a_utm_dem() {
     args.extend(["--out", "ds"]);
     let out = imitate(dir.path(), &args);
     assert!(out.status.success(), "{}", stderr(&out));
+    assert!(!stderr(&out).contains("wander"), "{}", stderr(&out));
     let paths = imitate::io::tables::read_paths(&dir.path().join("ds/paths.parquet")).unwrap();
     let ends = info["ends"].as_object().unwrap();
     let names: Vec<&str> = paths.iter().map(|p| p.episode.as_str()).collect();
@@ -479,6 +480,19 @@ fn gps_tracks_in_gpx_files_land_on_a_utm_dem() {
     .unwrap();
     let times: Vec<f64> = demos[0].poses.iter().take(4).map(|p| p.t).collect();
     assert_eq!(times, [0.0, 0.5, 1.0, 2.0]);
+
+    // On 1 m cells the fixes' few metres of error span several: a warning says so.
+    let fine = text(&info["fine"]);
+    let out = imitate(
+        dir.path(),
+        &["ingest", "--map", &fine, "--gpx", &gpx[0], "--out", "fine"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stderr(&out).contains("cells of 1.00 m: GPS fixes"),
+        "{}",
+        stderr(&out)
+    );
 
     // Tracks on a map with no CRS cannot be placed; a file that is not GPX is named.
     let out = ingest(dir.path(), &["--gpx", &gpx[0], "--out", "nowhere"]);

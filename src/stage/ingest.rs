@@ -313,6 +313,24 @@ fn reproject_into_maps(
     Ok(())
 }
 
+/// Consumer GPS fixes are good to a few metres (GPS.gov: 4.9 m, 95 %, for a phone in
+/// the open): their tracks wander over cells finer than that.
+const GPS_METRES: f64 = 3.0;
+
+/// Warns when GPS tracks lie on cells so fine that their error spans several.
+fn warn_of_cells_finer_than_gps(map: &Map) {
+    let [x, y] = map.geo.cell_metres();
+    let cell = x.min(y);
+    if cell < GPS_METRES / 1.5 {
+        tracing::warn!(
+            "map '{}' has cells of {cell:.2} m: GPS fixes, good to a few metres, wander over \
+             several of them; coarsen it toward their accuracy (--cell-size {GPS_METRES}) \
+             or leave learch's --corridor auto to take the wander",
+            map.name
+        );
+    }
+}
+
 /// Why poses may lie off a map although the user meant them on it: they look like
 /// longitude and latitude, and the map's CRS is projected.
 fn off_map_hint(geo: &GeoRef, demo: &Demonstration, crs_given: bool) -> String {
@@ -596,6 +614,14 @@ impl IngestParams {
             demos.extend(log_demos.into_iter().map(|d| (d, log.clone())));
         }
         let maps = self.coarsen(maps)?;
+        for map in &maps {
+            let gps = demos
+                .iter()
+                .any(|(d, source)| d.map == map.name && self.gpx.contains(source));
+            if gps {
+                warn_of_cells_finer_than_gps(map);
+            }
+        }
         let mut names = BTreeSet::new();
         for (map, path) in maps.iter().zip(&sources) {
             check_map_name(&map.name).map_err(|why| Error::input(path, why))?;

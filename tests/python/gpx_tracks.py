@@ -1,9 +1,10 @@
 """GPS tracks as a hiker's apps export them, on a DEM in UTM: a raster in EPSG:32632
 (rasterio), and GPX files written by gpxpy, one in GPX 1.1 (two tracks, the second of
 two segments, one of them a single fix; times with repeated seconds) and one in GPX 1.0
-(speed and course elements, no times). Prints one JSON line: the files, and for every
-episode the ingest should make, the cells of its first and last fix as rasterio's PROJ
-and the raster's transform put them (rows counted from the south edge, as imitate's)."""
+(speed and course elements, no times), and the DEM again in 1 m cells. Prints one JSON
+line: the files, and for every episode the ingest should make, the cells of its first
+and last fix as rasterio's PROJ and the raster's transform put them (rows counted from
+the south edge, as imitate's)."""
 
 import json
 import os
@@ -26,6 +27,12 @@ with rasterio.open(raster, "w", driver="GTiff", width=width, height=height, coun
                    dtype="float32", crs="EPSG:32632",
                    transform=from_origin(west, north, cell, cell)) as dst:
     dst.write(dem.astype("float32")[None])
+# The same ground in 1 m cells, finer than GPS fixes are good to.
+fine = os.path.join(out, "fine.tif")
+with rasterio.open(fine, "w", driver="GTiff", width=width * 10, height=height * 10, count=1,
+                   dtype="float32", crs="EPSG:32632",
+                   transform=from_origin(west, north, 1.0, 1.0)) as dst:
+    dst.write(np.kron(dem, np.ones((10, 10))).astype("float32")[None])
 
 
 def fixes(cells):
@@ -87,4 +94,4 @@ ends = {}
 for name, cells in walks.items():
     points = fixes(cells)
     ends[name] = [cell_of(*points[0]), cell_of(*points[-1])]
-print(json.dumps({"raster": raster, "gpx": [ridge_path, valley_path], "ends": ends}))
+print(json.dumps({"raster": raster, "fine": fine, "gpx": [ridge_path, valley_path], "ends": ends}))
