@@ -363,8 +363,44 @@ fn a_raster_in_feet_takes_poses_in_feet_and_plans_in_ground_metres() {
         &["--start 298760,60920 lies outside map", "x 980000..982000"],
     );
     run(&[
-        "export", "costmap", "--format", "geotiff", "--out", "export",
+        "export", "costmap", "--format", "geotiff", "--format", "geojson", "--out", "export",
     ]);
+    // The paths as GeoJSON for QGIS: in longitude and latitude, the demonstrations
+    // through the very fixes of the GPS table (their cells' centres), a plan beside each.
+    let geojson = std::fs::read_to_string(dir.path().join("export/feet.geojson")).unwrap();
+    let geojson: serde_json::Value = serde_json::from_str(&geojson).unwrap();
+    let features = geojson["features"].as_array().unwrap();
+    let kinds: Vec<&str> = features
+        .iter()
+        .map(|f| f["properties"]["kind"].as_str().unwrap())
+        .collect();
+    assert_eq!(kinds, ["demonstration", "plan"].repeat(3));
+    let fixes = imitate::io::demo_tables::read_demonstrations(Path::new(&text("gps"))).unwrap();
+    let first = &features[0]["geometry"]["coordinates"][0];
+    let fix = fixes[0].poses[0];
+    assert!(
+        near(first, &serde_json::json!([fix.x, fix.y])),
+        "{first} {fix:?}"
+    );
+    assert_eq!(features[0]["properties"]["episode"], "walk-0");
+    // A route's own GeoJSON goes through the points the plan answers in longitude and
+    // latitude.
+    run(&[
+        "plan",
+        "costmap",
+        "--start",
+        &start,
+        "--goal",
+        &goal,
+        "--geojson",
+        "route.geojson",
+    ]);
+    let route = std::fs::read_to_string(dir.path().join("route.geojson")).unwrap();
+    let route: serde_json::Value = serde_json::from_str(&route).unwrap();
+    assert_eq!(
+        route["features"][0]["geometry"]["coordinates"],
+        gps_json["world"]
+    );
     let exported = dir.path().join("export/feet.tif");
     let Some(checked) = python_script("same_crs.py", &[Path::new(&raster), &exported]) else {
         return;

@@ -205,6 +205,11 @@ fn plans_on_a_geotiff_and_an_ascii_grid_as_on_the_same_table() {
     let mut ascii = vec!["plan", "walled.asc"];
     ascii.extend_from_slice(&query);
     assert_eq!(planned(&imitate(dir.path(), &ascii)), from_table);
+    // A grid with no CRS has no longitude: its route cannot be GeoJSON.
+    ascii.extend_from_slice(&["--geojson", "route.geojson"]);
+    let out = imitate(dir.path(), &ascii);
+    assert_input_error(&out, &["walled.asc", "RFC 7946", "names no EPSG code"]);
+    assert!(!dir.path().join("route.geojson").exists());
 
     let mut negative = values.clone();
     negative[1] = -1.0;

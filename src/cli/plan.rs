@@ -9,6 +9,7 @@ use serde::Serialize;
 use crate::artifact::load_costs;
 use crate::error::{Error, Result};
 use crate::grid::PointReader;
+use crate::io::geojson::{Line, write_lines};
 use crate::io::png::write_png;
 use crate::plan::{Connectivity, GridPlanner, Moves, SearchKind};
 use crate::report::{Preview, render_preview};
@@ -45,6 +46,10 @@ pub struct PlanArgs {
     /// Also draw the path over the costmap into this PNG.
     #[arg(long, value_name = "FILE")]
     pub png: Option<PathBuf>,
+    /// Also write the path as GeoJSON (a LineString in longitude and latitude, RFC 7946)
+    /// into this file, for QGIS or a web map; the map must have a CRS.
+    #[arg(long, value_name = "FILE")]
+    pub geojson: Option<PathBuf>,
     /// Pixels per cell in the PNG.
     #[arg(long, default_value_t = 4)]
     pub scale: u32,
@@ -98,9 +103,17 @@ pub fn run(args: PlanArgs) -> Result<()> {
         )?;
         write_png(png, &picture)?;
     }
+    let cost = route.cost * crate::plan::unit_step_metres(&costs.geo);
+    if let Some(file) = &args.geojson {
+        let line = Line {
+            properties: serde_json::json!({"kind": "plan", "map": name, "cost": cost}),
+            cells: &route.cells,
+        };
+        write_lines(file, &costs.geo, &[line], &args.costmap)?;
+    }
     let output = PlanOutput {
         schema: "imitate.plan/1",
-        cost: route.cost * crate::plan::unit_step_metres(&costs.geo),
+        cost,
         cells: route.cells.iter().map(|c| [c.row, c.col]).collect(),
         crs: points.crs().to_string(),
         world: route

@@ -3,6 +3,7 @@
 pub mod ascii_grid;
 pub mod demo_tables;
 pub mod fs;
+pub mod geojson;
 pub mod geotiff;
 pub mod gpx;
 pub mod hgt;

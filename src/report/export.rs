@@ -10,10 +10,13 @@ use super::legend::with_legend;
 use super::picture::{log_cost_range, paint_costs};
 use crate::error::{Error, Result};
 use crate::grid::{Cell, Grid};
+use crate::io::geojson::{Line, write_lines};
 use crate::io::geotiff::write_geotiff;
 use crate::io::mcap::{foxglove, ros2, writer::write_log};
 use crate::io::png::write_png;
-use crate::plan::shortest_path;
+use crate::io::tables::EpisodePath;
+use crate::plan::{Route, path_cost, shortest_path, unit_step_metres};
+use serde_json::json;
 
 /// The costmap in viridis (north up) with a colour bar labelled in cost on its right
 /// (cheap at the bottom) and a scale bar in metres; colours span the 2nd to 98th
@@ -78,7 +81,7 @@ pub fn export_mcap(
         .iter()
         .map(|c| c.max(f32::MIN_POSITIVE).ln())
         .collect();
-    let examples: Vec<_> = artifact.paths.iter().filter(|p| p.map == map).collect();
+    let examples = demonstrations_and_plans(artifact, map, costs);
     let frame = costs.geo.frame.as_str();
     write_log(path, |log| {
         let occupancy_channel = log.channel(
@@ -127,17 +130,14 @@ pub fn export_mcap(
             ],
         };
         log.write(grid_map_channel, 0, &ros2::grid_map(0, &layers))?;
-        for (k, example) in examples.iter().enumerate() {
+        for (k, (example, plan)) in examples.iter().enumerate() {
             let t = (k as u64 + 1) * 1_000_000_000;
             log.write(
                 demo_channel,
                 t,
                 &ros2::path(t, frame, &centres(costs, &example.cells)),
             )?;
-            let (Some(&start), Some(&goal)) = (example.cells.first(), example.cells.last()) else {
-                continue;
-            };
-            if let Some(route) = shortest_path(costs, start, goal) {
+            if let Some(route) = plan {
                 log.write(
                     plan_channel,
                     t,
@@ -147,4 +147,54 @@ pub fn export_mcap(
         }
         Ok(())
     })
+}
+
+/// Each demonstration on `map` beside the cheapest route between its ends on `costs`
+/// (none where they are not joined).
+fn demonstrations_and_plans<'a>(
+    artifact: &'a CostmapArtifact,
+    map: &str,
+    costs: &Grid<f32>,
+) -> Vec<(&'a EpisodePath, Option<Route>)> {
+    artifact
+        .paths
+        .iter()
+        .filter(|p| p.map == map)
+        .map(|example| {
+            let plan = match (example.cells.first(), example.cells.last()) {
+                (Some(&start), Some(&goal)) => shortest_path(costs, start, goal),
+                _ => None,
+            };
+            (example, plan)
+        })
+        .collect()
+}
+
+/// One map's demonstrations and the plans between their ends as GeoJSON (RFC 7946:
+/// longitude and latitude), for QGIS or a web map beside the exported GeoTIFF: a
+/// LineString per path, its properties `kind` (`demonstration` or `plan`), `episode` and
+/// `cost` (on the learned costmap, cost × metres as `imitate plan` gives it).
+pub fn export_geojson(
+    artifact: &CostmapArtifact,
+    map: &str,
+    costs: &Grid<f32>,
+    path: &Path,
+) -> Result<()> {
+    let examples = demonstrations_and_plans(artifact, map, costs);
+    let metres = unit_step_metres(&costs.geo);
+    let mut lines = Vec::new();
+    for (example, plan) in &examples {
+        let cost = path_cost(costs, &example.cells) * metres;
+        lines.push(Line {
+            properties: json!({"kind": "demonstration", "episode": example.episode, "cost": cost}),
+            cells: &example.cells,
+        });
+        if let Some(route) = plan {
+            lines.push(Line {
+                properties: json!({"kind": "plan", "episode": example.episode, "cost": route.cost * metres}),
+                cells: &route.cells,
+            });
+        }
+    }
+    write_lines(path, &costs.geo, &lines, &artifact.dir)
 }

@@ -1,5 +1,5 @@
 //! `export`: a costmap artifact as files other tools open (PNG with a colour bar,
-//! GeoTIFF, MCAP for Foxglove, a Nav2 map), or a policy artifact as an ONNX model; the
+//! GeoTIFF, MCAP for Foxglove, a Nav2 map, its paths as GeoJSON), or a policy artifact as an ONNX model; the
 //! files are an artifact of their own, so a pipeline reruns an export only when its
 //! costmap or policy changed.
 
@@ -12,7 +12,7 @@ use crate::artifact::{ArtifactBuilder, written_by_imitate};
 use crate::dagger::onnx::write_policy_model;
 use crate::error::{Error, Result};
 use crate::report::costmap_artifact::CostmapArtifact;
-use crate::report::export::{export_geotiff, export_mcap, export_nav2, export_png};
+use crate::report::export::{export_geojson, export_geotiff, export_mcap, export_nav2, export_png};
 
 pub const KIND: &str = "export";
 /// 2: the PNG with a labelled colour bar and a scale bar. 3: GeoTIFFs keep the CRS
@@ -27,6 +27,9 @@ pub enum ExportFormat {
     Mcap,
     /// A ROS 2 navigation map: `<map>.yaml` and `<map>.pgm` for Nav2's map_server.
     Nav2,
+    /// The demonstrations and the plans between their ends as GeoJSON LineStrings in
+    /// longitude and latitude (`<map>.geojson`), for QGIS beside the GeoTIFF.
+    Geojson,
     /// Policies: `policy.onnx`, for onnxruntime.
     Onnx,
 }
@@ -39,7 +42,7 @@ pub struct ExportParams {
     #[serde(rename = "artifact")]
     pub costmap: PathBuf,
     /// The artifact folder to write `<map>.png`, `<map>.tif`, `<map>.mcap`,
-    /// `<map>.yaml` + `<map>.pgm` (or `policy.onnx`) into.
+    /// `<map>.yaml` + `<map>.pgm`, `<map>.geojson` (or `policy.onnx`) into.
     #[arg(long, value_name = "DIR")]
     pub out: PathBuf,
     /// Formats to write (repeat; default: png, geotiff and mcap for a costmap, onnx for
@@ -130,6 +133,11 @@ impl ExportParams {
                     ExportFormat::Mcap => {
                         let file = format!("{name}.mcap");
                         export_mcap(&artifact, name, costs, &out.file(&file, "log")?)?;
+                        file
+                    }
+                    ExportFormat::Geojson => {
+                        let file = format!("{name}.geojson");
+                        export_geojson(&artifact, name, costs, &out.file(&file, "paths")?)?;
                         file
                     }
                     ExportFormat::Nav2 => {
