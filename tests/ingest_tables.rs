@@ -509,3 +509,80 @@ fn gps_tracks_in_gpx_files_land_on_a_utm_dem() {
     assert_input_error(&out, &["track.kml", "root element is <kml>"]);
     assert!(!dir.path().join("nowhere").exists());
 }
+
+/// Routes an expert drew over a map in QGIS, saved as GeoJSON by GDAL's OGR: in the
+/// layer's UTM CRS (a legacy crs member) and as RFC 7946 longitude and latitude, a
+/// MultiLineString among them. Both give the same episodes on the same cells.
+#[test]
+fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("drawn_paths.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let text = |key: &str| info[key].as_str().unwrap().to_string();
+    let raster = text("raster");
+    for kind in ["utm", "wgs84"] {
+        let file = text(kind);
+        let out = imitate(
+            dir.path(),
+            &[
+                "ingest",
+                "--map",
+                &raster,
+                "--geojson",
+                &file,
+                "--out",
+                kind,
+            ],
+        );
+        assert!(out.status.success(), "{kind}: {}", stderr(&out));
+    }
+    let paths = |kind: &str| std::fs::read(dir.path().join(kind).join("paths.parquet")).unwrap();
+    assert_eq!(paths("utm"), paths("wgs84"));
+    let read = imitate::io::tables::read_paths(&dir.path().join("utm/paths.parquet")).unwrap();
+    let names: Vec<&str> = read.iter().map(|p| p.episode.as_str()).collect();
+    let episodes: Vec<String> = serde_json::from_value(info["episodes"].clone()).unwrap();
+    assert_eq!(names, episodes);
+    // The first route's first and last vertices, in cells (rows from the south edge).
+    let first = &read[0].cells;
+    assert_eq!(
+        (first[0], first[first.len() - 1]),
+        (
+            imitate::grid::Cell::new(47, 3),
+            imitate::grid::Cell::new(24, 60)
+        )
+    );
+    // A file with no lines, and a crs member that names no EPSG code, are named.
+    let points = dir.path().join("points.geojson");
+    std::fs::write(
+        &points,
+        r#"{"type":"FeatureCollection","features":[{"type":"Feature","properties":{},"geometry":{"type":"Point","coordinates":[7.7,46.58]}}]}"#,
+    )
+    .unwrap();
+    let odd = dir.path().join("odd.geojson");
+    std::fs::write(
+        &odd,
+        r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"my local grid"}},"features":[]}"#,
+    )
+    .unwrap();
+    for (file, says) in [
+        (&points, "holds no LineString"),
+        (&odd, "names 'my local grid', not an EPSG code"),
+    ] {
+        let out = imitate(
+            dir.path(),
+            &[
+                "ingest",
+                "--map",
+                &raster,
+                "--geojson",
+                file.to_str().unwrap(),
+                "--out",
+                "bad",
+            ],
+        );
+        assert_input_error(&out, &[file.file_name().unwrap().to_str().unwrap(), says]);
+    }
+    assert!(!dir.path().join("bad").exists());
+}

@@ -1,15 +1,177 @@
-//! Paths on a map as GeoJSON (RFC 7946), the vector format QGIS, geojson.io, Leaflet
-//! and every GIS library open: a FeatureCollection of LineStrings through cell centres,
-//! in WGS 84 longitude and latitude, as the RFC requires, moved there from the map's
-//! CRS. Maps with no CRS have no place on the Earth and are refused.
+//! Paths as GeoJSON (RFC 7946), the vector format QGIS, geojson.io, Leaflet and every
+//! GIS library open.
+//!
+//! Written: a FeatureCollection of LineStrings through cell centres, in WGS 84
+//! longitude and latitude as the RFC requires, moved there from the map's CRS (maps with
+//! no CRS have no place on the Earth and are refused).
+//!
+//! Read: the routes an expert drew over imagery in QGIS or geojson.io, or recorded, as
+//! demonstrations: every LineString, and every part of a MultiLineString, an episode
+//! from its first vertex to its last. Coordinates are WGS 84 longitude and latitude, or
+//! the CRS a legacy `crs` member names (QGIS writes one for layers in other CRSs).
 
 use std::path::Path;
 
 use serde_json::{Value, json};
 
 use super::fs::write_bytes_atomic;
-use crate::error::{Error, Result};
-use crate::grid::{Cell, GeoRef, Reprojection};
+use crate::error::{Error, Result, read_input};
+use crate::grid::{Cell, Demonstration, GeoRef, Pose, Reprojection};
+
+/// The CRS of GeoJSON without a `crs` member (RFC 7946).
+pub const GEOJSON_CRS: &str = "EPSG:4326";
+
+/// The demonstrations of a GeoJSON file, and the CRS their coordinates are in.
+pub struct DrawnPaths {
+    pub demonstrations: Vec<Demonstration>,
+    /// `EPSG:<code>`: WGS 84, or what the file's `crs` member names.
+    pub crs: String,
+}
+
+/// The paths of the GeoJSON file at `path`, on the map its features' `map` property
+/// names or else `default_map`. Episodes are named by a feature's `episode` or `name`
+/// property, else `<stem>-NNN` (its index), with `-K` for the parts of a
+/// MultiLineString; they are timed by their vertices' order.
+pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<DrawnPaths> {
+    let problem = |message: String| Error::input(path, message);
+    let document: Value = serde_json::from_slice(&read_input(path)?)
+        .map_err(|e| problem(format!("is not JSON: {e}")))?;
+    let crs = legacy_crs(&document).map_err(problem)?;
+    let features: Vec<&Value> = match document["type"].as_str() {
+        Some("FeatureCollection") => document["features"]
+            .as_array()
+            .ok_or_else(|| problem("is a FeatureCollection without a features list".into()))?
+            .iter()
+            .collect(),
+        Some("Feature") => vec![&document],
+        Some("LineString" | "MultiLineString") => vec![&document],
+        _ => {
+            return Err(problem(
+                "is not GeoJSON: its type is none of FeatureCollection, Feature, LineString, \
+                 MultiLineString"
+                    .into(),
+            ));
+        }
+    };
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let mut demonstrations = Vec::new();
+    let mut passed_over = 0;
+    for (index, feature) in features.iter().enumerate() {
+        let (geometry, properties) = if feature["type"] == "Feature" {
+            (&feature["geometry"], &feature["properties"])
+        } else {
+            (*feature, &Value::Null)
+        };
+        let parts: Vec<&Value> = match geometry["type"].as_str() {
+            Some("LineString") => vec![&geometry["coordinates"]],
+            Some("MultiLineString") => geometry["coordinates"]
+                .as_array()
+                .map(|parts| parts.iter().collect())
+                .unwrap_or_default(),
+            _ => {
+                passed_over += 1;
+                continue;
+            }
+        };
+        let label = |key: &str| match &properties[key] {
+            Value::String(s) if !s.trim().is_empty() => Some(s.trim().to_string()),
+            Value::Number(n) => Some(n.to_string()),
+            _ => None,
+        };
+        let name = label("episode")
+            .or_else(|| label("name"))
+            .unwrap_or_else(|| format!("{stem}-{index:03}"));
+        let map = label("map")
+            .or_else(|| default_map.map(String::from))
+            .ok_or_else(|| {
+                problem(format!(
+                    "feature {index} names no map (a 'map' property) and no default map is \
+                     given (--default-map)"
+                ))
+            })?;
+        for (k, part) in parts.iter().enumerate() {
+            let poses = line_poses(part)
+                .map_err(|why| problem(format!("feature {index} ('{name}'), line {k}: {why}")))?;
+            let episode = if parts.len() == 1 {
+                name.clone()
+            } else {
+                format!("{name}-{k}")
+            };
+            demonstrations.push(Demonstration {
+                episode,
+                map: map.clone(),
+                poses,
+            });
+        }
+    }
+    if passed_over > 0 {
+        tracing::warn!(
+            "{}: {passed_over} feature(s) that are not lines passed over",
+            path.display()
+        );
+    }
+    if demonstrations.is_empty() {
+        return Err(problem(
+            "holds no LineString or MultiLineString: paths are lines".into(),
+        ));
+    }
+    Ok(DrawnPaths {
+        demonstrations,
+        crs,
+    })
+}
+
+/// A line's vertices as poses, timed by their order.
+fn line_poses(coordinates: &Value) -> std::result::Result<Vec<Pose>, String> {
+    let vertices = coordinates
+        .as_array()
+        .ok_or("its coordinates are not a list of positions")?;
+    if vertices.len() < 2 {
+        return Err(format!("{} vertex(es); a path needs 2", vertices.len()));
+    }
+    vertices
+        .iter()
+        .enumerate()
+        .map(|(i, vertex)| {
+            let number = |axis: usize| vertex.get(axis).and_then(Value::as_f64);
+            match (number(0), number(1)) {
+                (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Ok(Pose {
+                    t: i as f64,
+                    x,
+                    y,
+                    yaw: None,
+                }),
+                _ => Err(format!("vertex {i} ({vertex}) is not a position [x, y]")),
+            }
+        })
+        .collect()
+}
+
+/// The CRS of the coordinates: WGS 84, or the EPSG code of a legacy `crs` member
+/// (`urn:ogc:def:crs:EPSG::32632`, `EPSG:32632`; OGC's CRS84 is WGS 84).
+fn legacy_crs(document: &Value) -> std::result::Result<String, String> {
+    let Some(name) = document["crs"]["properties"]["name"].as_str() else {
+        return Ok(GEOJSON_CRS.to_string());
+    };
+    let upper = name.to_ascii_uppercase();
+    if upper.ends_with("CRS84") || upper.ends_with("CRS:84") {
+        return Ok(GEOJSON_CRS.to_string());
+    }
+    let code = upper
+        .rsplit_once("EPSG:")
+        .map(|(_, code)| code.trim_start_matches(':'))
+        .and_then(|code| code.rsplit(':').next())
+        .filter(|code| !code.is_empty() && code.bytes().all(|b| b.is_ascii_digit()));
+    match code {
+        Some(code) => Ok(format!("EPSG:{code}")),
+        None => Err(format!(
+            "its crs member names '{name}', not an EPSG code (urn:ogc:def:crs:EPSG::<code>)"
+        )),
+    }
+}
 
 /// One path: its cells, and what the feature's properties say of it.
 pub struct Line<'a> {
@@ -60,6 +222,56 @@ pub fn write_lines(path: &Path, geo: &GeoRef, lines: &[Line], source: &Path) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn crs_members_name_epsg_codes_or_wgs84() {
+        let crs = |name: &str| {
+            legacy_crs(&json!({"crs": {"type": "name", "properties": {"name": name}}}))
+        };
+        assert_eq!(crs("urn:ogc:def:crs:EPSG::32632").unwrap(), "EPSG:32632");
+        assert_eq!(crs("urn:ogc:def:crs:EPSG:6.6:2263").unwrap(), "EPSG:2263");
+        assert_eq!(crs("EPSG:3857").unwrap(), "EPSG:3857");
+        assert_eq!(crs("urn:ogc:def:crs:OGC:1.3:CRS84").unwrap(), GEOJSON_CRS);
+        assert_eq!(legacy_crs(&json!({})).unwrap(), GEOJSON_CRS);
+        assert!(crs("urn:ogc:def:crs:EPSG::").is_err());
+    }
+
+    #[test]
+    fn lines_become_episodes_named_by_their_properties() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("drawn.geojson");
+        let write = |value: Value| std::fs::write(&path, value.to_string()).unwrap();
+        write(json!({"type": "LineString", "coordinates": [[0, 0, 5], [3, 4, 6]]}));
+        let bare = read_geojson_paths(&path, Some("site")).unwrap();
+        assert_eq!(bare.demonstrations[0].episode, "drawn-000");
+        assert_eq!(bare.demonstrations[0].poses[1].x, 3.0);
+        write(json!({"type": "FeatureCollection", "features": [
+            {"type": "Feature", "properties": {"episode": 7, "map": "other"},
+             "geometry": {"type": "MultiLineString", "coordinates": [[[0, 0], [1, 1]], [[1, 1], [2, 0]]]}},
+            {"type": "Feature", "properties": null, "geometry": {"type": "Point", "coordinates": [0, 0]}},
+        ]}));
+        let drawn = read_geojson_paths(&path, Some("site")).unwrap();
+        let names: Vec<(&str, &str)> = drawn
+            .demonstrations
+            .iter()
+            .map(|d| (d.episode.as_str(), d.map.as_str()))
+            .collect();
+        assert_eq!(names, [("7-0", "other"), ("7-1", "other")]);
+        write(
+            json!({"type": "Feature", "properties": {}, "geometry": {"type": "LineString", "coordinates": [[0, 0]]}}),
+        );
+        let why = read_geojson_paths(&path, Some("site"))
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            why.contains("feature 0 ('drawn-000'), line 0: 1 vertex(es)"),
+            "{why}"
+        );
+        write(json!({"type": "LineString", "coordinates": [[0, 0], [1, 1]]}));
+        let why = read_geojson_paths(&path, None).err().unwrap().to_string();
+        assert!(why.contains("no default map"), "{why}");
+    }
 
     #[test]
     fn cell_centres_of_a_utm_map_go_out_as_longitude_and_latitude() {

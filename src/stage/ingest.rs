@@ -1,8 +1,8 @@
 //! `ingest`: maps and demonstrations in, a dataset out: the maps, the demonstrations,
 //! and each demonstration rasterised into a connected 8-neighbour cell path. Maps come
 //! from Parquet tables, GeoTIFF rasters, MovingAI `.map` files or the logs' map topic;
-//! demonstrations from a Parquet table, LeRobot datasets, GPS tracks (GPX) or robot
-//! logs (MCAP).
+//! demonstrations from a Parquet table, LeRobot datasets, GPS tracks (GPX), drawn paths
+//! (GeoJSON) or robot logs (MCAP).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -19,6 +19,7 @@ use crate::grid::{
 };
 use crate::io::ascii_grid::ascii_grid_sidecars;
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
+use crate::io::geojson::read_geojson_paths;
 use crate::io::gpx::{GPX_CRS, read_gpx};
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
@@ -91,6 +92,15 @@ pub struct IngestParams {
     #[arg(long = "gpx", value_name = "FILE", num_args = 1..)]
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub gpx: Vec<PathBuf>,
+    /// Paths as GeoJSON LineStrings (routes an expert drew over imagery in QGIS or
+    /// geojson.io, or recorded): every LineString, and every part of a
+    /// MultiLineString, an episode from its first vertex to its last, on the map its
+    /// `map` property names or the default map, named by its `episode` or `name`
+    /// property. Coordinates in WGS 84 longitude and latitude (RFC 7946) or the CRS a
+    /// `crs` member names, moved into the map's CRS. Several after one --geojson.
+    #[arg(long = "geojson", value_name = "FILE", num_args = 1..)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub geojson: Vec<PathBuf>,
     /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
     /// is read from observation.state elements named x, y (yaw) unless --column says.
     #[arg(long = "lerobot", value_name = "DIR", num_args = 1..)]
@@ -482,6 +492,17 @@ impl IngestParams {
             reproject_into_maps(&mut tracks, GPX_CRS, maps, "GPX tracks (WGS84)")?;
             demos.extend(tracks);
         }
+        for path in &self.geojson {
+            let drawn = read_geojson_paths(path, default_map)?;
+            let mut paths: Vec<_> = drawn
+                .demonstrations
+                .into_iter()
+                .map(|d| (d, path.clone()))
+                .collect();
+            let what = format!("GeoJSON paths ({})", drawn.crs);
+            reproject_into_maps(&mut paths, &drawn.crs, maps, &what)?;
+            demos.extend(paths);
+        }
         Ok(demos)
     }
 
@@ -555,6 +576,7 @@ impl StageParams for IngestParams {
         deps.extend(self.logs.iter().cloned());
         deps.extend(self.lerobot.iter().cloned());
         deps.extend(self.gpx.iter().cloned());
+        deps.extend(self.geojson.iter().cloned());
         deps
     }
 
@@ -585,10 +607,11 @@ impl IngestParams {
             && self.logs.is_empty()
             && self.lerobot.is_empty()
             && self.gpx.is_empty()
+            && self.geojson.is_empty()
         {
             return Err(Error::Usage(
                 "ingest needs demonstrations: a Parquet table, LeRobot datasets, GPS tracks \
-                 (GPX) or logs (MCAP)"
+                 (GPX), paths (GeoJSON) or logs (MCAP)"
                     .into(),
             ));
         }
@@ -656,7 +679,9 @@ impl IngestParams {
             let cells = rasterize(&map.geo, &demo.xy()).map_err(|e| match e {
                 PathError::OffMap { .. } => {
                     let [x0, y0, x1, y1] = map.geo.bounds();
-                    let moved = self.demonstrations_crs.is_some() || self.gpx.contains(source);
+                    let moved = self.demonstrations_crs.is_some()
+                        || self.gpx.contains(source)
+                        || self.geojson.contains(source);
                     let hint = off_map_hint(&map.geo, demo, moved);
                     problem(format!(
                         "{e} '{}' (x {x0}..{x1}, y {y0}..{y1}){hint}",

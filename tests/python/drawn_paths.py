@@ -1,0 +1,48 @@
+"""Routes an expert drew over a map, saved as QGIS saves a line layer: GeoJSON written
+by GDAL's OGR (pyogrio), once in the layer's CRS (UTM 32N, with the legacy crs member
+OGR writes) and once as RFC 7946 asks (WGS 84 longitude and latitude, 7 decimals), the
+last route a MultiLineString of two strokes. Beside them a DEM in the same UTM zone
+(rasterio). Prints one JSON line: the files and the routes' names in order."""
+
+import json
+import os
+import sys
+
+import numpy as np
+import pyogrio.raw
+import rasterio
+import shapely
+from rasterio.transform import from_origin
+
+out = sys.argv[1]
+west, north, cell = 400000.0, 5160000.0, 10.0
+height, width = 50, 70
+dem = np.fromfunction(lambda r, c: 900.0 + 4.0 * r + 15.0 * np.cos(c / 6.0), (height, width))
+raster = os.path.join(out, "site.tif")
+with rasterio.open(raster, "w", driver="GTiff", width=width, height=height, count=1,
+                   dtype="float32", crs="EPSG:32632",
+                   transform=from_origin(west, north, cell, cell)) as dst:
+    dst.write(dem.astype("float32")[None])
+
+
+def at(row, col):
+    """A point inside cell (row from the north, col), off its centre."""
+    return west + (col + 0.3) * cell, north - (row + 0.6) * cell
+
+
+routes = [
+    ("north-east", shapely.LineString([at(2, 3), at(20, 30), at(25, 60)])),
+    ("valley", shapely.LineString([at(40, 2), at(40, 66)])),
+    ("two strokes", shapely.MultiLineString([[at(45, 5), at(30, 25)], [at(30, 25), at(10, 50)]])),
+]
+names = np.array([name for name, _ in routes], dtype=object)
+geometry = np.array([shapely.to_wkb(line) for _, line in routes], dtype=object)
+files = {}
+for kind, options in [("utm", {}), ("wgs84", {"RFC7946": "YES"})]:
+    path = os.path.join(out, f"routes_{kind}.geojson")
+    pyogrio.raw.write(path, geometry=geometry, field_data=[names], fields=["name"],
+                      crs="EPSG:32632", driver="GeoJSON", geometry_type="Unknown",
+                      layer_options=options)
+    files[kind] = path
+print(json.dumps({"raster": raster, **files,
+                  "episodes": ["north-east", "valley", "two strokes-0", "two strokes-1"]}))
