@@ -11,7 +11,7 @@ data stay no-data in the map the tool reads, cost the teacher 12 and hold no pat
 ends), writes three quarters of them as a demonstrations table of world coordinates,
 and runs
 
-    imitate ingest --map MAP.tif --demonstrations train.parquet --out ds
+    imitate ingest --map MAP.tif --demonstrations train.parquet --out ds   (--geojson train.geojson with --drawn)
     imitate features --dataset ds --bank auto --out fs
     imitate learch --dataset ds --features fs --out costmap [LEARCH_ARGS]
     imitate export costmap --format geotiff --out export
@@ -22,6 +22,7 @@ teacher path) and the share of planned cells within 2 cells of the teacher's pat
 
     python3 benches/terrain_cli.py IMITATE RASTER WORKDIR [--teacher bright|contrast]
         [--cells 160] [--paths 60] [--seed 7] [--in-tool] [--jitter CELLS] [--poses-per-cell K]
+        [--drawn K]
         [-- LEARCH_ARGS...]
 
 With `--in-tool` the tool is given the raster as it is and coarsens it itself
@@ -29,7 +30,9 @@ With `--in-tool` the tool is given the raster as it is and coarsens it itself
 (rasterio's `reproject` to the transform scaled by the factor, `average`), which is the
 grid the tool's costmap comes back on. With `--jitter CELLS` the demonstrations' poses
 wander off the teacher's cells by a drift of that many cells (correlated over about
-five poses), as a real track does.
+five poses), as a real track does. With `--drawn K` the demonstrations are routes drawn
+by hand instead: GeoJSON LineStrings in longitude and latitude with a vertex every K
+cells of the teacher's path (`ingest --geojson`), as someone clicks a route in QGIS.
 
 Needs numpy, pyarrow and rasterio (`scripts/python-deps.sh` installs them).
 """
@@ -48,6 +51,7 @@ import rasterio
 from rasterio.enums import Resampling
 from rasterio.transform import Affine
 from rasterio.warp import reproject
+from rasterio.warp import transform as warp_transform
 
 
 def resampled(raster, cells, out, whole_blocks=False):
@@ -207,6 +211,11 @@ def main():
     parser.add_argument("--in-tool", action="store_true")
     parser.add_argument("--jitter", type=float, default=0.0,
                         help="poses off the teacher's cells by a drift of this many cells")
+    parser.add_argument("--drawn", type=int, default=0, metavar="K",
+                        help="give the demonstrations as routes drawn by hand: GeoJSON "
+                             "LineStrings in longitude and latitude (RFC 7946) with a vertex "
+                             "every K cells of the teacher's path and at its ends, read with "
+                             "ingest --geojson")
     parser.add_argument("--poses-per-cell", type=int, default=1,
                         help="poses logged per step of the path, on straight lines between "
                              "its cells, each path a fixed sub-cell offset off their centres "
@@ -233,6 +242,7 @@ def main():
         paths.append(dijkstra(cost, dx, dy, a, b))
     held = set(range(3, args.paths, 4))
     rows = {"episode": [], "map": [], "t": [], "x": [], "y": []}
+    drawn = []
     for i, path in enumerate(paths):
         if i in held:
             continue
@@ -244,6 +254,14 @@ def main():
             centres = np.stack([np.interp(steps, np.arange(len(path)), centres[:, a])
                                 for a in (0, 1)], axis=1)
             centres += rng.uniform(-0.3, 0.3, size=2)
+        if args.drawn:
+            vertices = sorted(set(range(0, len(centres), args.drawn)) | {len(centres) - 1})
+            xs, ys = zip(*(transform * tuple(centres[k]) for k in vertices))
+            lons, lats = warp_transform(crs, "EPSG:4326", list(xs), list(ys))
+            drawn.append({"type": "Feature", "properties": {"name": f"teacher-{i:03}"},
+                          "geometry": {"type": "LineString",
+                                       "coordinates": [list(p) for p in zip(lons, lats)]}})
+            continue
         for t, (col, row) in enumerate(centres):
             col = min(max(col, 0.01), w - 0.01)
             row = min(max(row, 0.01), h - 0.01)
@@ -253,8 +271,13 @@ def main():
             rows["t"].append(float(t))
             rows["x"].append(x)
             rows["y"].append(y)
-    demonstrations = os.path.join(args.workdir, "train.parquet")
-    pq.write_table(pa.table(rows), demonstrations)
+    if args.drawn:
+        with open(os.path.join(args.workdir, "train.geojson"), "w") as f:
+            json.dump({"type": "FeatureCollection", "features": drawn}, f)
+        given = ["--geojson", "train.geojson"]
+    else:
+        pq.write_table(pa.table(rows), os.path.join(args.workdir, "train.parquet"))
+        given = ["--demonstrations", "train.parquet"]
 
     def imitate(*cli):
         subprocess.run([args.imitate, *cli], cwd=args.workdir, check=True,
@@ -266,8 +289,7 @@ def main():
         coarsen = ["--cells", str(args.cells)]
     else:
         coarsen = []
-    imitate("ingest", "--map", f"{name}.tif", "--demonstrations", "train.parquet",
-            "--out", "ds", *coarsen)
+    imitate("ingest", "--map", f"{name}.tif", *given, "--out", "ds", *coarsen)
     imitate("features", "--dataset", "ds", "--bank", "auto", "--out", "fs")
     imitate("learch", "--dataset", "ds", "--features", "fs", "--out", "costmap", *extra)
     imitate("export", "costmap", "--format", "geotiff", "--out", "export")
@@ -287,7 +309,8 @@ def main():
         planned += len(plan)
     print(json.dumps({
         "raster": os.path.basename(args.raster), "teacher": args.teacher,
-        "learch_args": extra, "held_out": len(ratios),
+        "learch_args": extra, "drawn": args.drawn, "jitter": args.jitter,
+        "held_out": len(ratios),
         "mean_cost_ratio": sum(ratios) / len(ratios), "max_cost_ratio": max(ratios),
         "within_radius": near / planned,
     }))

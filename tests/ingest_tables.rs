@@ -553,6 +553,18 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
             imitate::grid::Cell::new(24, 60)
         )
     );
+    // LEARCH takes them as routes of sparse vertices, re-planned between them.
+    for command in [
+        "features --dataset utm --bank auto --out fs",
+        "learch --dataset utm --features fs --out costmap --rounds 4",
+    ] {
+        let out = imitate(dir.path(), &command.split(' ').collect::<Vec<_>>());
+        assert!(out.status.success(), "{command}: {}", stderr(&out));
+    }
+    let metrics = std::fs::read_to_string(dir.path().join("costmap/metrics.json")).unwrap();
+    let metrics: serde_json::Value = serde_json::from_str(&metrics).unwrap();
+    assert_eq!(metrics["drawn_routes"], 4);
+
     // A file with no lines, and a crs member that names no EPSG code, are named.
     let points = dir.path().join("points.geojson");
     std::fs::write(

@@ -130,6 +130,7 @@ fn quickstart() -> Result<Terrain> {
                 id: d.episode.clone(),
                 map,
                 path: rasterize(&world.maps[map].geo, &d.xy()).expect("its own path"),
+                waypoints: Vec::new(),
             }
         })
         .collect();
@@ -255,6 +256,7 @@ pub(super) fn teacher_paths(
                 id: format!("{prefix}-{:03}", examples.len()),
                 map: 0,
                 path: route.cells,
+                waypoints: Vec::new(),
             });
         }
     }

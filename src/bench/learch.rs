@@ -112,6 +112,7 @@ pub fn run(args: LearchBenchArgs) -> Result<()> {
                 id: d.episode.clone(),
                 map,
                 path: rasterize(&world.maps[map].geo, &d.xy()).expect("the world's own path"),
+                waypoints: Vec::new(),
             }
         })
         .collect();

@@ -818,6 +818,7 @@ mod tests {
             path: (5..75)
                 .map(|col| crate::grid::Cell::new(row, col))
                 .collect(),
+            waypoints: Vec::new(),
         };
         let paths = vec![straight(20), straight(40)];
         let same = wandering(paths.clone(), &geo, 0.0, 7).unwrap();

@@ -14,7 +14,7 @@ pub use learch::{
     OFF_TRACK_PREMIUM, PreparedExamples, Progress, RemoteRounds, RoundMetrics, StepSchedule,
     TREE_BINS, TREE_LEAF_L2, TrainedLearch, TrainedMember, WeakLearnerKind, choose_corridor,
     default_rounds_and_step, evaluate as learch_evaluate, fit_round, hold_out_every, train,
-    train_with,
+    train_with, waypoints_of,
 };
 pub use metrics::{AGREEMENT_RADIUS, Agreement, ExampleEvaluation, evaluate_example, summarize};
 pub use model::{CostLink, LogCostModel, TreeSums, WeakLearner};

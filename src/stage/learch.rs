@@ -2,6 +2,7 @@
 //! artifact out: the learned cost function, the evaluated costmap of every map,
 //! previews, and metrics on held-out demonstrations.
 
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
 use rand::SeedableRng;
@@ -14,7 +15,8 @@ use rayon::prelude::*;
 
 use crate::artifact::{ArtifactBuilder, References, read_manifest};
 use crate::error::{Error, Result, first_error_in_order};
-use crate::grid::{FeatureStack, Grid};
+use crate::grid::{Cell, FeatureStack, Grid};
+use crate::io::demo_tables::read_demonstrations;
 use crate::io::fs::{to_json_bytes, write_bytes_atomic};
 use crate::io::png::write_png;
 use crate::io::tables::{
@@ -22,7 +24,7 @@ use crate::io::tables::{
 };
 use crate::ioc::{
     self, Corridor, Example, ExampleEvaluation, GridMethod, LearchConfig, LossKind, StepSchedule,
-    TrainedLearch, WeakLearnerKind,
+    TrainedLearch, WeakLearnerKind, waypoints_of,
 };
 use crate::learn::TreeConfig;
 use crate::report::{Preview, render_preview};
@@ -39,8 +41,9 @@ pub const KIND: &str = "learch";
 /// (a horizon that binds on a dear map) in the log domain. 15: MaxEnt's trees are
 /// fitted on one point per cell (their sums rounded in another order). 16: metrics.json
 /// says which corridor the model was trained with (`--corridor auto`). 17: a
-/// corridor prices the cells off the track 5 % dearer.
-const VERSION: u32 = 17;
+/// corridor prices the cells off the track 5 % dearer. 18: routes given by sparse
+/// vertices (drawn by hand) are re-planned between them every round.
+const VERSION: u32 = 18;
 
 mod defaults {
     use crate::ioc::Corridor;
@@ -436,6 +439,16 @@ impl LearchParams {
             .next()
             .map(|f| self.dataset.join(&f.path))
             .ok_or_else(|| Error::input(&self.dataset, "dataset lists no 'paths' file"))?;
+        // Routes given by sparse vertices (drawn by hand) keep them: LEARCH re-plans
+        // the stretches between them.
+        let vertices: BTreeMap<String, Vec<(f64, f64)>> =
+            match dataset.files_with_role("demonstrations").next() {
+                Some(file) => read_demonstrations(&self.dataset.join(&file.path))?
+                    .into_iter()
+                    .map(|d| (d.episode.clone(), d.xy()))
+                    .collect(),
+                None => BTreeMap::new(),
+            };
         let mut examples = Vec::new();
         for p in read_paths(&paths_file)? {
             let map = map_names.iter().position(|n| *n == p.map).ok_or_else(|| {
@@ -457,9 +470,14 @@ impl LearchParams {
                     ),
                 ));
             }
+            let vertex_cells: Vec<Cell> = vertices
+                .get(&p.episode)
+                .map(|xy| xy.iter().filter_map(|&(x, y)| geo.cell_of(x, y)).collect())
+                .unwrap_or_default();
             examples.push(Example {
                 id: p.episode,
                 map,
+                waypoints: waypoints_of(&p.cells, &vertex_cells),
                 path: p.cells,
             });
         }
@@ -655,6 +673,8 @@ impl LearchParams {
             "rounds": trained.rounds,
             "members": trained.members,
             "corridor": corridor,
+            // Demonstrations given by sparse vertices, re-planned between them.
+            "drawn_routes": all.iter().filter(|e| !e.waypoints.is_empty()).count(),
             "training": { "summary": training_summary, "examples": train_eval },
             "validation": { "summary": ioc::summarize(validation_eval), "examples": validation_eval },
             "holdout": { "summary": holdout_summary, "examples": holdout_eval },
@@ -857,6 +877,7 @@ mod tests {
             id: format!("e{i}"),
             map: 0,
             path: vec![],
+            waypoints: Vec::new(),
         };
         let (t1, h1) = split((0..10).map(ex).collect(), 0.3, 4);
         let (t2, h2) = split((0..10).map(ex).collect(), 0.3, 4);

@@ -396,7 +396,11 @@ fn planned_gradient(
 ) -> Result<ExampleStatistics, String> {
     let loss = config.loss;
     let geo = &stack.geo;
-    let corridor = corridor::corridor_path(costs, &ex.path, config.corridor);
+    let corridor = if ex.waypoints.is_empty() {
+        corridor::corridor_path(costs, &ex.path, config.corridor)
+    } else {
+        corridor::waypoint_path(costs, &ex.path, &ex.waypoints, config.corridor)
+    };
     let demonstration: &[Cell] = corridor.as_deref().unwrap_or(&ex.path);
     // μ: how often the demonstration visits each cell.
     let mut visits: BTreeMap<usize, i64> = BTreeMap::new();

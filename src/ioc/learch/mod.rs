@@ -43,7 +43,7 @@ use serde::{Deserialize, Serialize};
 
 pub use corridor::{
     AUTO_CORRIDOR_BELOW, AUTO_CORRIDOR_CELLS, Corridor, CorridorChoice, OFF_TRACK_PREMIUM,
-    choose_corridor,
+    choose_corridor, waypoints_of,
 };
 pub use map_step::{ExampleStatistics, PreparedExamples};
 use reduce_step::members_to_train;
@@ -202,6 +202,11 @@ pub struct Example {
     /// Index into the maps / feature stacks the trainer is given.
     pub map: usize,
     pub path: CellPath,
+    /// For a route given by sparse vertices (drawn by hand): the indices in `path` of
+    /// its vertices' cells, the first and the last among them. Between two vertices
+    /// the path is only their straight line, not what the demonstrator meant: each
+    /// round re-plans it ([`corridor::waypoint_path`]). Empty for tracks.
+    pub waypoints: Vec<usize>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -902,6 +907,7 @@ mod tests {
                     id: d.episode.clone(),
                     map,
                     path,
+                    waypoints: Vec::new(),
                 }
             })
             .collect();
@@ -1254,6 +1260,7 @@ mod tests {
                     id: format!("teacher-{k}"),
                     map: 0,
                     path: route.cells,
+                    waypoints: Vec::new(),
                 }
             })
             .collect();
