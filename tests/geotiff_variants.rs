@@ -1404,3 +1404,146 @@ fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
         assert!(dir.path().join(format!("ds/maps/{map}.parquet")).is_file());
     }
 }
+
+/// Mosaics and band stacks as gdalbuildvrt writes them (GDAL's own GDALBuildVRT): each
+/// VRT reads to the grid and values GDAL reads it to (tiles that overlap with voids, a
+/// missing tile, SRTM tiles, bands of three types, a coarser cell, a VRT of a VRT), and
+/// ingest takes one as a map. A VRT that points at nothing readable is refused by name.
+#[test]
+fn gdal_virtual_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("vrt_mosaic.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (tif, vrt) = (
+            PathBuf::from(pair[0].as_str().unwrap()),
+            PathBuf::from(pair[1].as_str().unwrap()),
+        );
+        let what = vrt.display();
+        let gdal = imitate::io::read_raster(&tif, "a").unwrap();
+        let ours = imitate::io::read_raster(&vrt, "a").unwrap_or_else(|e| panic!("{what}: {e}"));
+        assert_eq!(gdal.geo.frame, ours.geo.frame, "{what}");
+        assert_eq!(
+            (gdal.geo.width, gdal.geo.height),
+            (ours.geo.width, ours.geo.height),
+            "{what}"
+        );
+        for (x, y) in gdal.geo.bounds().into_iter().zip(ours.geo.bounds()) {
+            assert!((x - y).abs() <= 1e-9 * x.abs().max(1.0), "{what}: {x} {y}");
+        }
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{what}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let differ = a
+                .values
+                .iter()
+                .zip(&b.values)
+                .filter(|(x, y)| !(x == y || (x.is_nan() && y.is_nan())))
+                .count();
+            assert_eq!(differ, 0, "{what} {}: cells differ from GDAL's", b.name);
+        }
+    }
+    // The mosaic has voids and a tile's worth of nodata; the SRTM pair is one grid.
+    let mosaic = imitate::io::read_raster(&dir.path().join("mosaic.vrt"), "m").unwrap();
+    let voids = mosaic.layers[0]
+        .values
+        .iter()
+        .filter(|v| v.is_nan())
+        .count();
+    assert!(voids > 60 * 50, "{voids}");
+    let srtm = imitate::io::read_raster(&dir.path().join("srtm.vrt"), "s").unwrap();
+    assert_eq!((srtm.geo.width, srtm.geo.height), (2401, 1201));
+    assert!(srtm.geo.degrees);
+    // What reading a VRT of a VRT depends on, so that a changed tile makes it stale.
+    let inputs = imitate::io::raster_sidecars(&dir.path().join("nested.vrt"));
+    for file in [
+        "mosaic.vrt",
+        "tiles/dem0.tif",
+        "tiles/dem1.tif",
+        "tiles/dem2.tif",
+    ] {
+        assert!(
+            inputs.contains(&dir.path().join(file)),
+            "{file}: {inputs:?}"
+        );
+    }
+
+    // A route across the tiles' seam at 8° E.
+    std::fs::write(
+        dir.path().join("route.geojson"),
+        r#"{"type": "FeatureCollection", "features": [{"type": "Feature",
+            "properties": {"name": "across-the-seam"}, "geometry": {"type": "LineString",
+            "coordinates": [[7.9, 46.5], [8.0, 46.52], [8.1, 46.5]]}}]}"#,
+    )
+    .unwrap();
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--map",
+            "srtm.vrt",
+            "--geojson",
+            "route.geojson",
+            "--out",
+            "ds",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(dir.path().join("ds/maps/srtm.parquet").is_file());
+
+    // A source that is not there, one in a GDAL virtual file system, a warped VRT.
+    let tiles = dir.path().join("tiles");
+    let mosaic_xml = std::fs::read_to_string(dir.path().join("mosaic.vrt")).unwrap();
+    std::fs::write(
+        dir.path().join("gone.vrt"),
+        mosaic_xml.replace("tiles/dem1.tif", "tiles/dem9.tif"),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("zipped.vrt"),
+        mosaic_xml.replace(
+            "<SourceFilename relativeToVRT=\"1\">tiles/dem1.tif",
+            "<SourceFilename relativeToVRT=\"0\">/vsizip/tiles.zip/dem1.tif",
+        ),
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("warped.vrt"),
+        mosaic_xml.replace("<VRTDataset ", "<VRTDataset subClass=\"VRTWarpedDataset\" "),
+    )
+    .unwrap();
+    for (vrt, needles) in [
+        (
+            "gone.vrt",
+            &["gone.vrt", "band 1: source 2", "dem9.tif"][..],
+        ),
+        (
+            "zipped.vrt",
+            &["zipped.vrt", "source 2", "/vsizip/", "virtual file system"],
+        ),
+        (
+            "warped.vrt",
+            &["warped.vrt", "VRTWarpedDataset", "gdalwarp"],
+        ),
+    ] {
+        let out = imitate(
+            dir.path(),
+            &[
+                "ingest",
+                "--map",
+                vrt,
+                "--geojson",
+                "route.geojson",
+                "--out",
+                "bad",
+            ],
+        );
+        assert_input_error(&out, needles);
+        assert!(!dir.path().join("bad").exists(), "{vrt}");
+    }
+    assert!(
+        tiles.join("dem0.tif").is_file(),
+        "the tiles are the user's: left as they were"
+    );
+}

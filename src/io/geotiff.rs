@@ -34,13 +34,14 @@ mod grey;
 mod jxl;
 mod lerc;
 mod mask;
-mod metadata;
+pub(crate) mod metadata;
 mod pam;
 mod projection;
 mod samples;
 mod unpack;
 mod webp;
 
+pub(crate) use pam::dataset_georeference;
 pub use pam::{sidecar, sidecars, wkt_geokeys};
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
@@ -133,6 +134,12 @@ const MAX_DECODED_BYTES: usize = 16 << 30;
 
 /// Reads the GeoTIFF at `path` as the map `name`.
 pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
+    read_geotiff_rows(path, name).map(|(map, _)| map)
+}
+
+/// Reads the GeoTIFF at `path` as the map `name`, with whether the file's rows ran from
+/// the north (a north-up raster's: ours run from the south, so the reader turned them).
+pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let mut bytes = read_input(path)?;
     // A palette image's values are the codes of its colours' classes (land cover):
     // its layers are declared classes.
@@ -423,11 +430,12 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
             nodata.map_or("NaN".into(), |n| n.to_string())
         )));
     }
-    Ok(Map {
+    let map = Map {
         name: name.to_string(),
         geo,
         layers,
-    })
+    };
+    Ok((map, north_up))
 }
 
 /// Where a raster's cells lie, as GDAL gives it: its geotransform and its CRS as

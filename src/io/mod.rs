@@ -15,31 +15,53 @@ pub mod nav2;
 pub mod parquet_check;
 pub mod png;
 pub mod tables;
+pub mod vrt;
 
 use std::path::Path;
 
 use crate::error::{Error, Result};
 use crate::grid::Map;
 
-/// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile.
-pub const RASTER_EXTENSIONS: [&str; 4] = ["tif", "tiff", "asc", "hgt"];
+/// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
+/// GDAL virtual raster.
+pub const RASTER_EXTENSIONS: [&str; 5] = ["tif", "tiff", "asc", "hgt", "vrt"];
+
+fn extension_of(path: &Path) -> String {
+    path.extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default()
+}
 
 /// The raster at `path` as map `name`, read by its extension's reader.
 pub fn read_raster(path: &Path, name: &str) -> Result<Map> {
-    let extension = path
-        .extension()
-        .map(|e| e.to_string_lossy().to_ascii_lowercase())
-        .unwrap_or_default();
-    match extension.as_str() {
-        "asc" => ascii_grid::read_ascii_grid(path, name),
-        "hgt" => hgt::read_hgt(path, name),
-        "tif" | "tiff" => geotiff::read_geotiff(path, name),
+    read_raster_rows(path, name).map(|(map, _)| map)
+}
+
+/// The raster at `path` as map `name`, with whether the file's rows ran from the north
+/// (the readers turn them to run from the south): what a VRT's windows count in.
+fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+    match extension_of(path).as_str() {
+        "asc" => ascii_grid::read_ascii_grid(path, name).map(|map| (map, true)),
+        "hgt" => hgt::read_hgt(path, name).map(|map| (map, true)),
+        "tif" | "tiff" => geotiff::read_geotiff_rows(path, name),
+        "vrt" => vrt::read_vrt_rows(path, name, 0),
         other => Err(Error::input(
             path,
             format!(
-                "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc) or SRTM tiles \
-                 (.hgt), not '.{other}'"
+                "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
+                 (.hgt) or GDAL virtual rasters (.vrt), not '.{other}'"
             ),
         )),
+    }
+}
+
+/// The files beside or behind a raster that reading it depends on: a GeoTIFF's or an
+/// ASCII grid's sidecars, a VRT's sources and theirs.
+pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
+    match extension_of(path).as_str() {
+        "asc" => ascii_grid::ascii_grid_sidecars(path),
+        "vrt" => vrt::vrt_inputs(path),
+        "hgt" => Vec::new(),
+        _ => geotiff::sidecars(path),
     }
 }

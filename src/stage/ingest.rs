@@ -17,7 +17,6 @@ use crate::grid::{
     Demonstration, Edges, GeoRef, Layer, Map, PathError, Reprojection, check_map_name, coarsened,
     factor_for_cells, factor_for_metres, rasterize, resampled_layers,
 };
-use crate::io::ascii_grid::ascii_grid_sidecars;
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geojson::read_geojson_paths;
 use crate::io::gpx::{GPX_CRS, read_gpx};
@@ -26,7 +25,7 @@ use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
 use crate::io::nav2::read_nav2_map;
 use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, write_paths};
-use crate::io::{RASTER_EXTENSIONS, read_raster};
+use crate::io::{RASTER_EXTENSIONS, raster_sidecars, read_raster};
 
 pub const KIND: &str = "ingest";
 /// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
@@ -52,7 +51,8 @@ fn default_gap() -> f64 {
 pub struct IngestParams {
     /// Map layers: a Parquet `map/1` table, a GeoTIFF (.tif, .tiff; bands become layers
     /// band1, band2, ...), an Esri ASCII grid (.asc, its CRS from the .prj beside it;
-    /// layer band1), an SRTM tile (.hgt; layer elevation) or a MovingAI .map (layer
+    /// layer band1), an SRTM tile (.hgt; layer elevation), a GDAL virtual raster (.vrt:
+    /// gdalbuildvrt's mosaics of tiles and stacks of bands) or a MovingAI .map (layer
     /// `blocked`); several after one --map (as a shell glob gives them) or --map
     /// repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
@@ -186,7 +186,8 @@ fn load_map(path: &Path) -> Result<Map> {
             path,
             format!(
                 "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
-                 (SRTM tile), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
+                 (SRTM tile), .vrt (GDAL virtual raster), .map (MovingAI) or .yaml (Nav2) \
+                 files, not '.{other}'"
             ),
         )),
     }
@@ -558,19 +559,7 @@ impl StageParams for IngestParams {
         let mut deps: Vec<PathBuf> = self.maps.iter().cloned().chain(stacked).collect();
         // A GeoTIFF's sidecars can georeference it or declare its bands classes:
         // adding, changing or removing one makes the maps stale.
-        let sidecars: Vec<PathBuf> = deps
-            .iter()
-            .flat_map(|map| {
-                let ascii = map
-                    .extension()
-                    .is_some_and(|e| e.eq_ignore_ascii_case("asc"));
-                if ascii {
-                    ascii_grid_sidecars(map)
-                } else {
-                    crate::io::geotiff::sidecars(map)
-                }
-            })
-            .collect();
+        let sidecars: Vec<PathBuf> = deps.iter().flat_map(|map| raster_sidecars(map)).collect();
         deps.extend(sidecars);
         deps.extend(self.demonstrations.clone());
         deps.extend(self.logs.iter().cloned());

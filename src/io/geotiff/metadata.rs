@@ -15,7 +15,7 @@ pub(super) const GDAL_METADATA: u16 = 42112;
 
 /// What GDAL's metadata says of one band.
 #[derive(Debug, Clone, PartialEq)]
-pub(super) struct BandMetadata {
+pub(crate) struct BandMetadata {
     pub scale: f64,
     pub offset: f64,
     /// Trimmed; `None` where empty or absent.
@@ -100,7 +100,7 @@ pub(super) fn per_band(xml: &str, bands: usize) -> Result<Vec<BandMetadata>, Str
 /// Metres per unit, for a band unit that is a length ("m", "ft", "US survey foot",
 /// "cm", as people and GDAL write them; any case); `None` for any other unit
 /// (reflectance, degrees, kelvin), which leaves the values as they are.
-pub(super) fn metres_per_unit(unit: &str) -> Option<f64> {
+pub(crate) fn metres_per_unit(unit: &str) -> Option<f64> {
     let unit = unit.trim().to_ascii_lowercase().replace(['_', '-'], " ");
     Some(match unit.as_str() {
         "m" | "metre" | "metres" | "meter" | "meters" => 1.0,
@@ -120,7 +120,7 @@ pub(super) fn metres_per_unit(unit: &str) -> Option<f64> {
 /// distinct name, else `band1`, `band2`, ... A name is usable when it is at most 64
 /// characters with no '/' (the separator of feature names) or control character, and
 /// is not another band's number.
-pub(super) fn layer_names(bands: &[BandMetadata]) -> Vec<String> {
+pub(crate) fn layer_names(bands: &[BandMetadata]) -> Vec<String> {
     let numbered = |band: usize| format!("band{}", band + 1);
     let usable = |band: usize, name: &str| {
         name.chars().count() <= 64

@@ -145,7 +145,9 @@ fn world_file(text: &str) -> Result<[f64; 6], String> {
 }
 
 /// The dataset's `<SRS>` (WKT) and `<GeoTransform>` in a PAM document.
-fn dataset_georeference(xml: &str) -> Result<(Option<String>, Option<[f64; 6]>), String> {
+pub(crate) fn dataset_georeference(
+    xml: &str,
+) -> Result<(Option<String>, Option<[f64; 6]>), String> {
     let mut reader = Reader::from_str(xml);
     let (mut srs, mut transform) = (None, None);
     let mut depth = 0usize;

@@ -1,0 +1,843 @@
+//! GDAL virtual rasters (`.vrt`): the XML that `gdalbuildvrt` writes to mosaic tiles
+//! into one raster without copying them (the four SRTM tiles around a site, a LiDAR
+//! portal's kilometre tiles, an orthophoto's sheets) or, with `-separate`, to stack
+//! single-band files as the bands of one raster. The raster's size, `<SRS>` and
+//! `<GeoTransform>` are the VRT's; each `<VRTRasterBand>` is a layer filled from its
+//! `<SimpleSource>`s and `<ComplexSource>`s in order, each source's `<SrcRect>` of its
+//! file's band placed on the `<DstRect>` (nearest cell where the two differ in size),
+//! as GDAL reads them. Sources are read as this tool reads them alone (GeoTIFF, ASCII
+//! grid, SRTM tile, another VRT); their nodata is transparent, so a later tile's void
+//! does not hide an earlier tile's ground. Cells no source covers are nodata, even
+//! where the VRT declares no `<NoDataValue>` (GDAL reads 0 there: ground that is not).
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use quick_xml::events::{BytesStart, Event};
+use quick_xml::reader::Reader;
+
+use super::geotiff::metadata::{BandMetadata, layer_names, metres_per_unit};
+use super::geotiff::{Georeferencing, dataset_georeference, georeference, wkt_geokeys};
+use crate::error::{Error, Result, read_input};
+use crate::grid::{Layer, LayerKind, Map};
+
+/// How deep VRTs may nest (a VRT of VRTs, as tile indexes are built): deeper is a loop.
+const MAX_NESTING: usize = 8;
+
+/// Most cells a VRT may declare per band: its layers must fit in memory as f32.
+const MAX_CELLS: usize = 1 << 32;
+
+/// The VRT at `path` as map `name`.
+pub fn read_vrt(path: &Path, name: &str) -> Result<Map> {
+    read_vrt_rows(path, name, 0).map(|(map, _)| map)
+}
+
+/// The files reading the VRT at `path` depends on: its sources, their sidecars, and
+/// theirs in turn for VRTs of VRTs. Nothing for a VRT that cannot be read (reading it
+/// then says why).
+pub fn vrt_inputs(path: &Path) -> Vec<PathBuf> {
+    let mut inputs = Vec::new();
+    collect_inputs(path, 0, &mut inputs);
+    inputs.sort();
+    inputs.dedup();
+    inputs
+}
+
+fn collect_inputs(path: &Path, depth: usize, inputs: &mut Vec<PathBuf>) {
+    let Ok(text) = std::fs::read_to_string(path) else {
+        return;
+    };
+    let Ok(dataset) = parse_dataset(path, &text) else {
+        return;
+    };
+    for source in dataset.bands.iter().flat_map(|b| &b.sources) {
+        if inputs.contains(&source.file) {
+            continue;
+        }
+        inputs.push(source.file.clone());
+        if is_vrt(&source.file) {
+            if depth < MAX_NESTING {
+                collect_inputs(&source.file, depth + 1, inputs);
+            }
+        } else {
+            inputs.extend(super::raster_sidecars(&source.file));
+        }
+    }
+}
+
+/// Whether `path` names a VRT by its extension.
+pub fn is_vrt(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("vrt"))
+}
+
+/// One XML element with what it holds.
+#[derive(Debug, Default)]
+struct Element {
+    name: String,
+    attributes: Vec<(String, String)>,
+    text: String,
+    children: Vec<Element>,
+}
+
+impl Element {
+    fn attribute(&self, name: &str) -> Option<&str> {
+        self.attributes
+            .iter()
+            .find(|(k, _)| k == name)
+            .map(|(_, v)| v.trim())
+    }
+
+    fn child(&self, name: &str) -> Option<&Element> {
+        self.children.iter().find(|c| c.name == name)
+    }
+
+    fn child_text(&self, name: &str) -> Option<&str> {
+        self.child(name)
+            .map(|c| c.text.trim())
+            .filter(|t| !t.is_empty())
+    }
+}
+
+/// The innermost element open.
+fn current(open: &mut [Element]) -> &mut Element {
+    open.last_mut().expect("the document is open")
+}
+
+/// The document's root element.
+fn parse_xml(xml: &str) -> std::result::Result<Element, String> {
+    let mut reader = Reader::from_str(xml);
+    let mut open: Vec<Element> = vec![Element::default()];
+    let start = |tag: &BytesStart| -> std::result::Result<Element, String> {
+        let mut element = Element {
+            name: String::from_utf8_lossy(tag.name().as_ref()).into_owned(),
+            ..Element::default()
+        };
+        for attribute in tag.attributes() {
+            let attribute = attribute.map_err(|e| e.to_string())?;
+            let value = attribute.unescape_value().map_err(|e| e.to_string())?;
+            let key = String::from_utf8_lossy(attribute.key.as_ref()).into_owned();
+            element.attributes.push((key, value.into_owned()));
+        }
+        Ok(element)
+    };
+    loop {
+        match reader.read_event().map_err(|e| e.to_string())? {
+            Event::Eof => break,
+            Event::Start(tag) => open.push(start(&tag)?),
+            Event::Empty(tag) => {
+                let element = start(&tag)?;
+                current(&mut open).children.push(element);
+            }
+            Event::End(_) => {
+                let element = open.pop().expect("quick-xml matches end tags");
+                if open.is_empty() {
+                    return Err("an end tag closes nothing".into());
+                }
+                current(&mut open).children.push(element);
+            }
+            Event::Text(text) => {
+                let text = text.decode().map_err(|e| e.to_string())?;
+                current(&mut open).text.push_str(&text);
+            }
+            Event::CData(text) => {
+                let text = text.decode().map_err(|e| e.to_string())?;
+                current(&mut open).text.push_str(&text);
+            }
+            Event::GeneralRef(reference) => {
+                let resolved = match reference.resolve_char_ref().map_err(|e| e.to_string())? {
+                    Some(c) => c.to_string(),
+                    None => {
+                        let name = reference.decode().map_err(|e| e.to_string())?;
+                        quick_xml::escape::resolve_xml_entity(&name)
+                            .ok_or_else(|| format!("unknown entity &{name};"))?
+                            .to_string()
+                    }
+                };
+                current(&mut open).text.push_str(&resolved);
+            }
+            _ => {}
+        }
+    }
+    if open.len() != 1 {
+        return Err("the document ends inside an element".into());
+    }
+    open.pop()
+        .and_then(|document| document.children.into_iter().next())
+        .ok_or_else(|| "the document has no element".into())
+}
+
+/// A window in cells: offsets and sizes, fractional where GDAL writes them so.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Rect {
+    x: f64,
+    y: f64,
+    width: f64,
+    height: f64,
+}
+
+/// One `<SimpleSource>` or `<ComplexSource>`.
+#[derive(Debug)]
+struct Source {
+    file: PathBuf,
+    /// From 0.
+    band: usize,
+    /// `None`: the whole source.
+    window: Option<Rect>,
+    /// `None`: the source window's own place and size.
+    place: Option<Rect>,
+    /// A ComplexSource's `<NODATA>`: its cells of this value are transparent.
+    nodata: Option<f64>,
+    /// A ComplexSource's linear scaling: value × ratio + offset.
+    ratio: f64,
+    offset: f64,
+    /// Other than nearest: allowed only where the windows are the same size.
+    resampling: Option<String>,
+}
+
+/// One `<VRTRasterBand>`.
+#[derive(Debug)]
+struct Band {
+    data_type: String,
+    nodata: Option<f64>,
+    metadata: BandMetadata,
+    /// A colour table or category names declare its values classes.
+    classes: bool,
+    sources: Vec<Source>,
+}
+
+/// A VRT's dataset.
+#[derive(Debug)]
+struct Dataset {
+    width: u32,
+    height: u32,
+    bands: Vec<Band>,
+}
+
+/// The VRT's dataset from its XML; sources' paths resolved as GDAL resolves them.
+fn parse_dataset(path: &Path, xml: &str) -> std::result::Result<Dataset, String> {
+    let root = parse_xml(xml).map_err(|e| format!("is not a VRT: its XML is malformed: {e}"))?;
+    if root.name != "VRTDataset" {
+        return Err(format!(
+            "is not a VRT: its root element is <{}>, not <VRTDataset>",
+            root.name
+        ));
+    }
+    if let Some(kind) = root.attribute("subClass") {
+        return Err(format!(
+            "is a {kind}, which this tool does not read (a warped, pansharpened or processed \
+             VRT computes its cells): write it out with gdal_translate or gdalwarp to a \
+             GeoTIFF first"
+        ));
+    }
+    let size = |name: &str| -> std::result::Result<u32, String> {
+        let text = root
+            .attribute(name)
+            .ok_or_else(|| format!("its <VRTDataset> has no {name}"))?;
+        text.parse::<u32>()
+            .ok()
+            .filter(|&n| n >= 1)
+            .ok_or_else(|| format!("its {name} '{text}' is not a count of cells"))
+    };
+    let (width, height) = (size("rasterXSize")?, size("rasterYSize")?);
+    if width as usize * height as usize > MAX_CELLS {
+        return Err(format!(
+            "its {width} × {height} cells are more than this tool holds in memory"
+        ));
+    }
+    let folder = path.parent().unwrap_or(Path::new(""));
+    let bands = root
+        .children
+        .iter()
+        .filter(|c| c.name == "VRTRasterBand")
+        .enumerate()
+        .map(|(index, band)| {
+            parse_band(band, folder).map_err(|why| format!("band {}: {why}", index + 1))
+        })
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    if bands.is_empty() {
+        return Err("has no <VRTRasterBand>".into());
+    }
+    Ok(Dataset {
+        width,
+        height,
+        bands,
+    })
+}
+
+/// A number of an element's text or attribute, named in the error.
+fn number(text: &str, what: &str) -> std::result::Result<f64, String> {
+    text.trim()
+        .parse::<f64>()
+        .map_err(|_| format!("its {what} '{}' is not a number", text.trim()))
+}
+
+fn parse_band(band: &Element, folder: &Path) -> std::result::Result<Band, String> {
+    if let Some(kind) = band.attribute("subClass") {
+        return Err(format!(
+            "is a {kind}, whose cells a pixel function or raw file computes; this tool reads \
+             bands of sources (gdal_translate it to a GeoTIFF first)"
+        ));
+    }
+    let data_type = band.attribute("dataType").unwrap_or("Byte").to_string();
+    if data_type.starts_with('C') {
+        return Err(format!(
+            "its data type {data_type} is complex, not a map layer: write its magnitude as a \
+             real band first"
+        ));
+    }
+    let optional = |name: &str| {
+        band.child_text(name)
+            .map(|t| number(t, &format!("<{name}>")))
+            .transpose()
+    };
+    let metadata = BandMetadata {
+        scale: optional("Scale")?.unwrap_or(1.0),
+        offset: optional("Offset")?.unwrap_or(0.0),
+        description: band.child_text("Description").map(str::to_string),
+        unit: band.child_text("UnitType").map(str::to_string),
+    };
+    let mut sources = Vec::new();
+    for child in &band.children {
+        match child.name.as_str() {
+            "SimpleSource" | "ComplexSource" | "AveragedSource" => {
+                let source = parse_source(child, folder)
+                    .map_err(|why| format!("source {}: {why}", sources.len() + 1))?;
+                sources.push(source);
+            }
+            "KernelFilteredSource" | "ArraySource" => {
+                return Err(format!(
+                    "its <{}> computes its cells, which this tool does not: gdal_translate \
+                     the VRT to a GeoTIFF first",
+                    child.name
+                ));
+            }
+            _ => {}
+        }
+    }
+    Ok(Band {
+        data_type,
+        nodata: optional("NoDataValue")?,
+        metadata,
+        classes: band.child("ColorTable").is_some() || band.child("CategoryNames").is_some(),
+        sources,
+    })
+}
+
+fn parse_source(source: &Element, folder: &Path) -> std::result::Result<Source, String> {
+    let name = source
+        .child("SourceFilename")
+        .ok_or("has no <SourceFilename>")?;
+    let written = name.text.trim();
+    if written.is_empty() {
+        return Err("its <SourceFilename> is empty".into());
+    }
+    if written.starts_with("/vsi") || written.contains("://") {
+        return Err(format!(
+            "its file '{written}' is a GDAL virtual file system path; this tool reads files \
+             on disk (unpack or download it, and point the VRT at the file)"
+        ));
+    }
+    let relative = name.attribute("relativeToVRT") == Some("1");
+    let file = if relative {
+        folder.join(written)
+    } else {
+        PathBuf::from(written)
+    };
+    let band_text = source.child_text("SourceBand").unwrap_or("1");
+    let band = band_text
+        .parse::<usize>()
+        .ok()
+        .and_then(|b| b.checked_sub(1))
+        .ok_or_else(|| {
+            format!("its <SourceBand> '{band_text}' is not a band number (mask bands are not read)")
+        })?;
+    let rect = |name: &str| -> std::result::Result<Option<Rect>, String> {
+        let Some(element) = source.child(name) else {
+            return Ok(None);
+        };
+        let field = |key: &str| {
+            let text = element
+                .attribute(key)
+                .ok_or_else(|| format!("its <{name}> has no {key}"))?;
+            number(text, &format!("<{name}> {key}"))
+        };
+        let rect = Rect {
+            x: field("xOff")?,
+            y: field("yOff")?,
+            width: field("xSize")?,
+            height: field("ySize")?,
+        };
+        let finite = [rect.x, rect.y, rect.width, rect.height]
+            .iter()
+            .all(|v| v.is_finite());
+        if !finite || rect.width <= 0.0 || rect.height <= 0.0 {
+            return Err(format!("its <{name}> is not a window of cells"));
+        }
+        Ok(Some(rect))
+    };
+    let scalar = |name: &str, default: f64| {
+        source
+            .child_text(name)
+            .map_or(Ok(default), |t| number(t, &format!("<{name}>")))
+    };
+    if source.child("LUT").is_some() || source.child("ColorTableComponent").is_some() {
+        return Err(
+            "its <LUT> or <ColorTableComponent> maps values through a table, which this tool \
+             does not: gdal_translate the VRT to a GeoTIFF first"
+                .into(),
+        );
+    }
+    let resampling = match source.name.as_str() {
+        "AveragedSource" => Some("average".to_string()),
+        _ => source
+            .attribute("resampling")
+            .map(str::to_ascii_lowercase)
+            .filter(|r| !r.starts_with("near")),
+    };
+    Ok(Source {
+        file,
+        band,
+        window: rect("SrcRect")?,
+        place: rect("DstRect")?,
+        nodata: source
+            .child_text("NODATA")
+            .map(|t| number(t, "<NODATA>"))
+            .transpose()?,
+        ratio: scalar("ScaleRatio", 1.0)?,
+        offset: scalar("ScaleOffset", 0.0)?,
+        resampling,
+    })
+}
+
+/// A source file as read, with whether its rows ran from the north.
+type Read = (Map, bool);
+
+/// The VRT at `path` as map `name`, with whether its rows ran from the north; `depth`
+/// VRTs deep.
+pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Read> {
+    let problem = |message: String| Error::input(path, message);
+    let bytes = read_input(path)?;
+    let xml = std::str::from_utf8(&bytes)
+        .map_err(|e| problem(format!("is not a VRT (not UTF-8 text: {e})")))?;
+    let dataset = parse_dataset(path, xml).map_err(problem)?;
+    let (srs, transform) = dataset_georeference(xml)
+        .map_err(|e| problem(format!("is not a VRT: its XML is malformed: {e}")))?;
+    let transform = transform.ok_or_else(|| {
+        problem(
+            "has no <GeoTransform>: a raster without one has no place on the ground \
+             (gdalbuildvrt writes it from its sources)"
+                .into(),
+        )
+    })?;
+    let (keys, ascii) = match srs {
+        Some(wkt) => wkt_geokeys(&wkt).ok_or_else(|| {
+            problem("its <SRS> is neither a projected nor a geographic CRS in WKT".into())
+        })?,
+        None => (Vec::new(), String::new()),
+    };
+    let (width, height) = (dataset.width, dataset.height);
+    let (geo, heights) = georeference(
+        path,
+        width,
+        height,
+        Georeferencing {
+            transform,
+            keys: &keys,
+            doubles: Vec::new(),
+            ascii,
+            pixel_is_point_tags: false,
+        },
+    )?;
+    let north_up = transform[4] < 0.0;
+    let names = layer_names(
+        &dataset
+            .bands
+            .iter()
+            .map(|b| b.metadata.clone())
+            .collect::<Vec<_>>(),
+    );
+    let mut files: HashMap<PathBuf, Read> = HashMap::new();
+    let mut layers = Vec::with_capacity(dataset.bands.len());
+    for (index, band) in dataset.bands.iter().enumerate() {
+        let in_band = |message: String| problem(format!("band {}: {message}", index + 1));
+        let mut cells = vec![f32::NAN; width as usize * height as usize];
+        let mut classes = band.classes;
+        for (s, source) in band.sources.iter().enumerate() {
+            let in_source = |message: String| in_band(format!("source {}: {message}", s + 1));
+            if !files.contains_key(&source.file) {
+                let read = if is_vrt(&source.file) {
+                    if depth >= MAX_NESTING {
+                        return Err(in_source(format!(
+                            "VRTs nest more than {MAX_NESTING} deep (a VRT that holds itself?)"
+                        )));
+                    }
+                    read_vrt_rows(&source.file, name, depth + 1)
+                } else {
+                    super::read_raster_rows(&source.file, name)
+                };
+                let read = read.map_err(|e| in_source(e.to_string()))?;
+                files.insert(source.file.clone(), read);
+            }
+            let (map, file_north_up) = &files[&source.file];
+            let layer = map.layers.get(source.band).ok_or_else(|| {
+                in_source(format!(
+                    "{} has {} band(s), not band {}",
+                    source.file.display(),
+                    map.layers.len(),
+                    source.band + 1
+                ))
+            })?;
+            classes |= layer.kind == LayerKind::Classes;
+            let file = SourceCells {
+                values: &layer.values,
+                width: map.geo.width as usize,
+                height: map.geo.height as usize,
+                north_up: *file_north_up,
+            };
+            place(&mut cells, [width, height], source, &file).map_err(in_source)?;
+        }
+        let BandMetadata {
+            scale,
+            offset,
+            ref unit,
+            ..
+        } = band.metadata;
+        let heights = unit.as_deref().and_then(metres_per_unit).unwrap_or(heights);
+        let nodata = band.nodata.map(|n| in_type(n, &band.data_type));
+        for cell in &mut cells {
+            if cell.is_nan() {
+                continue;
+            }
+            let stored = in_type(f64::from(*cell), &band.data_type);
+            *cell = if Some(stored) == nodata {
+                f32::NAN
+            } else {
+                ((stored * scale + offset) * heights) as f32
+            };
+        }
+        if north_up {
+            let row = width as usize;
+            let rows: Vec<f32> = cells.chunks_exact(row).rev().flatten().copied().collect();
+            cells = rows;
+        }
+        let layer = Layer::new(names[index].clone(), cells);
+        layers.push(if classes {
+            layer.declared_classes()
+        } else {
+            layer
+        });
+    }
+    if layers.iter().all(|l| l.values.iter().all(|v| v.is_nan())) {
+        return Err(problem(
+            "every cell of every band is nodata: its sources cover none of its cells with data"
+                .into(),
+        ));
+    }
+    let map = Map {
+        name: name.to_string(),
+        geo,
+        layers,
+    };
+    Ok((map, north_up))
+}
+
+/// A source band's values as the reader gave them (rows from the south), and whether
+/// the file's rows ran from the north, as the VRT's windows count them.
+struct SourceCells<'a> {
+    values: &'a [f32],
+    width: usize,
+    height: usize,
+    north_up: bool,
+}
+
+impl SourceCells<'_> {
+    /// The value at the file's column `col`, row `row` (counted as the file counts).
+    fn at(&self, col: usize, row: usize) -> f32 {
+        let ours = if self.north_up {
+            self.height - 1 - row
+        } else {
+            row
+        };
+        self.values[ours * self.width + col]
+    }
+}
+
+/// Places `source`'s window of `file` on its place in `cells` (the VRT's rows as its file
+/// counts them): each cell whose centre the place covers takes the source cell under
+/// it, unless that cell is nodata.
+fn place(
+    cells: &mut [f32],
+    [width, height]: [u32; 2],
+    source: &Source,
+    file: &SourceCells,
+) -> std::result::Result<(), String> {
+    let whole = Rect {
+        x: 0.0,
+        y: 0.0,
+        width: file.width as f64,
+        height: file.height as f64,
+    };
+    let window = source.window.unwrap_or(whole);
+    let place = source.place.unwrap_or(window);
+    let [sx, sy] = [window.width / place.width, window.height / place.height];
+    if let Some(resampling) = &source.resampling
+        && (sx != 1.0 || sy != 1.0)
+    {
+        return Err(format!(
+            "its resampling '{resampling}' is not read: this tool places sources cell by \
+             nearest cell (build the VRT with -r nearest, or gdalwarp it to a GeoTIFF)"
+        ));
+    }
+    // The source cell under a VRT cell's centre, per axis; `None` outside the window or
+    // the file.
+    let along = |centre: f64, place_off: f64, place_size: f64, off: f64, scale: f64, size: f64| {
+        let into = centre - place_off;
+        if into < 0.0 || into >= place_size {
+            return None;
+        }
+        let at = off + into * scale;
+        let cell = at.floor();
+        (at >= off.max(0.0) && cell < size && at < off + place_size * scale)
+            .then_some(cell as usize)
+    };
+    let columns: Vec<Option<usize>> = (0..width as usize)
+        .map(|col| {
+            along(
+                col as f64 + 0.5,
+                place.x,
+                place.width,
+                window.x,
+                sx,
+                whole.width,
+            )
+        })
+        .collect();
+    for row in 0..height as usize {
+        let Some(source_row) = along(
+            row as f64 + 0.5,
+            place.y,
+            place.height,
+            window.y,
+            sy,
+            whole.height,
+        ) else {
+            continue;
+        };
+        let cells = &mut cells[row * width as usize..][..width as usize];
+        for (cell, source_col) in cells.iter_mut().zip(&columns) {
+            let Some(source_col) = *source_col else {
+                continue;
+            };
+            let value = file.at(source_col, source_row);
+            let transparent =
+                value.is_nan() || source.nodata.is_some_and(|n| f64::from(value) == n);
+            if !transparent {
+                *cell = (f64::from(value) * source.ratio + source.offset) as f32;
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `value` as the band's data type holds it: integers rounded to the nearest and held
+/// within their range, as GDAL converts; floats as they are.
+fn in_type(value: f64, data_type: &str) -> f64 {
+    let range = match data_type {
+        "Byte" => (0.0, 255.0),
+        "Int8" => (-128.0, 127.0),
+        "UInt16" => (0.0, 65535.0),
+        "Int16" => (-32768.0, 32767.0),
+        "UInt32" => (0.0, 4_294_967_295.0),
+        "Int32" => (-2_147_483_648.0, 2_147_483_647.0),
+        "UInt64" => (0.0, u64::MAX as f64),
+        "Int64" => (i64::MIN as f64, i64::MAX as f64),
+        "Float32" => return f64::from(value as f32),
+        _ => return value,
+    };
+    if value.is_nan() {
+        return value;
+    }
+    (value + 0.5).floor().clamp(range.0, range.1)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const VRT: &str = r#"<VRTDataset rasterXSize="4" rasterYSize="2">
+  <GeoTransform>100, 10, 0, 200, 0, -10</GeoTransform>
+  <VRTRasterBand dataType="Int16" band="1">
+    <NoDataValue>-1</NoDataValue>
+    <Description>elevation &amp; more</Description>
+    <SimpleSource>
+      <SourceFilename relativeToVRT="1">a.tif</SourceFilename>
+      <SourceBand>2</SourceBand>
+      <SrcRect xOff="0" yOff="0" xSize="2" ySize="2" />
+      <DstRect xOff="2" yOff="0" xSize="2" ySize="2" />
+    </SimpleSource>
+    <ComplexSource resampling="nearest">
+      <SourceFilename relativeToVRT="0">/data/b.tif</SourceFilename>
+      <NODATA>0</NODATA>
+      <ScaleOffset>1</ScaleOffset>
+      <ScaleRatio>2</ScaleRatio>
+    </ComplexSource>
+  </VRTRasterBand>
+</VRTDataset>"#;
+
+    #[test]
+    fn bands_and_sources_as_gdalbuildvrt_writes_them() {
+        let dataset = parse_dataset(Path::new("/maps/m.vrt"), VRT).unwrap();
+        assert_eq!((dataset.width, dataset.height), (4, 2));
+        let band = &dataset.bands[0];
+        assert_eq!(band.data_type, "Int16");
+        assert_eq!(band.nodata, Some(-1.0));
+        assert_eq!(
+            band.metadata.description.as_deref(),
+            Some("elevation & more")
+        );
+        let [a, b] = &band.sources[..] else {
+            panic!("{:?}", band.sources)
+        };
+        assert_eq!(a.file, Path::new("/maps/a.tif"));
+        assert_eq!(a.band, 1);
+        assert_eq!(a.place, Some(rect(2.0, 0.0, 2.0, 2.0)));
+        assert_eq!((a.nodata, a.ratio, a.offset), (None, 1.0, 0.0));
+        assert_eq!(b.file, Path::new("/data/b.tif"));
+        assert_eq!((b.band, b.window, b.place), (0, None, None));
+        assert_eq!((b.nodata, b.ratio, b.offset), (Some(0.0), 2.0, 1.0));
+        assert_eq!(b.resampling, None);
+    }
+
+    #[test]
+    fn what_computes_its_cells_is_refused_by_name() {
+        let path = Path::new("m.vrt");
+        let refused = |xml: &str, needle: &str| {
+            let why = parse_dataset(path, xml).unwrap_err();
+            assert!(why.contains(needle), "{needle}: {why}");
+        };
+        // What is replaced in a readable VRT, by what, and what the error then says.
+        for (from, to, needle) in [
+            (
+                "<VRTDataset ",
+                "<VRTDataset subClass=\"VRTWarpedDataset\" ",
+                "VRTWarpedDataset",
+            ),
+            (
+                "band=\"1\"",
+                "band=\"1\" subClass=\"VRTDerivedRasterBand\"",
+                "VRTDerivedRasterBand",
+            ),
+            (
+                "<NODATA>0</NODATA>",
+                "<LUT>0:0,1:10</LUT>",
+                "band 1: source 2: its <LUT>",
+            ),
+            (
+                "/data/b.tif",
+                "/vsicurl/https://x/b.tif",
+                "virtual file system",
+            ),
+            (
+                "<SourceBand>2</SourceBand>",
+                "<SourceBand>mask,1</SourceBand>",
+                "'mask,1'",
+            ),
+            ("dataType=\"Int16\"", "dataType=\"CFloat32\"", "complex"),
+            ("rasterXSize=\"4\"", "rasterXSize=\"0\"", "rasterXSize"),
+            ("</VRTDataset>", "", "malformed"),
+        ] {
+            refused(&VRT.replace(from, to), needle);
+        }
+        refused("<PAMDataset/>", "<PAMDataset>");
+    }
+
+    fn rect(x: f64, y: f64, width: f64, height: f64) -> Rect {
+        Rect {
+            x,
+            y,
+            width,
+            height,
+        }
+    }
+
+    /// A 2 × 2 source: rows from the south as the reader gives them, from the north as
+    /// the file has them.
+    fn source(values: &[f32]) -> SourceCells<'_> {
+        SourceCells {
+            values,
+            width: 2,
+            height: 2,
+            north_up: true,
+        }
+    }
+
+    fn a_source(window: Option<Rect>, place: Option<Rect>) -> Source {
+        Source {
+            file: PathBuf::from("a.tif"),
+            band: 0,
+            window,
+            place,
+            nodata: None,
+            ratio: 1.0,
+            offset: 0.0,
+            resampling: None,
+        }
+    }
+
+    #[test]
+    fn sources_land_on_their_place_with_their_voids_transparent() {
+        // File rows from the north: [1, 2] over [3, NaN]; ours from the south.
+        let values = [3.0, f32::NAN, 1.0, 2.0];
+        let mut cells = vec![9.0; 8];
+        let place = rect(2.0, 0.0, 2.0, 2.0);
+        place_source(&mut cells, &a_source(None, Some(place)), &values);
+        assert_eq!(cells, [9.0, 9.0, 1.0, 2.0, 9.0, 9.0, 3.0, 9.0]);
+        // Scaled, with the source's own nodata value transparent too.
+        let mut cells = vec![9.0; 8];
+        let scaled = Source {
+            nodata: Some(2.0),
+            ratio: 2.0,
+            offset: 1.0,
+            ..a_source(None, None)
+        };
+        place_source(&mut cells, &scaled, &values);
+        assert_eq!(cells, [3.0, 9.0, 9.0, 9.0, 7.0, 9.0, 9.0, 9.0]);
+    }
+
+    #[test]
+    fn a_window_of_another_size_takes_the_nearest_cell() {
+        // The whole 2 × 2 source spread over 4 × 2 cells: each column twice.
+        let values = [3.0, 4.0, 1.0, 2.0];
+        let mut cells = vec![0.0; 8];
+        let spread = rect(0.0, 0.0, 4.0, 2.0);
+        place_source(&mut cells, &a_source(None, Some(spread)), &values);
+        assert_eq!(cells, [1.0, 1.0, 2.0, 2.0, 3.0, 3.0, 4.0, 4.0]);
+        let averaged = Source {
+            resampling: Some("average".into()),
+            ..a_source(None, Some(spread))
+        };
+        let why = place(&mut cells, [4, 2], &averaged, &source(&values)).unwrap_err();
+        assert!(why.contains("'average'"), "{why}");
+        // A window reaching past the file takes only the file's cells.
+        let mut cells = vec![0.0; 8];
+        let window = rect(1.0, 0.0, 2.0, 2.0);
+        let past = a_source(Some(window), Some(Rect { x: 0.0, ..window }));
+        place_source(&mut cells, &past, &values);
+        assert_eq!(cells, [2.0, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0]);
+    }
+
+    fn place_source(cells: &mut [f32], source_: &Source, values: &[f32]) {
+        place(cells, [4, 2], source_, &source(values)).unwrap();
+    }
+
+    #[test]
+    fn values_are_held_as_the_band_type_holds_them() {
+        assert_eq!(in_type(2.5, "Int16"), 3.0);
+        assert_eq!(in_type(-2.5, "Int16"), -2.0);
+        assert_eq!(in_type(300.0, "Byte"), 255.0);
+        assert_eq!(in_type(-4.0, "UInt16"), 0.0);
+        assert_eq!(in_type(0.1, "Float32"), f64::from(0.1f32));
+        assert_eq!(in_type(0.1, "Float64"), 0.1);
+    }
+}
