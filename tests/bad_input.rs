@@ -230,6 +230,19 @@ fn pipeline_mistakes_point_at_the_line() {
     );
 }
 
+/// A ZIP archive of files of two bytes each, named `names`.
+fn zip_of(names: &[&str]) -> Vec<u8> {
+    use std::io::Write;
+    let mut archive = zip::ZipWriter::new(std::io::Cursor::new(Vec::new()));
+    for name in names {
+        let stored = zip::write::SimpleFileOptions::default()
+            .compression_method(zip::CompressionMethod::Stored);
+        archive.start_file(*name, stored).unwrap();
+        archive.write_all(&[0, 1]).unwrap();
+    }
+    archive.finish().unwrap().into_inner()
+}
+
 #[test]
 fn broken_ascii_grids_and_srtm_tiles_are_named() {
     let ws = quickstart_workspace();
@@ -258,6 +271,21 @@ fn broken_ascii_grids_and_srtm_tiles_are_named() {
             "1000 bytes are not an SRTM tile",
         ),
         ("dem.hgt", vec![0u8; 2 * 1201 * 1201], "south-west corner"),
+        (
+            "N46E007.SRTMGL1.hgt.zip",
+            vec![0u8; 1000],
+            "is not a readable ZIP archive",
+        ),
+        (
+            "tiles.zip",
+            zip_of(&["L32/N46E007.hgt", "L32/N46E008.hgt"]),
+            "holds 2 (L32/N46E007.hgt, L32/N46E008.hgt): unzip",
+        ),
+        (
+            "N46E009.hgt.zip",
+            zip_of(&["N46E009.hgt"]),
+            "2 bytes are not",
+        ),
     ] {
         std::fs::write(ws.path().join(name), bytes).unwrap();
         let out = imitate(

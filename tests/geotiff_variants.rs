@@ -1347,7 +1347,7 @@ fn crss_defined_by_their_parameters_take_points_as_proj_moves_them() {
 /// DEMs as they are handed out in other formats than GeoTIFF, written by GDAL from
 /// GeoTIFFs it also wrote: each reads to its GeoTIFF twin's grid, CRS and values (an
 /// Esri ASCII grid in UTM with its .prj, one in degrees with non-square cells, an SRTM
-/// tile), and ingest takes them as maps.
+/// tile, the tile zipped as NASA hands it out), and ingest takes them as maps.
 #[test]
 fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
     let dir = tempfile::tempdir().unwrap();
@@ -1385,6 +1385,7 @@ fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
     }
     let asc = info["pairs"][0][1].as_str().unwrap();
     let hgt = info["pairs"][2][1].as_str().unwrap();
+    let zipped = info["pairs"][3][1].as_str().unwrap();
     let walks = info["demonstrations"].as_str().unwrap();
     let out = imitate(
         dir.path(),
@@ -1393,6 +1394,7 @@ fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
             "--map",
             asc,
             hgt,
+            zipped,
             "--demonstrations",
             walks,
             "--out",
@@ -1400,7 +1402,7 @@ fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
         ],
     );
     assert!(out.status.success(), "{}", stderr(&out));
-    for map in ["dem", "N46E007"] {
+    for map in ["dem", "N46E007", "N46E007.SRTMGL3"] {
         assert!(dir.path().join(format!("ds/maps/{map}.parquet")).is_file());
     }
 }

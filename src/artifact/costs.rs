@@ -9,7 +9,7 @@ use crate::error::{Error, Result};
 use crate::grid::{GeoRef, Grid};
 use crate::io::movingai::read_map;
 use crate::io::tables::read_costmap;
-use crate::io::{RASTER_EXTENSIONS, read_raster};
+use crate::io::{RASTER_EXTENSIONS, map_name, read_raster};
 
 /// Loads the costmap named by `path` and its map name: an artifact folder (`map` picks
 /// one of its maps), a `costmap/1` table, a raster of costs (GeoTIFF, Esri ASCII grid;
@@ -20,7 +20,7 @@ pub fn load_costs(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)>
         let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         return match extension.to_ascii_lowercase().as_str() {
             raster if RASTER_EXTENSIONS.contains(&raster) => raster_costs(path, map),
-            "map" => Ok((file_stem(path), read_map(path)?)),
+            "map" => Ok((map_name(path), read_map(path)?)),
             _ => read_costmap(path),
         };
     }
@@ -56,16 +56,10 @@ pub fn load_costs(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)>
     read_costmap(&path.join(&files[chosen].path))
 }
 
-fn file_stem(path: &Path) -> String {
-    path.file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
 /// A raster's band as costs: nodata cells are blocked (∞), as are zeros (a planner
 /// cannot price a free cell); negative costs are refused.
 fn raster_costs(path: &Path, band: Option<&str>) -> Result<(String, Grid<f32>)> {
-    let name = file_stem(path);
+    let name = map_name(path);
     let raster = read_raster(path, &name)?;
     let bands = || raster.layer_names().join(", ");
     let layer = match band {

@@ -108,7 +108,7 @@ pub enum Features {
 
 #[derive(Debug, clap::Args)]
 pub struct TerrainArgs {
-    /// Rasters (GeoTIFF, Esri ASCII grid, SRTM tile, GDAL VRT; every band a layer).
+    /// Rasters (GeoTIFF, Esri ASCII grid, SRTM tile (.hgt, .hgt.zip), GDAL VRT; every band a layer).
     #[arg(required = true, value_name = "RASTER")]
     pub rasters: Vec<PathBuf>,
     /// Teachers to run (repeat the flag); default: the first eight, `threshold` to
@@ -745,9 +745,7 @@ pub fn run(args: TerrainArgs) -> Result<()> {
     };
     let mut results = Vec::new();
     for path in &args.rasters {
-        let name = path
-            .file_stem()
-            .map_or("raster".into(), |s| s.to_string_lossy().into_owned());
+        let name = crate::io::map_name(path);
         let raster = read_raster(path, &name)?;
         let factor = factor_for_cells(&raster.geo, args.cells);
         let map = coarsened(raster, factor, Edges::Whole);

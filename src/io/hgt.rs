@@ -3,12 +3,13 @@
 //! heights in metres, rows from the north, 1201 × 1201 samples (3 arc-seconds) or
 //! 3601 × 3601 (1 arc-second), -32768 where there is no data. The tile's south-west
 //! corner is in its name (`N46E007.hgt`); samples are centred on the whole degrees, so the
-//! grid reaches half a cell past them, as GDAL reads it. WGS 84 (EPSG:4326).
+//! grid reaches half a cell past them, as GDAL reads it. WGS 84 (EPSG:4326). A tile
+//! zipped as NASA hands it out (`N46E007.SRTMGL1.hgt.zip`) is read as it is.
 
 use std::path::Path;
 
 use super::geotiff::{Georeferencing, georeference};
-use crate::error::{Error, Result, read_input};
+use crate::error::{Error, Result, open_input, read_input};
 use crate::grid::{Layer, Map};
 
 /// The GeoKeys of WGS 84 degrees (geographic model, PixelIsArea, EPSG:4326).
@@ -58,16 +59,63 @@ fn tile_corner(path: &Path) -> std::result::Result<(f64, f64), String> {
 
 /// The SRTM tile at `path` as map `name`, its one layer `elevation`.
 pub fn read_hgt(path: &Path, name: &str) -> Result<Map> {
-    let problem = |message: String| Error::input(path, message);
-    let (lon, lat) = tile_corner(path).map_err(problem)?;
     let bytes = read_input(path)?;
+    read_tile(path, path, &bytes, name)
+}
+
+/// The SRTM tile zipped as NASA's LP DAAC and USGS EarthExplorer hand it out
+/// (`N46E007.SRTMGL1.hgt.zip` holding `N46E007.hgt`), read without unzipping it, as GDAL
+/// reads it; map `name`, its one layer `elevation`.
+pub fn read_hgt_zip(path: &Path, name: &str) -> Result<Map> {
+    let problem = |message: String| Error::input(path, message);
+    let mut archive = zip::ZipArchive::new(open_input(path)?)
+        .map_err(|e| problem(format!("is not a readable ZIP archive: {e}")))?;
+    let names: Vec<String> = archive
+        .file_names()
+        .map(|n| n.map(|n| n.into_owned()))
+        .collect::<std::result::Result<_, _>>()
+        .map_err(|e| problem(format!("is not a readable ZIP archive: {e}")))?;
+    let tiles: Vec<&String> = names
+        .iter()
+        .filter(|n| n.to_ascii_lowercase().ends_with(".hgt"))
+        .collect();
+    let [tile] = &tiles[..] else {
+        return Err(problem(format!(
+            "a zipped SRTM tile holds one .hgt file; this archive holds {} ({}): unzip it \
+             and name the tiles, or mosaic them with gdalbuildvrt",
+            tiles.len(),
+            tiles
+                .iter()
+                .map(|t| t.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )));
+    };
+    let mut entry = archive
+        .by_name(tile.as_str())
+        .map_err(|e| problem(format!("{tile}: {e}")))?;
+    // A tile is at most 3601² int16 samples: a larger entry is not one.
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(
+        &mut std::io::Read::take(&mut entry, 2 * 3601 * 3601 + 1),
+        &mut bytes,
+    )
+    .map_err(|e| problem(format!("{tile} cannot be unzipped: {e}")))?;
+    let inside = path.join(tile.as_str());
+    read_tile(path, &inside, &bytes, name)
+}
+
+/// A tile's heights `bytes`, read from `path` (named in errors), its corner from the
+/// name of `tile`.
+fn read_tile(path: &Path, tile: &Path, bytes: &[u8], name: &str) -> Result<Map> {
+    let problem = |message: String| Error::input(path, message);
+    let (lon, lat) = tile_corner(tile).map_err(problem)?;
     let side = [1201u32, 3601]
         .into_iter()
         .find(|&n| bytes.len() == 2 * n as usize * n as usize)
         .ok_or_else(|| {
             problem(format!(
-                "{} bytes are not an SRTM tile's 1201 × 1201 or 3601 × 3601 int16 heights \
-                 (unzip .hgt.zip files first)",
+                "{} bytes are not an SRTM tile's 1201 × 1201 or 3601 × 3601 int16 heights",
                 bytes.len()
             ))
         })?;

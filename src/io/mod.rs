@@ -23,13 +23,28 @@ use crate::error::{Error, Result};
 use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
-/// GDAL virtual raster.
-pub const RASTER_EXTENSIONS: [&str; 5] = ["tif", "tiff", "asc", "hgt", "vrt"];
+/// GDAL virtual raster, zipped SRTM tile.
+pub const RASTER_EXTENSIONS: [&str; 6] = ["tif", "tiff", "asc", "hgt", "vrt", "zip"];
 
 fn extension_of(path: &Path) -> String {
     path.extension()
         .map(|e| e.to_string_lossy().to_ascii_lowercase())
         .unwrap_or_default()
+}
+
+/// The name of the map a file holds: its name less its extension, and less `.hgt` for a
+/// zipped SRTM tile (`N46E007.SRTMGL1.hgt.zip` is `N46E007.SRTMGL1`, as its `.hgt` is).
+pub fn map_name(path: &Path) -> String {
+    let stem = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let zipped_tile = extension_of(path) == "zip" && stem.to_ascii_lowercase().ends_with(".hgt");
+    if zipped_tile {
+        stem[..stem.len() - 4].to_string()
+    } else {
+        stem
+    }
 }
 
 /// The raster at `path` as map `name`, read by its extension's reader.
@@ -43,13 +58,14 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     match extension_of(path).as_str() {
         "asc" => ascii_grid::read_ascii_grid(path, name).map(|map| (map, true)),
         "hgt" => hgt::read_hgt(path, name).map(|map| (map, true)),
+        "zip" => hgt::read_hgt_zip(path, name).map(|map| (map, true)),
         "tif" | "tiff" => geotiff::read_geotiff_rows(path, name),
         "vrt" => vrt::read_vrt_rows(path, name, 0),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
-                 (.hgt) or GDAL virtual rasters (.vrt), not '.{other}'"
+                 (.hgt, .hgt.zip) or GDAL virtual rasters (.vrt), not '.{other}'"
             ),
         )),
     }
@@ -61,7 +77,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
     match extension_of(path).as_str() {
         "asc" => ascii_grid::ascii_grid_sidecars(path),
         "vrt" => vrt::vrt_inputs(path),
-        "hgt" => Vec::new(),
+        "hgt" | "zip" => Vec::new(),
         _ => geotiff::sidecars(path),
     }
 }

@@ -25,7 +25,7 @@ use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
 use crate::io::nav2::read_nav2_map;
 use crate::io::tables::{EpisodePath, read_map, write_demonstrations, write_map, write_paths};
-use crate::io::{RASTER_EXTENSIONS, raster_sidecars, read_raster};
+use crate::io::{RASTER_EXTENSIONS, map_name, raster_sidecars, read_raster};
 
 pub const KIND: &str = "ingest";
 /// 3: GeoTIFFs as GDAL writes them (non-square and geographic cells measured in
@@ -51,7 +51,8 @@ fn default_gap() -> f64 {
 pub struct IngestParams {
     /// Map layers: a Parquet `map/1` table, a GeoTIFF (.tif, .tiff; bands become layers
     /// band1, band2, ...), an Esri ASCII grid (.asc, its CRS from the .prj beside it;
-    /// layer band1), an SRTM tile (.hgt; layer elevation), a GDAL virtual raster (.vrt:
+    /// layer band1), an SRTM tile (.hgt or zipped .hgt.zip; layer elevation), a GDAL
+    /// virtual raster (.vrt:
     /// gdalbuildvrt's mosaics of tiles and stacks of bands) or a MovingAI .map (layer
     /// `blocked`); several after one --map (as a shell glob gives them) or --map
     /// repeated. Maps from files other than tables are named after their file.
@@ -165,12 +166,6 @@ pub struct IngestParams {
     pub out: PathBuf,
 }
 
-fn file_stem(path: &Path) -> String {
-    path.file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_default()
-}
-
 /// A map file of any supported kind, chosen by its extension.
 fn load_map(path: &Path) -> Result<Map> {
     let extension = path
@@ -179,14 +174,14 @@ fn load_map(path: &Path) -> Result<Map> {
         .unwrap_or_default();
     match extension.as_str() {
         "parquet" => read_map(path),
-        raster if RASTER_EXTENSIONS.contains(&raster) => read_raster(path, &file_stem(path)),
-        "map" => movingai::read_map_layer(path, &file_stem(path)),
-        "yaml" | "yml" => read_nav2_map(path, &file_stem(path)),
+        raster if RASTER_EXTENSIONS.contains(&raster) => read_raster(path, &map_name(path)),
+        "map" => movingai::read_map_layer(path, &map_name(path)),
+        "yaml" | "yml" => read_nav2_map(path, &map_name(path)),
         other => Err(Error::input(
             path,
             format!(
                 "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
-                 (SRTM tile), .vrt (GDAL virtual raster), .map (MovingAI) or .yaml (Nav2) \
+                 (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .map (MovingAI) or .yaml (Nav2) \
                  files, not '.{other}'"
             ),
         )),
@@ -217,7 +212,7 @@ fn parse_stack(entry: &str) -> Result<(String, Vec<PathBuf>)> {
 /// describes keep their descriptions; a single undescribed band takes the file's stem,
 /// several take `<stem>_bandN`.
 fn stack_layer_names(path: &Path, map: &mut Map) {
-    let stem = file_stem(path);
+    let stem = map_name(path);
     let single = map.layers.len() == 1;
     for (i, layer) in map.layers.iter_mut().enumerate() {
         if layer.name == format!("band{}", i + 1) {
@@ -373,12 +368,12 @@ fn refuse_repeated_maps(paths: &[PathBuf]) -> Result<()> {
         let named_after_file = !path
             .extension()
             .is_some_and(|e| e.eq_ignore_ascii_case("parquet"));
-        if named_after_file && !stems.insert(file_stem(path)) {
+        if named_after_file && !stems.insert(map_name(path)) {
             return Err(Error::input(
                 path,
                 format!(
                     "a second map named '{}' (maps from GeoTIFF and .map files are named after their file)",
-                    file_stem(path)
+                    map_name(path)
                 ),
             ));
         }

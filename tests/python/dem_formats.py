@@ -1,13 +1,15 @@
 """DEMs in the formats other than GeoTIFF that they are handed out in, written by GDAL
 (rasterio) from GeoTIFFs it also writes: an Esri ASCII grid in UTM with nodata (its CRS
 in the .prj beside it), one in degrees with non-square cells (GDAL's dx and dy), and an
-SRTM tile (.hgt, 1201 x 1201 samples, voids). Beside them, walks on the UTM grid and on
+SRTM tile (.hgt, 1201 x 1201 samples, voids), and that tile zipped (.hgt.zip, as NASA hands
+tiles out). Beside them, walks on the UTM grid and on
 the tile written by pyarrow. Prints one JSON line: each pair (GeoTIFF, its twin) and
 the walks."""
 
 import json
 import os
 import sys
+import zipfile
 
 import numpy as np
 import pyarrow as pa
@@ -50,6 +52,13 @@ pairs = [
     [degrees, twin(degrees, "geo.asc", "AAIGrid")],
     [srtm, twin(srtm, "N46E007.hgt", "SRTMHGT")],
 ]
+# The tile zipped as NASA's LP DAAC hands SRTMGL3 out; GDAL reads it as it is.
+zipped = os.path.join(out, "N46E007.SRTMGL3.hgt.zip")
+with zipfile.ZipFile(zipped, "w", zipfile.ZIP_DEFLATED) as archive:
+    archive.write(pairs[2][1], "N46E007.hgt")
+with rasterio.open(zipped) as src:
+    assert src.bounds.left == 7.0 - half and (src.read(1) == tile).all(), src.bounds
+pairs.append([srtm, zipped])
 
 walks = {"episode": [], "map": [], "t": [], "x": [], "y": []}
 for episode, map_name, points in [
