@@ -1549,3 +1549,51 @@ fn gdal_virtual_rasters_read_as_gdal_reads_them() {
         "the tiles are the user's: left as they were"
     );
 }
+
+/// JPEG 2000 rasters as GDAL writes them (JP2OpenJPEG): each reads to the grid, CRS and
+/// values GDAL reads it to, georeferenced by its GeoJP2 or its GMLJP2 box (degrees
+/// latitude first in GML), tiled with several resolutions as Sentinel-2's bands are;
+/// a lossy one within a unit of OpenJPEG's decoding. A bare codestream with no
+/// georeference is refused by name.
+#[test]
+fn jpeg2000_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("jpeg2000.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let lossy: Vec<&str> = info["lossy"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    for pair in info["pairs"].as_array().unwrap() {
+        let (tif, jp2) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
+        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
+        let ours =
+            imitate::io::read_raster(Path::new(jp2), "a").unwrap_or_else(|e| panic!("{jp2}: {e}"));
+        // The same grid and CRS (the GeoKeys' citations aside).
+        let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
+            tiff_crs: None,
+            ..geo.clone()
+        };
+        assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{jp2}");
+        let tolerance = if lossy.contains(&jp2) { 1.0 } else { 0.0 };
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{jp2}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let worst = a
+                .values
+                .iter()
+                .zip(&b.values)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0f32, f32::max);
+            assert!(worst <= tolerance, "{jp2} {}: off by {worst}", b.name);
+        }
+    }
+    let out = imitate(
+        dir.path(),
+        &["bench", "terrain", "bare.j2k", "--method", "uniform"],
+    );
+    assert_input_error(&out, &["bare.j2k", "no georeference", "GeoJP2", "GMLJP2"]);
+}

@@ -12,7 +12,7 @@ use crate::io::tables::read_costmap;
 use crate::io::{RASTER_EXTENSIONS, map_name, read_raster};
 
 /// Loads the costmap named by `path` and its map name: an artifact folder (`map` picks
-/// one of its maps), a `costmap/1` table, a raster of costs (GeoTIFF, Esri ASCII grid;
+/// one of its maps), a `costmap/1` table, a raster of costs (any raster `ingest` reads;
 /// `map` picks a band when it has several) or a MovingAI `.map` grid (passable cells
 /// cost 1).
 pub fn load_costs(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {

@@ -17,7 +17,7 @@ use crate::report::{Preview, render_preview};
 #[derive(Debug, Args)]
 pub struct PlanArgs {
     /// A costmap artifact folder (written by `learch`), a `costmap/1` Parquet file, a
-    /// raster of costs (GeoTIFF or Esri ASCII grid; nodata and zero cells blocked) or a
+    /// raster of costs (any raster `ingest` reads; nodata and zero cells blocked) or a
     /// MovingAI `.map` grid.
     pub costmap: PathBuf,
     /// Start as "x,y" in the map frame (metres, or a GeoTIFF's CRS units: degrees, feet), or "row,col" with --cells.

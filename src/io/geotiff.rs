@@ -41,7 +41,7 @@ mod samples;
 mod unpack;
 mod webp;
 
-pub(crate) use pam::dataset_georeference;
+pub(crate) use pam::{dataset_georeference, georeference as pam_georeference};
 pub use pam::{sidecar, sidecars, wkt_geokeys};
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.
@@ -636,6 +636,47 @@ fn crs_units(key: &dyn Fn(u16) -> Option<u16>) -> std::result::Result<Units, Str
                 )
             }),
     }
+}
+
+/// What the GeoTIFF tags of a TIFF held in memory give: GeoJP2 embeds one, of 1 × 1
+/// cells, in a JPEG 2000 file to georeference it. `None` where it has no geotransform.
+pub(crate) struct TagGeoreference {
+    /// As ours (x = a·col + b·row + c, y = d·col + e·row + f).
+    pub transform: [f64; 6],
+    pub keys: Vec<u16>,
+    pub doubles: Vec<f64>,
+    pub ascii: String,
+}
+
+/// The georeference of the GeoTIFF tags of the TIFF `bytes`; `None` where they give
+/// no geotransform.
+pub(crate) fn tags_georeference(
+    bytes: &[u8],
+) -> std::result::Result<Option<TagGeoreference>, String> {
+    let mut decoder = Decoder::new(Cursor::new(bytes)).map_err(|e| e.to_string())?;
+    let Some(transform) = geotransform(&mut decoder)? else {
+        return Ok(None);
+    };
+    let keys = decoder
+        .find_tag_unsigned_vec::<u16>(Tag::GeoKeyDirectoryTag)
+        .map_err(|e| e.to_string())?
+        .unwrap_or_default();
+    let doubles = decoder
+        .find_tag(Tag::GeoDoubleParamsTag)
+        .map_err(|e| e.to_string())?
+        .and_then(|v| v.into_f64_vec().ok())
+        .unwrap_or_default();
+    let ascii = decoder
+        .find_tag(Tag::GeoAsciiParamsTag)
+        .map_err(|e| e.to_string())?
+        .and_then(|v| v.into_string().ok())
+        .unwrap_or_default();
+    Ok(Some(TagGeoreference {
+        transform,
+        keys,
+        doubles,
+        ascii,
+    }))
 }
 
 /// The TIFF's own geotransform; `None` where it has no georeference tags at all.

@@ -7,6 +7,7 @@ pub mod geojson;
 pub mod geotiff;
 pub mod gpx;
 pub mod hgt;
+pub mod jp2;
 pub mod leftovers;
 pub mod mcap;
 pub mod mdp_tables;
@@ -23,8 +24,8 @@ use crate::error::{Error, Result};
 use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
-/// GDAL virtual raster, zipped SRTM tile.
-pub const RASTER_EXTENSIONS: [&str; 6] = ["tif", "tiff", "asc", "hgt", "vrt", "zip"];
+/// GDAL virtual raster, zipped SRTM tile, JPEG 2000.
+pub const RASTER_EXTENSIONS: [&str; 8] = ["tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k"];
 
 fn extension_of(path: &Path) -> String {
     path.extension()
@@ -61,11 +62,13 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "zip" => hgt::read_hgt_zip(path, name).map(|map| (map, true)),
         "tif" | "tiff" => geotiff::read_geotiff_rows(path, name),
         "vrt" => vrt::read_vrt_rows(path, name, 0),
+        "jp2" | "j2k" => jp2::read_jp2_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
-                 (.hgt, .hgt.zip) or GDAL virtual rasters (.vrt), not '.{other}'"
+                 (.hgt, .hgt.zip), GDAL virtual rasters (.vrt) or JPEG 2000 (.jp2), not \
+                 '.{other}'"
             ),
         )),
     }

@@ -52,10 +52,9 @@ pub struct IngestParams {
     /// Map layers: a Parquet `map/1` table, a GeoTIFF (.tif, .tiff; bands become layers
     /// band1, band2, ...), an Esri ASCII grid (.asc, its CRS from the .prj beside it;
     /// layer band1), an SRTM tile (.hgt or zipped .hgt.zip; layer elevation), a GDAL
-    /// virtual raster (.vrt:
-    /// gdalbuildvrt's mosaics of tiles and stacks of bands) or a MovingAI .map (layer
-    /// `blocked`); several after one --map (as a shell glob gives them) or --map
-    /// repeated. Maps from files other than tables are named after their file.
+    /// virtual raster (.vrt: gdalbuildvrt's mosaics of tiles and stacks of bands), a
+    /// JPEG 2000 raster (.jp2: Sentinel-2's bands) or a MovingAI .map (layer `blocked`);
+    /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
     pub maps: Vec<PathBuf>,
@@ -181,7 +180,7 @@ fn load_map(path: &Path) -> Result<Map> {
             path,
             format!(
                 "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
-                 (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .map (MovingAI) or .yaml (Nav2) \
+                 (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .map (MovingAI) or .yaml (Nav2) \
                  files, not '.{other}'"
             ),
         )),

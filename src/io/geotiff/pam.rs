@@ -56,7 +56,7 @@ pub fn sidecars(path: &Path) -> Vec<PathBuf> {
 /// What the PAM sidecar says of the dataset's georeference, which GDAL prefers to the
 /// TIFF's own (its `GDAL_GEOREF_SOURCES`: the sidecar, the GeoTIFF tags, a world file).
 #[derive(Debug, Default, Clone, PartialEq)]
-pub(super) struct PamGeoreference {
+pub(crate) struct PamGeoreference {
     /// GDAL's geotransform as ours (x = a·col + b·row + c, y = d·col + e·row + f).
     pub transform: Option<[f64; 6]>,
     /// The CRS as the GeoKeys GDAL would have written for it; `Err` saying why where
@@ -69,7 +69,7 @@ pub(super) struct PamGeoreference {
 
 /// The georeference in the PAM sidecar of `path` (nothing where there is none); an
 /// error names the sidecar where its XML is malformed.
-pub(super) fn georeference(path: &Path) -> Result<PamGeoreference, String> {
+pub(crate) fn georeference(path: &Path) -> Result<PamGeoreference, String> {
     let pam = sidecar(path);
     let Ok(xml) = std::fs::read_to_string(&pam) else {
         return Ok(PamGeoreference::default());
