@@ -250,8 +250,19 @@ impl Layout {
             u32_at(s + 24)?,
             u32_at(s + 28)?,
         ];
-        if tiling[0] == 0 || tiling[1] == 0 || image[0] >= image[2] || image[1] >= image[3] {
-            return Err("its SIZ marker gives no image area or tiles".into());
+        // SIZ holds 38 bytes before its components; the tile grid starts at or before
+        // the image area and its first tile reaches into it (Annex A.5.1).
+        let sane = siz.len() >= 38
+            && tiling[0] > 0
+            && tiling[1] > 0
+            && image[0] < image[2]
+            && image[1] < image[3]
+            && tiling[2] <= image[0]
+            && tiling[3] <= image[1]
+            && u64::from(tiling[2]) + u64::from(tiling[0]) > u64::from(image[0])
+            && u64::from(tiling[3]) + u64::from(tiling[1]) > u64::from(image[1]);
+        if !sane {
+            return Err("its SIZ marker gives no valid image area and tiles".into());
         }
         let mut tile_parts = Vec::new();
         while u16_at(at)? == 0xff90 {
@@ -262,7 +273,8 @@ impl Layout {
             } else {
                 at + length
             };
-            if end <= at || end > cs.len() {
+            // A tile-part holds its 12-byte SOT marker segment at least.
+            if end < at + 12 || end > cs.len() {
                 return Err(short());
             }
             tile_parts.push((tile, at..end));
@@ -299,16 +311,23 @@ impl Layout {
         let [xt, yt, xto, yto] = self.tiling;
         let across = (self.image[2] - xto).div_ceil(xt);
         let (tx, ty) = (u32::from(tile) % across, u32::from(tile) / across);
-        let (left, top) = (xto + tx * xt, yto + ty * yt);
-        let area = [
-            left.max(self.image[0]),
-            top.max(self.image[1]),
-            (left + xt).min(self.image[2]),
-            (top + yt).min(self.image[3]),
-        ];
-        if area[0] >= area[2] || area[1] >= area[3] {
-            return Err(format!("tile {tile} lies outside the image"));
-        }
+        let outside = || format!("tile {tile} lies outside the image");
+        // In u64: a tile number past the grid must not wrap onto the image.
+        let (left, top) = (
+            u64::from(xto) + u64::from(tx) * u64::from(xt),
+            u64::from(yto) + u64::from(ty) * u64::from(yt),
+        );
+        let clip = |start: u64, size: u32, low: u32, high: u32| {
+            let (from, to) = (
+                start.max(low.into()),
+                (start + u64::from(size)).min(high.into()),
+            );
+            (from < to).then_some((from as u32, to as u32))
+        };
+        let (x0, x1) = clip(left, xt, self.image[0], self.image[2]).ok_or_else(outside)?;
+        let (y0, y1) = clip(top, yt, self.image[1], self.image[3]).ok_or_else(outside)?;
+        let area = [x0, y0, x1, y1];
+        let (left, top) = (left as u32, top as u32);
         let mut out = CODESTREAM_START[..2].to_vec();
         let mut siz = cs[self.siz.clone()].to_vec();
         for (offset, value) in [
@@ -685,5 +704,57 @@ mod tests {
             "",
         ));
         assert!(why.unwrap_err().contains("1 offset vectors"));
+    }
+
+    /// A codestream's skeleton: SOC, SIZ of one 8-bit component on a `size` image in
+    /// `tile` tiles, a COM marker, TLM, and a tile-part of 4 data bytes per `parts` tile.
+    fn skeleton(size: [u32; 2], tile: [u32; 2], parts: &[u16]) -> Vec<u8> {
+        let mut cs = vec![0xff, 0x4f, 0xff, 0x51, 0, 41, 0, 0];
+        for v in [size[0], size[1], 0, 0, tile[0], tile[1], 0, 0] {
+            cs.extend(v.to_be_bytes());
+        }
+        cs.extend([0, 1, 7, 1, 1]);
+        cs.extend([0xff, 0x64, 0, 5, 0, 1, b'x']);
+        cs.extend([0xff, 0x55, 0, 4, 0, 0]);
+        for &t in parts {
+            cs.extend([0xff, 0x90, 0, 10]);
+            cs.extend(t.to_be_bytes());
+            cs.extend(18u32.to_be_bytes());
+            cs.extend([0, 1, 0xff, 0x93, 1, 2, 3, 4]);
+        }
+        cs.extend([0xff, 0xd9]);
+        cs
+    }
+
+    #[test]
+    fn a_tile_becomes_a_codestream_of_its_own_on_the_same_grid() {
+        let cs = skeleton([100, 60], [64, 64], &[0, 1]);
+        let layout = Layout::parse(&cs).unwrap();
+        assert_eq!(layout.image, [0, 0, 100, 60]);
+        assert_eq!(layout.tile_indices(), [0, 1]);
+        let (tile, area) = layout.tile_codestream(&cs, 1).unwrap();
+        assert_eq!(area, [64, 0, 100, 60]);
+        let one = Layout::parse(&tile).unwrap();
+        // The image area is the tile's; the tile grid starts at it; no TLM is left.
+        assert_eq!(one.image, [64, 0, 100, 60]);
+        assert_eq!(one.tiling, [64, 64, 64, 0]);
+        assert_eq!(one.tile_indices(), [0]);
+        assert_eq!(one.main_markers.len(), 1);
+        assert!(!tile.windows(2).any(|w| w == [0xff, 0x55]));
+        assert!(tile.ends_with(&[1, 2, 3, 4, 0xff, 0xd9]));
+        // A tile past the grid, and broken headers, are errors, never panics.
+        assert!(layout.tile_codestream(&cs, 9).is_err());
+        assert!(layout.tile_codestream(&cs, u16::MAX).is_err());
+        let mut short_siz = cs.clone();
+        short_siz[5] = 20;
+        assert!(Layout::parse(&short_siz).is_err());
+        let mut no_tiles = skeleton([100, 60], [0, 64], &[0]);
+        assert!(Layout::parse(&no_tiles).is_err());
+        no_tiles.truncate(no_tiles.len() - 8);
+        assert!(Layout::parse(&no_tiles).is_err());
+        for cut in 0..cs.len() {
+            let _ = decode(&cs[..cut]);
+        }
+        assert!(decode(&cs).is_err());
     }
 }
