@@ -1550,8 +1550,8 @@ fn gdal_virtual_rasters_read_as_gdal_reads_them() {
     );
 }
 
-/// JPEG 2000 rasters as GDAL writes them (JP2OpenJPEG): each reads to the grid, CRS and
-/// values GDAL reads it to, georeferenced by its GeoJP2 or its GMLJP2 box (degrees
+/// JPEG 2000 rasters as GDAL writes them (JP2OpenJPEG): each reads to the grid, CRS,
+/// band names, values and nodata GDAL reads it to (its sidecar's too), georeferenced by its GeoJP2 or its GMLJP2 box (degrees
 /// latitude first in GML), tiled with several resolutions as Sentinel-2's bands are;
 /// a lossy one within a unit of OpenJPEG's decoding. A bare codestream with no
 /// georeference is refused by name.
@@ -1582,12 +1582,7 @@ fn jpeg2000_rasters_read_as_gdal_reads_them() {
         let tolerance = if lossy.contains(&jp2) { 1.0 } else { 0.0 };
         assert_eq!(gdal.layers.len(), ours.layers.len(), "{jp2}");
         for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let worst = a
-                .values
-                .iter()
-                .zip(&b.values)
-                .map(|(x, y)| (x - y).abs())
-                .fold(0f32, f32::max);
+            let (worst, _) = differences_from_gdal(jp2, a, b);
             assert!(worst <= tolerance, "{jp2} {}: off by {worst}", b.name);
         }
     }
@@ -1596,4 +1591,94 @@ fn jpeg2000_rasters_read_as_gdal_reads_them() {
         &["bench", "terrain", "bare.j2k", "--method", "uniform"],
     );
     assert_input_error(&out, &["bare.j2k", "no georeference", "GeoJP2", "GMLJP2"]);
+}
+
+/// Georeferenced PNG and JPEG images as GDAL writes them: each reads to the grid, CRS,
+/// band names, values and nodata GDAL reads it to, nodata where GDAL's mask says so (an
+/// alpha band, a transparent grey or colour, a palette's clear entry, the mask GDAL
+/// appends to a JPEG), georeferenced by the sidecar or by a world file alone; a
+/// palette PNG's indices are declared classes; a JPEG as close to GDAL's libjpeg as
+/// libjpeg-turbo is. An image with no georeference is refused by name.
+#[test]
+fn georeferenced_png_and_jpeg_images_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("pictures.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let classes: Vec<&str> = info["classes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    let lossy = info["lossy"].as_object().unwrap();
+    for pair in info["pairs"].as_array().unwrap() {
+        let (tif, picture) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
+        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
+        let ours = imitate::io::read_raster(Path::new(picture), "a")
+            .unwrap_or_else(|e| panic!("{picture}: {e}"));
+        let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
+            tiff_crs: None,
+            ..geo.clone()
+        };
+        assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{picture}");
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{picture}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, mean) = differences_from_gdal(picture, a, b);
+            match lossy.get(picture) {
+                // Two libjpegs differ from each other on a photo's colours: ours is
+                // as close to GDAL's as libjpeg-turbo is, give or take a level.
+                Some(peer) => {
+                    let (peer_worst, peer_mean) = (
+                        peer[0].as_f64().unwrap() as f32,
+                        peer[1].as_f64().unwrap() as f32,
+                    );
+                    assert!(
+                        worst <= peer_worst.max(1.0) + 1.0 && mean <= peer_mean * 1.25 + 0.05,
+                        "{picture} {}: off by {worst}, {mean} on average; libjpeg-turbo by \
+                         {peer_worst}, {peer_mean}",
+                        b.name
+                    );
+                }
+                None => assert_eq!(worst, 0.0, "{picture} {}", b.name),
+            }
+            let declared = b.kind == LayerKind::Classes;
+            assert_eq!(declared, classes.contains(&picture), "{picture}");
+        }
+    }
+    let out = imitate(
+        dir.path(),
+        &["bench", "terrain", "bare.png", "--method", "uniform"],
+    );
+    assert_input_error(
+        &out,
+        &["bare.png", "no georeference", ".aux.xml", "world file"],
+    );
+}
+
+/// The largest and the mean difference of our layer's values from GDAL's, once the two
+/// are checked to have one name and the same nodata cells.
+fn differences_from_gdal(
+    file: &str,
+    gdal: &imitate::grid::Layer,
+    ours: &imitate::grid::Layer,
+) -> (f32, f32) {
+    assert_eq!(gdal.name, ours.name, "{file}");
+    let same_nodata = gdal
+        .values
+        .iter()
+        .zip(&ours.values)
+        .all(|(x, y)| x.is_nan() == y.is_nan());
+    assert!(same_nodata, "{file} {}: nodata cells differ", ours.name);
+    let differences: Vec<f32> = gdal
+        .values
+        .iter()
+        .zip(&ours.values)
+        .filter(|(x, _)| !x.is_nan())
+        .map(|(x, y)| (x - y).abs())
+        .collect();
+    let worst = differences.iter().copied().fold(0f32, f32::max);
+    let mean = differences.iter().sum::<f32>() / differences.len().max(1) as f32;
+    (worst, mean)
 }

@@ -41,7 +41,10 @@ mod samples;
 mod unpack;
 mod webp;
 
-pub(crate) use pam::{dataset_georeference, georeference as pam_georeference};
+pub(crate) use pam::{
+    bands as pam_bands, dataset_georeference, declared_class_bands,
+    georeference as pam_georeference, world_file_transform,
+};
 pub use pam::{sidecar, sidecars, wkt_geokeys};
 
 /// GeoKey ids (GeoTIFF 1.1) and the values we read.

@@ -1,7 +1,8 @@
 //! JPEG 2000 rasters (`.jp2`), as Sentinel-2's band files come in ESA's SAFE products
 //! (10980 × 10980 cells of 10 m, 15-bit reflectances) and as GDAL writes them
 //! (JP2OpenJPEG). The codestream (lossless 5/3 or lossy 9/7, any progression, tiles,
-//! precincts) is decoded by `rust-j2k`; every component is a band. The georeference is
+//! precincts) is decoded by `rust-j2k`; every component is a band, named, scaled and
+//! given its nodata by the PAM sidecar where GDAL wrote them there. The georeference is
 //! taken where GDAL takes it: the PAM sidecar (`.jp2.aux.xml`), then the GeoJP2 box (a
 //! GeoTIFF of 1 × 1 cells in a `uuid` box, whose tags give the grid and CRS as a
 //! GeoTIFF's do), then the GMLJP2 box (a GML `RectifiedGrid`: the first cell's centre,
@@ -15,8 +16,9 @@ use quick_xml::reader::Reader;
 use rayon::prelude::*;
 
 use super::geotiff::{Georeferencing, georeference, pam_georeference, tags_georeference};
+use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, read_input};
-use crate::grid::{Layer, Map, epsg_crs};
+use crate::grid::{Map, epsg_crs};
 
 /// The UUID of the GeoJP2 box (a GeoTIFF in a `uuid` box).
 const GEOJP2_UUID: [u8; 16] = [
@@ -62,26 +64,16 @@ pub fn read_jp2_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         },
     )?;
     let north_up = transform[4] < 0.0;
-    let row = width as usize;
-    let layers = image
-        .components
-        .iter()
-        .enumerate()
-        .map(|(index, samples)| {
-            let value = |v: &i32| (f64::from(*v) * heights) as f32;
-            let values: Vec<f32> = if north_up {
-                samples
-                    .chunks_exact(row)
-                    .rev()
-                    .flatten()
-                    .map(value)
-                    .collect()
-            } else {
-                samples.iter().map(value).collect()
-            };
-            Layer::new(format!("band{}", index + 1), values)
-        })
-        .collect();
+    // Bands named, scaled and given nodata by GDAL's sidecar, where there is one.
+    let samples = Samples {
+        width,
+        height,
+        bands: image.components.len(),
+        north_up,
+        heights,
+        sample: |band: usize, cell: usize| image.components[band][cell] as f32,
+    };
+    let layers = sidecar_bands::layers(path, samples, &FileMasks::default())?;
     let map = Map {
         name: name.to_string(),
         geo,

@@ -14,7 +14,9 @@ pub mod mdp_tables;
 pub mod movingai;
 pub mod nav2;
 pub mod parquet_check;
+pub mod picture;
 pub mod png;
+mod sidecar_bands;
 pub mod tables;
 pub mod vrt;
 
@@ -24,8 +26,10 @@ use crate::error::{Error, Result};
 use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
-/// GDAL virtual raster, zipped SRTM tile, JPEG 2000.
-pub const RASTER_EXTENSIONS: [&str; 8] = ["tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k"];
+/// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG.
+pub const RASTER_EXTENSIONS: [&str; 11] = [
+    "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg",
+];
 
 fn extension_of(path: &Path) -> String {
     path.extension()
@@ -63,11 +67,13 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "tif" | "tiff" => geotiff::read_geotiff_rows(path, name),
         "vrt" => vrt::read_vrt_rows(path, name, 0),
         "jp2" | "j2k" => jp2::read_jp2_rows(path, name),
+        "png" | "jpg" | "jpeg" => picture::read_picture_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
-                 (.hgt, .hgt.zip), GDAL virtual rasters (.vrt) or JPEG 2000 (.jp2), not \
+                 (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2) or \
+                 georeferenced PNG or JPEG images (.png, .jpg), not \
                  '.{other}'"
             ),
         )),

@@ -53,7 +53,8 @@ pub struct IngestParams {
     /// band1, band2, ...), an Esri ASCII grid (.asc, its CRS from the .prj beside it;
     /// layer band1), an SRTM tile (.hgt or zipped .hgt.zip; layer elevation), a GDAL
     /// virtual raster (.vrt: gdalbuildvrt's mosaics of tiles and stacks of bands), a
-    /// JPEG 2000 raster (.jp2: Sentinel-2's bands) or a MovingAI .map (layer `blocked`);
+    /// JPEG 2000 raster (.jp2: Sentinel-2's bands), a georeferenced PNG or JPEG (.png,
+    /// .jpg: by its .aux.xml sidecar or world file) or a MovingAI .map (layer `blocked`);
     /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
@@ -180,8 +181,8 @@ fn load_map(path: &Path) -> Result<Map> {
             path,
             format!(
                 "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
-                 (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .map (MovingAI) or .yaml (Nav2) \
-                 files, not '.{other}'"
+                 (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .png/.jpg \
+                 (georeferenced image), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),
         )),
     }

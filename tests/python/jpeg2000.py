@@ -2,8 +2,10 @@
 the GeoTIFF of what GDAL reads it to: a Sentinel-2-like band (uint16 reflectances, UTM,
 10 m, tiled with several resolutions and the RPCL progression ESA's files use), a
 3-band image with its georeference only in the GMLJP2 box and one with it only in the
-GeoJP2 box, a signed int16 DEM in degrees (GMLJP2's latitude-first axes), and a lossy
-(9/7 wavelet) copy of the 3-band image. Also a bare codestream with no georeference.
+GeoJP2 box, a signed int16 DEM in degrees (GMLJP2's latitude-first axes), a band with
+nodata, a name and a scale in GDAL's sidecar, and a lossy (9/7 wavelet) copy of the
+3-band image. The twins are float32, NaN where GDAL masks a cell, with the bands' names
+and scales. Also a bare codestream with no georeference.
 Prints one JSON line: the pairs (GeoTIFF twin, JPEG 2000 file), which are lossy, and
 the bare codestream."""
 
@@ -23,19 +25,26 @@ out = sys.argv[1]
 rng = np.random.default_rng(5)
 
 
-def write(name, values, crs, transform, **options):
+def write(name, values, crs, transform, tags=None, **options):
     path = os.path.join(out, name)
     with rasterio.open(path, "w", driver="JP2OpenJPEG", width=values.shape[2],
                        height=values.shape[1], count=values.shape[0], dtype=values.dtype,
                        crs=crs, transform=transform, **options) as dst:
         dst.write(values)
+        for key, value in (tags or {}).items():
+            setattr(dst, key, value)
     with rasterio.open(path) as src:
-        read = src.read()
+        read = src.read().astype("float32")
+        read[src.read_masks() == 0] = np.nan
         twin = os.path.join(out, name + ".tif")
         with rasterio.open(twin, "w", driver="GTiff", width=src.width, height=src.height,
-                           count=src.count, dtype=read.dtype, crs=src.crs,
-                           transform=src.transform) as dst:
+                           count=src.count, dtype="float32", crs=src.crs,
+                           transform=src.transform, nodata=float("nan")) as dst:
             dst.write(read)
+            dst.descriptions = src.descriptions
+            dst.scales = src.scales
+            dst.offsets = src.offsets
+            dst.units = src.units
     return [twin, path]
 
 
@@ -51,6 +60,11 @@ pairs = [
     write("dem_degrees.jp2", (field[:1] * 2 - 200).astype("int16"), "EPSG:4326",
           from_origin(7.0, 47.0, 0.001, 0.0005), GeoJP2="NO", **lossless),
 ]
+# Nodata, a band name and a scale, which GDAL keeps in the .aux.xml sidecar.
+band = image[:1].copy()
+band[0, :20, :] = 0
+pairs.append(write("B04_nodata.jp2", band, *utm, nodata=0,
+                   tags={"descriptions": ("B04",), "scales": (0.0001,)}, **lossless))
 lossy = write("lossy.jp2", image, *utm, QUALITY=20)
 pairs.append(lossy)
 

@@ -21,6 +21,8 @@ use std::path::{Path, PathBuf};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::reader::Reader;
 
+use super::metadata::BandMetadata;
+
 /// `path` with `suffix` added to its name.
 fn beside(path: &Path, suffix: &str) -> PathBuf {
     let mut name = path.as_os_str().to_owned();
@@ -33,14 +35,30 @@ pub fn sidecar(path: &Path) -> PathBuf {
     beside(path, ".aux.xml")
 }
 
-/// The world files GDAL looks for beside `path`, in its order: `x.tfw`, `x.tifw`,
-/// `x.wld` (for `x.tif`), and `x.tif.tfw`.
+/// The world files GDAL looks for beside `path`, in its order: the extension's first
+/// and last letters and `w`, the extension and `w`, then `wld` (`x.tfw`, `x.tifw`,
+/// `x.wld` for `x.tif`; `x.pgw`, `x.pngw` for `x.png`; `x.jgw`, `x.jpgw` for `x.jpg`),
+/// and for a TIFF `x.tif.tfw`.
 fn world_files(path: &Path) -> Vec<PathBuf> {
-    let mut files: Vec<PathBuf> = ["tfw", "tifw", "wld"]
+    let extension = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let mut extensions = Vec::new();
+    if let (Some(first), Some(last)) = (extension.chars().next(), extension.chars().last())
+        && extension.chars().count() >= 2
+    {
+        extensions.push(format!("{first}{last}w"));
+        extensions.push(format!("{extension}w"));
+    }
+    extensions.push("wld".into());
+    let mut files: Vec<PathBuf> = extensions
         .iter()
         .map(|ext| path.with_extension(ext))
         .collect();
-    files.push(beside(path, ".tfw"));
+    if extension.starts_with("tif") {
+        files.push(beside(path, ".tfw"));
+    }
     files
 }
 
@@ -107,7 +125,7 @@ pub fn wkt_geokeys(wkt: &str) -> Option<(Vec<u16>, String)> {
 
 /// The geotransform of the first world file beside `path` (`None` where there is none),
 /// as ours; an error names the file and what is wrong with it.
-pub(super) fn world_file_transform(path: &Path) -> Result<Option<[f64; 6]>, String> {
+pub(crate) fn world_file_transform(path: &Path) -> Result<Option<[f64; 6]>, String> {
     let Some(world) = world_files(path).into_iter().find(|f| f.is_file()) else {
         return Ok(None);
     };
@@ -452,7 +470,7 @@ fn epsg_code(body: &str) -> Option<u16> {
 /// The bands (numbered from 0) that the sidecar of `path` declares classes; none where
 /// there is no sidecar. A sidecar that cannot be read or parsed is left out with a
 /// warning, as GDAL does.
-pub(super) fn declared_class_bands(path: &Path) -> Vec<usize> {
+pub(crate) fn declared_class_bands(path: &Path) -> Vec<usize> {
     let sidecar = sidecar(path);
     let Ok(xml) = std::fs::read_to_string(&sidecar) else {
         return Vec::new();
@@ -467,6 +485,129 @@ pub(super) fn declared_class_bands(path: &Path) -> Vec<usize> {
             Vec::new()
         }
     }
+}
+
+/// What a PAM sidecar says of the bands of a raster whose format has no room for it
+/// (GDAL keeps a PNG's, a JPEG's or a JPEG 2000's band descriptions, units, scales,
+/// offsets and nodata values there).
+#[derive(Debug, Default, Clone, PartialEq)]
+pub(crate) struct PamBands {
+    /// Each band's description, unit, scale and offset.
+    pub metadata: Vec<BandMetadata>,
+    /// Each band's `<NoDataValue>`.
+    pub nodata: Vec<Option<f64>>,
+    /// The dataset's `NODATA_VALUES` (one per band: a cell is nodata where every band
+    /// holds its value), as GDAL keeps an RGB PNG's transparent colour.
+    pub nodata_values: Option<Vec<f64>>,
+}
+
+/// What the PAM sidecar of `path` says of its `count` bands (nothing where there is no
+/// sidecar); an error names the sidecar where its XML or a number in it is malformed.
+pub(crate) fn bands(path: &Path, count: usize) -> Result<PamBands, String> {
+    let pam = sidecar(path);
+    let mut bands = PamBands {
+        metadata: vec![BandMetadata::default(); count],
+        nodata: vec![None; count],
+        nodata_values: None,
+    };
+    let Ok(xml) = std::fs::read_to_string(&pam) else {
+        return Ok(bands);
+    };
+    read_bands(&xml, &mut bands).map_err(|e| format!("{}: {e}", pam.display()))?;
+    Ok(bands)
+}
+
+/// Fills `bands` from a PAM document's `<PAMRasterBand>` children and its dataset
+/// metadata's `NODATA_VALUES`.
+fn read_bands(xml: &str, bands: &mut PamBands) -> Result<(), String> {
+    let mut reader = Reader::from_str(xml);
+    // The open elements, the open <PAMRasterBand>'s band, the open <MDI>'s key, and
+    // the text read in the innermost element so far.
+    let mut open: Vec<Vec<u8>> = Vec::new();
+    let mut band: Option<usize> = None;
+    let mut key: Option<String> = None;
+    let mut default_domain = false;
+    let mut text = String::new();
+    let number = |element: &str, text: &str| {
+        text.trim()
+            .parse::<f64>()
+            .map_err(|_| format!("<{element}> '{}' is not a number", text.trim()))
+    };
+    loop {
+        match reader
+            .read_event()
+            .map_err(|e| format!("its XML is malformed: {e}"))?
+        {
+            Event::Eof => break,
+            Event::Start(tag) => {
+                match tag.name().as_ref() {
+                    b"PAMRasterBand" => band = band_number(&tag),
+                    b"Metadata" => {
+                        default_domain = tag
+                            .attributes()
+                            .flatten()
+                            .find(|a| a.key.as_ref() == b"domain")
+                            .is_none_or(|a| a.value.is_empty());
+                    }
+                    b"MDI" => {
+                        key = tag
+                            .attributes()
+                            .flatten()
+                            .find(|a| a.key.as_ref() == b"key")
+                            .map(|a| String::from_utf8_lossy(&a.value).into_owned());
+                    }
+                    _ => {}
+                }
+                open.push(tag.name().as_ref().to_vec());
+                text.clear();
+            }
+            Event::Text(t) => text.push_str(&t.decode().map_err(|e| e.to_string())?),
+            Event::End(_) => {
+                let element = open.pop().unwrap_or_default();
+                let parent = open.last().map(Vec::as_slice);
+                let in_band = parent == Some(b"PAMRasterBand");
+                let value = text.trim();
+                match (element.as_slice(), band) {
+                    (b"PAMRasterBand", _) => band = None,
+                    (b"Description", Some(b)) if in_band && b < bands.metadata.len() => {
+                        bands.metadata[b].description =
+                            Some(value.to_string()).filter(|d| !d.is_empty());
+                    }
+                    (b"UnitType", Some(b)) if in_band && b < bands.metadata.len() => {
+                        bands.metadata[b].unit = Some(value.to_string()).filter(|u| !u.is_empty());
+                    }
+                    (b"Scale", Some(b)) if in_band && b < bands.metadata.len() => {
+                        bands.metadata[b].scale = number("Scale", value)?;
+                    }
+                    (b"Offset", Some(b)) if in_band && b < bands.metadata.len() => {
+                        bands.metadata[b].offset = number("Offset", value)?;
+                    }
+                    (b"NoDataValue", Some(b)) if in_band && b < bands.nodata.len() => {
+                        bands.nodata[b] = Some(number("NoDataValue", value)?);
+                    }
+                    // The dataset's own metadata (a <Metadata> of the default domain
+                    // under <PAMDataset>).
+                    (b"MDI", None)
+                        if open.len() == 2
+                            && default_domain
+                            && key.as_deref() == Some("NODATA_VALUES") =>
+                    {
+                        let values = value
+                            .split_whitespace()
+                            .map(|v| number("MDI key=\"NODATA_VALUES\"", v))
+                            .collect::<Result<Vec<f64>, String>>()?;
+                        if values.len() == bands.nodata.len() {
+                            bands.nodata_values = Some(values);
+                        }
+                    }
+                    _ => {}
+                }
+                text.clear();
+            }
+            _ => {}
+        }
+    }
+    Ok(())
 }
 
 /// GDAL's field usages that give each value a name or a colour (GFU_Name, GFU_Red,
@@ -636,6 +777,52 @@ mod tests {
             Some(r#"GEOGCS["x",AUTHORITY["EPSG","4326"]]"#)
         );
         assert_eq!(transform, Some([0.5, 0.0, 10.0, 0.0, -0.5, 50.0]));
+    }
+
+    #[test]
+    fn world_files_are_named_by_gdals_rule_for_every_extension() {
+        let names = |file: &str| -> Vec<String> {
+            world_files(Path::new(file))
+                .iter()
+                .map(|p| p.to_string_lossy().into_owned())
+                .collect()
+        };
+        assert_eq!(names("a.tif"), ["a.tfw", "a.tifw", "a.wld", "a.tif.tfw"]);
+        assert_eq!(names("a.png"), ["a.pgw", "a.pngw", "a.wld"]);
+        assert_eq!(names("a.JPG"), ["a.jgw", "a.jpgw", "a.wld"]);
+        assert_eq!(names("a.jpeg"), ["a.jgw", "a.jpegw", "a.wld"]);
+    }
+
+    #[test]
+    fn band_descriptions_units_scales_and_nodata_come_from_the_sidecar() {
+        let xml = "<PAMDataset><Metadata><MDI key=\"NODATA_VALUES\">5 5 5</MDI></Metadata>\
+                   <Metadata domain=\"IMAGE_STRUCTURE\"><MDI key=\"NODATA_VALUES\">1 1 1</MDI></Metadata>\
+                   <PAMRasterBand band=\"2\"><Description>elevation</Description>\
+                   <NoDataValue>-9.999E+03</NoDataValue><UnitType>ft</UnitType>\
+                   <Offset>10</Offset><Scale>0.5</Scale>\
+                   <Metadata><MDI key=\"x\">y</MDI></Metadata></PAMRasterBand>\
+                   <PAMRasterBand band=\"9\"><NoDataValue>1</NoDataValue></PAMRasterBand>\
+                   </PAMDataset>";
+        let mut bands = PamBands {
+            metadata: vec![BandMetadata::default(); 3],
+            nodata: vec![None; 3],
+            nodata_values: None,
+        };
+        read_bands(xml, &mut bands).unwrap();
+        assert_eq!(bands.nodata, [None, Some(-9999.0), None]);
+        assert_eq!(bands.nodata_values, Some(vec![5.0; 3]));
+        let band = &bands.metadata[1];
+        assert_eq!(band.description.as_deref(), Some("elevation"));
+        assert_eq!(band.unit.as_deref(), Some("ft"));
+        assert_eq!((band.scale, band.offset), (0.5, 10.0));
+        assert_eq!(bands.metadata[0], BandMetadata::default());
+        let bad =
+            "<PAMDataset><PAMRasterBand band=\"1\"><Scale>x</Scale></PAMRasterBand></PAMDataset>";
+        assert!(
+            read_bands(bad, &mut bands)
+                .unwrap_err()
+                .contains("<Scale> 'x'")
+        );
     }
 
     #[test]

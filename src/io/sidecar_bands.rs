@@ -1,0 +1,128 @@
+//! The layers of a raster whose format keeps little of its bands (PNG, JPEG, JPEG
+//! 2000): GDAL keeps their descriptions, units, scales, offsets, nodata values and
+//! colour tables in the PAM sidecar (`.aux.xml`), and masks cells by its rules, in
+//! their order: a mask over every band the file holds (GDAL's bit mask appended to a
+//! JPEG), else a band's nodata value (the sidecar's, else the file's own), else the
+//! dataset's `NODATA_VALUES` (a colour: nodata where every band holds its value), else
+//! an alpha band (over every band but itself).
+
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use super::geotiff::metadata::{layer_names, metres_per_unit};
+use super::geotiff::{declared_class_bands, pam_bands};
+use crate::error::{Error, Result};
+use crate::grid::Layer;
+
+/// What a file itself says of its cells' validity and meaning.
+#[derive(Debug, Default, Clone, PartialEq)]
+pub(crate) struct FileMasks {
+    /// A mask over every band: `true` where a cell holds data.
+    pub mask: Option<Vec<bool>>,
+    /// Each band's nodata value, where the file gives one (a PNG's transparent grey, a
+    /// palette's one clear entry); empty where it gives none.
+    pub nodata: Vec<Option<f32>>,
+    /// A colour the file marks transparent (an RGB PNG's), one value per band.
+    pub nodata_values: Option<Vec<f32>>,
+    /// The alpha band.
+    pub alpha: Option<usize>,
+    /// Whether the bands hold a palette's indices (class codes).
+    pub palette: bool,
+}
+
+/// A raster's samples as its file holds them, rows from the top.
+pub(crate) struct Samples<F> {
+    pub width: u32,
+    pub height: u32,
+    pub bands: usize,
+    /// Whether the file's rows run from the north (ours run from the south).
+    pub north_up: bool,
+    /// Metres per unit of the heights (the CRS's vertical unit), for bands whose
+    /// sidecar names no unit of length.
+    pub heights: f64,
+    /// The sample of band `b` at cell `i` of the file (row by row from its top).
+    pub sample: F,
+}
+
+/// The layers of the raster at `path`: named, scaled and masked as its sidecar and
+/// `file` say; an error names the sidecar where it is malformed, and the file where
+/// every cell is nodata.
+pub(crate) fn layers<F>(path: &Path, raster: Samples<F>, file: &FileMasks) -> Result<Vec<Layer>>
+where
+    F: Fn(usize, usize) -> f32 + Sync,
+{
+    let problem = |message: String| Error::input(path, message);
+    let Samples {
+        width,
+        height,
+        bands,
+        north_up,
+        heights,
+        sample,
+    } = raster;
+    let sidecar = pam_bands(path, bands).map_err(problem)?;
+    let declared = declared_class_bands(path);
+    let names = layer_names(&sidecar.metadata);
+    let nodata: Vec<Option<f32>> = (0..bands)
+        .map(|b| {
+            let own = file.nodata.get(b).copied().flatten();
+            sidecar.nodata[b].map(|n| n as f32).or(own)
+        })
+        .collect();
+    let nodata_values: Option<Vec<f32>> = sidecar
+        .nodata_values
+        .as_ref()
+        .map(|values| values.iter().map(|&v| v as f32).collect())
+        .or_else(|| file.nodata_values.clone());
+    let is_masked = |band: usize, cell: usize| match (&file.mask, nodata[band]) {
+        (Some(mask), _) => !mask[cell],
+        (None, Some(n)) => {
+            let v = sample(band, cell);
+            v == n || (n.is_nan() && v.is_nan())
+        }
+        (None, None) => match &nodata_values {
+            Some(values) => (0..bands).all(|b| sample(b, cell) == values[b]),
+            None => file
+                .alpha
+                .is_some_and(|a| a != band && sample(a, cell) == 0.0),
+        },
+    };
+    let row = width as usize;
+    let layers: Vec<Layer> = (0..bands)
+        .map(|band| {
+            let metadata = &sidecar.metadata[band];
+            let heights = metadata
+                .unit
+                .as_deref()
+                .and_then(metres_per_unit)
+                .unwrap_or(heights);
+            let physical =
+                |v: f32| ((f64::from(v) * metadata.scale + metadata.offset) * heights) as f32;
+            let mut values = vec![0f32; row * height as usize];
+            values.par_chunks_mut(row).enumerate().for_each(|(r, out)| {
+                let source_row = if north_up { height as usize - 1 - r } else { r };
+                for (c, value) in out.iter_mut().enumerate() {
+                    let cell = source_row * row + c;
+                    *value = if is_masked(band, cell) {
+                        f32::NAN
+                    } else {
+                        physical(sample(band, cell))
+                    };
+                }
+            });
+            let layer = Layer::new(names[band].clone(), values);
+            if file.palette || declared.contains(&band) {
+                layer.declared_classes()
+            } else {
+                layer
+            }
+        })
+        .collect();
+    if layers.iter().all(|l| l.values.iter().all(|v| v.is_nan())) {
+        return Err(problem(
+            "every cell of every band is nodata (masked, transparent or its nodata value)".into(),
+        ));
+    }
+    Ok(layers)
+}
