@@ -1682,3 +1682,38 @@ fn differences_from_gdal(
     let mean = differences.iter().sum::<f32>() / differences.len().max(1) as f32;
     (worst, mean)
 }
+
+/// Raw rasters with an ESRI header as GDAL writes them (EHdr) and as the USGS hands
+/// them out (GridFloat): an SRTM-like int16 `.bil` in degrees with nodata, a float32
+/// `.flt`, a 3-band image by line, by pixel and by band (big-endian), and a GridFloat
+/// with the USGS's lowercase header; each reads to the grid, CRS, values and nodata
+/// GDAL reads it to. A `.bil` without its header is refused, naming the header.
+#[test]
+fn raw_rasters_with_an_esri_header_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("ehdr_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (tif, raw) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
+        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
+        let ours =
+            imitate::io::read_raster(Path::new(raw), "a").unwrap_or_else(|e| panic!("{raw}: {e}"));
+        let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
+            tiff_crs: None,
+            ..geo.clone()
+        };
+        assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{raw}");
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{raw}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(raw, a, b);
+            assert_eq!(worst, 0.0, "{raw} {}", b.name);
+        }
+    }
+    let out = imitate(
+        dir.path(),
+        &["bench", "terrain", "headless.bil", "--method", "uniform"],
+    );
+    assert_input_error(&out, &["headless.bil", "headless.hdr", "header"]);
+}

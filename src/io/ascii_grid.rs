@@ -187,7 +187,7 @@ fn read_header<'a>(
 
 /// The CRS as GeoKeys and the GeoAsciiParams they point into: from the `.prj` beside
 /// the grid, else from its GDAL sidecar; none where neither names one.
-fn crs_keys(path: &Path) -> std::result::Result<(Vec<u16>, String), String> {
+pub(super) fn crs_keys(path: &Path) -> std::result::Result<(Vec<u16>, String), String> {
     let prj = path.with_extension("prj");
     let wkt = match std::fs::read_to_string(&prj) {
         Ok(wkt) => Some((wkt, prj)),

@@ -2,6 +2,7 @@
 
 pub mod ascii_grid;
 pub mod demo_tables;
+pub mod ehdr;
 pub mod fs;
 pub mod geojson;
 pub mod geotiff;
@@ -26,9 +27,11 @@ use crate::error::{Error, Result};
 use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
-/// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG.
-pub const RASTER_EXTENSIONS: [&str; 11] = [
-    "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg",
+/// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
+/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat).
+pub const RASTER_EXTENSIONS: [&str; 15] = [
+    "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
+    "bsq", "flt",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -68,12 +71,14 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "vrt" => vrt::read_vrt_rows(path, name, 0),
         "jp2" | "j2k" => jp2::read_jp2_rows(path, name),
         "png" | "jpg" | "jpeg" => picture::read_picture_rows(path, name),
+        "bil" | "bip" | "bsq" | "flt" => ehdr::read_ehdr_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
-                 (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2) or \
-                 georeferenced PNG or JPEG images (.png, .jpg), not \
+                 (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
+                 georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
+                 header (.bil, .bip, .bsq, .flt), not \
                  '.{other}'"
             ),
         )),
@@ -86,6 +91,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
     match extension_of(path).as_str() {
         "asc" => ascii_grid::ascii_grid_sidecars(path),
         "vrt" => vrt::vrt_inputs(path),
+        "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "hgt" | "zip" => Vec::new(),
         _ => geotiff::sidecars(path),
     }

@@ -1,0 +1,435 @@
+//! ESRI `.hdr`-labelled rasters (GDAL's EHdr): `.bil`, `.bip` and `.bsq` files, as
+//! USGS EarthExplorer hands out SRTM and GTOPO30 tiles and as GDAL writes them, and
+//! GridFloat (`.flt`), as the USGS National Map handed out its DEMs. The samples are
+//! raw, band-interleaved by line, by pixel or by band; the header beside them
+//! (`x.hdr`) gives their layout (`NROWS`, `NCOLS`, `NBANDS`, `NBITS`, `PIXELTYPE`,
+//! `BYTEORDER`, `LAYOUT`, `SKIPBYTES`, `BANDROWBYTES`, `TOTALROWBYTES`,
+//! `BANDGAPBYTES`), the grid (`ULXMAP`/`ULYMAP`, the top-left cell's centre, with
+//! `XDIM`/`YDIM`; or GridFloat's `xllcorner`/`yllcorner` or centres with `cellsize`)
+//! and `NODATA`. The CRS is the `.prj` beside them, as for an ASCII grid; band names,
+//! scales and further nodata come from GDAL's sidecar, as for any raster.
+
+use std::path::{Path, PathBuf};
+
+use super::ascii_grid::crs_keys;
+use super::geotiff::{Georeferencing, georeference, sidecar};
+use super::sidecar_bands::{self, FileMasks, Samples};
+use crate::error::{Error, Result, read_input};
+use crate::grid::Map;
+
+/// The header beside a raw raster: `x.hdr` (GDAL also tries `x.HDR`).
+fn header_path(path: &Path) -> PathBuf {
+    let lower = path.with_extension("hdr");
+    if lower.is_file() {
+        return lower;
+    }
+    let upper = path.with_extension("HDR");
+    if upper.is_file() { upper } else { lower }
+}
+
+/// The files reading a raw raster depends on: its header, `.prj` and GDAL sidecar.
+pub fn ehdr_sidecars(path: &Path) -> Vec<PathBuf> {
+    [header_path(path), path.with_extension("prj"), sidecar(path)]
+        .into_iter()
+        .filter(|f| f.is_file())
+        .collect()
+}
+
+/// How one sample is stored.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Sample {
+    Unsigned(usize),
+    Signed(usize),
+    Float(usize),
+}
+
+impl Sample {
+    fn bytes(self) -> usize {
+        match self {
+            Sample::Unsigned(b) | Sample::Signed(b) | Sample::Float(b) => b,
+        }
+    }
+
+    /// The sample in `raw` (its bytes, little-endian first where `little`).
+    fn read(self, raw: &[u8], little: bool) -> f32 {
+        let mut word = [0u8; 8];
+        let n = self.bytes();
+        word[..n].copy_from_slice(&raw[..n]);
+        if !little {
+            word[..n].reverse();
+        }
+        let bits = u64::from_le_bytes(word);
+        match self {
+            Sample::Unsigned(_) => bits as f32,
+            Sample::Signed(n) => {
+                let shift = 64 - 8 * n as u32;
+                (((bits << shift) as i64) >> shift) as f32
+            }
+            Sample::Float(4) => f32::from_bits(bits as u32),
+            Sample::Float(_) => f64::from_bits(bits) as f32,
+        }
+    }
+}
+
+/// Where the samples lie and what they are, from the header.
+#[derive(Debug, Clone, PartialEq)]
+struct Layout {
+    columns: usize,
+    rows: usize,
+    bands: usize,
+    sample: Sample,
+    little_endian: bool,
+    /// Byte offsets: of the first sample, between rows, between a row's bands (BIL,
+    /// BSQ), and between bands (BSQ).
+    skip: usize,
+    row_bytes: usize,
+    band_row_bytes: usize,
+    band_bytes: usize,
+    interleave: Interleave,
+    /// GDAL's geotransform as ours.
+    transform: Option<[f64; 6]>,
+    nodata: Option<f64>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Interleave {
+    Line,
+    Pixel,
+    Band,
+}
+
+impl Layout {
+    /// Where band `band`'s sample of cell `cell` (row by row from the top) starts.
+    fn offset(&self, band: usize, cell: usize) -> usize {
+        let (row, col) = (cell / self.columns, cell % self.columns);
+        let size = self.sample.bytes();
+        match self.interleave {
+            Interleave::Line => {
+                self.skip + row * self.row_bytes + band * self.band_row_bytes + col * size
+            }
+            Interleave::Pixel => {
+                self.skip + row * self.row_bytes + (col * self.bands + band) * size
+            }
+            Interleave::Band => {
+                self.skip + band * self.band_bytes + row * self.band_row_bytes + col * size
+            }
+        }
+    }
+
+    /// The bytes the file must hold: up to the end of the last band's last sample.
+    fn extent(&self) -> Option<usize> {
+        let last = self.columns.checked_mul(self.rows)?.checked_sub(1)?;
+        let end = |band: usize| -> Option<usize> {
+            let (row, col) = (last / self.columns, last % self.columns);
+            let size = self.sample.bytes();
+            let at = match self.interleave {
+                Interleave::Line => self
+                    .skip
+                    .checked_add(row.checked_mul(self.row_bytes)?)?
+                    .checked_add(band.checked_mul(self.band_row_bytes)?)?,
+                Interleave::Pixel => self
+                    .skip
+                    .checked_add(row.checked_mul(self.row_bytes)?)?
+                    .checked_add(band.checked_mul(size)?)?,
+                Interleave::Band => self
+                    .skip
+                    .checked_add(band.checked_mul(self.band_bytes)?)?
+                    .checked_add(row.checked_mul(self.band_row_bytes)?)?,
+            };
+            let col_at = match self.interleave {
+                Interleave::Pixel => col.checked_mul(self.bands)?.checked_mul(size)?,
+                _ => col.checked_mul(size)?,
+            };
+            at.checked_add(col_at)?.checked_add(size)
+        };
+        (0..self.bands)
+            .map(end)
+            .try_fold(0, |most, e| Some(most.max(e?)))
+    }
+}
+
+/// The raw raster at `path` as map `name`, with whether its rows ran from the north.
+pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+    let problem = |message: String| Error::input(path, message);
+    let header = header_path(path);
+    let text = std::fs::read_to_string(&header).map_err(|e| {
+        problem(format!(
+            "its header {} cannot be read ({e}): a raw raster needs the .hdr beside it",
+            header.display()
+        ))
+    })?;
+    let grid_float = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("flt"));
+    let layout = read_header(&text, grid_float)
+        .map_err(|e| problem(format!("its header {}: {e}", header.display())))?;
+    let bytes = read_input(path)?;
+    let needed = layout
+        .extent()
+        .ok_or_else(|| problem("its header's layout overflows memory".into()))?;
+    if bytes.len() < needed {
+        return Err(problem(format!(
+            "holds {} bytes; its header's {} × {} cells of {} bands need {needed}",
+            bytes.len(),
+            layout.columns,
+            layout.rows,
+            layout.bands
+        )));
+    }
+    let transform = match layout.transform {
+        Some(transform) => transform,
+        None => super::geotiff::pam_georeference(path)
+            .map_err(problem)?
+            .transform
+            .ok_or_else(|| {
+                problem(format!(
+                    "no georeference: its header {} gives neither ULXMAP/ULYMAP nor \
+                     xllcorner/yllcorner, and no GDAL sidecar (.aux.xml) gives a grid",
+                    header.display()
+                ))
+            })?,
+    };
+    let (keys, ascii) = crs_keys(path).map_err(problem)?;
+    let (width, height) = (layout.columns as u32, layout.rows as u32);
+    let (geo, heights) = georeference(
+        path,
+        width,
+        height,
+        Georeferencing {
+            transform,
+            keys: &keys,
+            doubles: Vec::new(),
+            ascii,
+            pixel_is_point_tags: false,
+        },
+    )?;
+    let north_up = transform[4] < 0.0;
+    let nodata = layout.nodata.map(|n| n as f32);
+    let samples = Samples {
+        width,
+        height,
+        bands: layout.bands,
+        north_up,
+        heights,
+        sample: |band: usize, cell: usize| {
+            let at = layout.offset(band, cell);
+            let value = layout
+                .sample
+                .read(&bytes[at..at + layout.sample.bytes()], layout.little_endian);
+            // Infinities (a ratio's division by zero) are no measurement: nodata.
+            if value.is_infinite() { f32::NAN } else { value }
+        },
+    };
+    let masks = FileMasks {
+        nodata: vec![nodata; layout.bands],
+        ..FileMasks::default()
+    };
+    let layers = sidecar_bands::layers(path, samples, &masks)?;
+    let map = Map {
+        name: name.to_string(),
+        geo,
+        layers,
+    };
+    Ok((map, north_up))
+}
+
+/// The layout, grid and nodata a header gives (keywords in any case, one a line, a
+/// value after each). `grid_float`: a `.flt`, whose samples are 32-bit floats unless
+/// the header says otherwise.
+fn read_header(text: &str, grid_float: bool) -> std::result::Result<Layout, String> {
+    let mut fields: Vec<(String, String)> = Vec::new();
+    for line in text.lines() {
+        let mut words = line.split_whitespace();
+        if let (Some(key), Some(value)) = (words.next(), words.next()) {
+            fields.push((key.to_ascii_lowercase(), value.to_string()));
+        }
+    }
+    let text_of = |key: &str| {
+        fields
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    };
+    let number = |key: &str| -> std::result::Result<Option<f64>, String> {
+        text_of(key)
+            .map(|v| {
+                v.parse::<f64>()
+                    .map_err(|_| format!("{key} is '{v}', not a number"))
+            })
+            .transpose()
+    };
+    let count = |key: &str, default: Option<usize>| -> std::result::Result<usize, String> {
+        match number(key)? {
+            Some(v) if v >= 0.0 && v.fract() == 0.0 && v <= u32::MAX as f64 => Ok(v as usize),
+            Some(v) => Err(format!("{key} is {v}, not a count")),
+            None => default.ok_or_else(|| format!("it gives no {key}")),
+        }
+    };
+    let columns = count("ncols", None)?;
+    let rows = count("nrows", None)?;
+    if columns == 0 || rows == 0 {
+        return Err(format!("its grid is {columns} × {rows} cells"));
+    }
+    let bands = count("nbands", Some(1))?.max(1);
+    let bits = count("nbits", Some(if grid_float { 32 } else { 8 }))?;
+    let pixel_type = text_of("pixeltype").map(str::to_ascii_uppercase);
+    let sample = match (pixel_type.as_deref(), bits) {
+        (Some("FLOAT"), 32 | 64) => Sample::Float(bits / 8),
+        (None, 32) if grid_float => Sample::Float(4),
+        (Some("SIGNEDINT"), 8 | 16 | 32) => Sample::Signed(bits / 8),
+        (Some("UNSIGNEDINT") | None, 8 | 16 | 32) => Sample::Unsigned(bits / 8),
+        (kind, bits) => {
+            return Err(format!(
+                "samples of {bits} bits{} are not read (8, 16 and 32-bit integers, 32 and \
+                 64-bit floats are)",
+                kind.map_or(String::new(), |k| format!(" of PIXELTYPE {k}"))
+            ));
+        }
+    };
+    let little_endian = match text_of("byteorder").map(str::to_ascii_uppercase).as_deref() {
+        None | Some("I" | "LSBFIRST") => true,
+        Some("M" | "MSBFIRST") => false,
+        Some(other) => return Err(format!("BYTEORDER is '{other}', neither I nor M")),
+    };
+    let interleave = match text_of("layout").map(str::to_ascii_uppercase).as_deref() {
+        None | Some("BIL") => Interleave::Line,
+        Some("BIP") => Interleave::Pixel,
+        Some("BSQ") => Interleave::Band,
+        Some(other) => return Err(format!("LAYOUT is '{other}', not BIL, BIP or BSQ")),
+    };
+    let size = sample.bytes();
+    let band_row_bytes = count("bandrowbytes", Some(columns * size))?;
+    let row_bytes = count(
+        "totalrowbytes",
+        Some(match interleave {
+            Interleave::Line => band_row_bytes * bands,
+            Interleave::Pixel => columns * bands * size,
+            Interleave::Band => band_row_bytes,
+        }),
+    )?;
+    let band_gap = count("bandgapbytes", Some(0))?;
+    let skip = count("skipbytes", Some(0))?;
+    let band_bytes = band_row_bytes
+        .checked_mul(rows)
+        .and_then(|b| b.checked_add(band_gap))
+        .ok_or("its bands' size overflows memory")?;
+    // The grid: the top-left cell's centre and the cell's sides, or GridFloat's
+    // lower-left corner or centre and one cell size.
+    let (dx, dy) = match (number("xdim")?, number("ydim")?, number("cellsize")?) {
+        (Some(dx), Some(dy), _) => (dx, dy),
+        (_, _, Some(size)) => (size, size),
+        _ => (1.0, 1.0),
+    };
+    let height = rows as f64 * dy;
+    let transform = match (
+        (number("ulxmap")?, number("ulymap")?),
+        (number("xllcorner")?, number("yllcorner")?),
+        (number("xllcenter")?, number("yllcenter")?),
+    ) {
+        ((Some(x), Some(y)), _, _) => Some([dx, 0.0, x - dx / 2.0, 0.0, -dy, y + dy / 2.0]),
+        (_, (Some(x), Some(y)), _) => Some([dx, 0.0, x, 0.0, -dy, y + height]),
+        (_, _, (Some(x), Some(y))) => {
+            Some([dx, 0.0, x - dx / 2.0, 0.0, -dy, y - dy / 2.0 + height])
+        }
+        _ => None,
+    };
+    if !(dx.is_finite() && dy.is_finite() && dx > 0.0 && dy > 0.0) {
+        return Err(format!("its cells of {dx} × {dy} are not a size"));
+    }
+    let nodata = match number("nodata")? {
+        Some(n) => Some(n),
+        None => number("nodata_value")?,
+    };
+    Ok(Layout {
+        columns,
+        rows,
+        bands,
+        sample,
+        little_endian,
+        skip,
+        row_bytes,
+        band_row_bytes,
+        band_bytes,
+        interleave,
+        transform,
+        nodata,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headers_as_gdal_and_the_usgs_write_them() {
+        let gdal = read_header(
+            "BYTEORDER      I\nLAYOUT         BIL\nNROWS          40\nNCOLS          50\n\
+             NBANDS         2\nNBITS          16\nBANDROWBYTES   100\nTOTALROWBYTES  200\n\
+             PIXELTYPE      SIGNEDINT\nULXMAP         500015\nULYMAP         4199985\n\
+             XDIM           30\nYDIM           30\nNODATA         -32768\n",
+            false,
+        )
+        .unwrap();
+        assert_eq!(gdal.sample, Sample::Signed(2));
+        assert_eq!(
+            gdal.transform,
+            Some([30.0, 0.0, 500000.0, 0.0, -30.0, 4200000.0])
+        );
+        assert_eq!(gdal.nodata, Some(-32768.0));
+        // Band 1 of row 1 starts after row 0's two bands; band 1 a row's half in.
+        assert_eq!(gdal.offset(0, 50), 200);
+        assert_eq!(gdal.offset(1, 51), 302);
+        assert_eq!(gdal.extent(), Some(8000));
+        let grid_float = read_header(
+            "ncols 4\nnrows 3\nxllcorner -105\nyllcorner 39\ncellsize 0.5\n\
+             NODATA_value -9999\nbyteorder MSBFIRST\n",
+            true,
+        )
+        .unwrap();
+        assert_eq!(grid_float.sample, Sample::Float(4));
+        assert!(!grid_float.little_endian);
+        assert_eq!(
+            grid_float.transform,
+            Some([0.5, 0.0, -105.0, 0.0, -0.5, 40.5])
+        );
+        assert_eq!(grid_float.nodata, Some(-9999.0));
+        let pixel = read_header("NROWS 2\nNCOLS 3\nNBANDS 3\nLAYOUT BIP\n", false).unwrap();
+        assert_eq!((pixel.offset(2, 4), pixel.extent()), (14, Some(18)));
+        assert_eq!(pixel.transform, None);
+        let band = read_header("NROWS 2\nNCOLS 3\nNBANDS 3\nLAYOUT BSQ\n", false).unwrap();
+        assert_eq!((band.offset(2, 4), band.extent()), (16, Some(18)));
+    }
+
+    #[test]
+    fn samples_read_in_either_byte_order_and_sign() {
+        assert_eq!(Sample::Signed(2).read(&[0xff, 0xfe], false), -2.0);
+        assert_eq!(Sample::Signed(2).read(&[0xfe, 0xff], true), -2.0);
+        assert_eq!(Sample::Unsigned(2).read(&[0xfe, 0xff], true), 65534.0);
+        assert_eq!(Sample::Signed(1).read(&[0x80], true), -128.0);
+        assert_eq!(Sample::Float(4).read(&1.5f32.to_be_bytes(), false), 1.5);
+        assert_eq!(
+            Sample::Float(8).read(&(-2.25f64).to_le_bytes(), true),
+            -2.25
+        );
+    }
+
+    #[test]
+    fn broken_headers_are_explained() {
+        for (text, needle) in [
+            ("NROWS 2\n", "no ncols"),
+            ("NROWS 2\nNCOLS x\n", "'x', not a number"),
+            ("NROWS 2\nNCOLS 3\nNBITS 4\n", "4 bits"),
+            (
+                "NROWS 2\nNCOLS 3\nNBITS 16\nPIXELTYPE FLOAT\n",
+                "PIXELTYPE FLOAT",
+            ),
+            ("NROWS 2\nNCOLS 3\nBYTEORDER Q\n", "BYTEORDER"),
+            ("NROWS 2\nNCOLS 3\nLAYOUT ZZZ\n", "LAYOUT"),
+            ("NROWS 0\nNCOLS 3\n", "0 cells"),
+            ("NROWS 2\nNCOLS 3\nXDIM -1\nYDIM 1\n", "not a size"),
+        ] {
+            let error = read_header(text, false).unwrap_err();
+            assert!(error.contains(needle), "{text:?}: {error}");
+        }
+    }
+}
