@@ -1347,7 +1347,8 @@ fn crss_defined_by_their_parameters_take_points_as_proj_moves_them() {
 /// DEMs as they are handed out in other formats than GeoTIFF, written by GDAL from
 /// GeoTIFFs it also wrote: each reads to its GeoTIFF twin's grid, CRS and values (an
 /// Esri ASCII grid in UTM with its .prj, one in degrees with non-square cells, an SRTM
-/// tile, the tile zipped as NASA hands it out), and ingest takes them as maps.
+/// tile, the tile zipped as NASA hands it out, DTED tiles of levels 0 and 1), and
+/// ingest takes them as maps.
 #[test]
 fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
     let dir = tempfile::tempdir().unwrap();

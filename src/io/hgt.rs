@@ -13,7 +13,8 @@ use crate::error::{Error, Result, open_input, read_input};
 use crate::grid::{Layer, Map};
 
 /// The GeoKeys of WGS 84 degrees (geographic model, PixelIsArea, EPSG:4326).
-const WGS84_KEYS: [u16; 16] = [1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326];
+pub(super) const WGS84_KEYS: [u16; 16] =
+    [1, 1, 0, 3, 1024, 0, 1, 2, 1025, 0, 1, 1, 2048, 0, 1, 4326];
 const VOID: i16 = -32768;
 
 /// The south-west corner (longitude, latitude) a tile's file name gives.

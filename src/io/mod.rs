@@ -2,6 +2,7 @@
 
 pub mod ascii_grid;
 pub mod demo_tables;
+pub mod dted;
 pub mod ehdr;
 pub mod fs;
 pub mod geojson;
@@ -28,10 +29,10 @@ use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
-/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat).
-pub const RASTER_EXTENSIONS: [&str; 15] = [
+/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles.
+pub const RASTER_EXTENSIONS: [&str; 18] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt",
+    "bsq", "flt", "dt0", "dt1", "dt2",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -72,13 +73,14 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "jp2" | "j2k" => jp2::read_jp2_rows(path, name),
         "png" | "jpg" | "jpeg" => picture::read_picture_rows(path, name),
         "bil" | "bip" | "bsq" | "flt" => ehdr::read_ehdr_rows(path, name),
+        "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
-                 header (.bil, .bip, .bsq, .flt), not \
+                 header (.bil, .bip, .bsq, .flt) or DTED tiles (.dt0, .dt1, .dt2), not \
                  '.{other}'"
             ),
         )),
@@ -92,7 +94,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "asc" => ascii_grid::ascii_grid_sidecars(path),
         "vrt" => vrt::vrt_inputs(path),
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
-        "hgt" | "zip" => Vec::new(),
+        "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
         _ => geotiff::sidecars(path),
     }
 }

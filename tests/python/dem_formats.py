@@ -1,8 +1,9 @@
 """DEMs in the formats other than GeoTIFF that they are handed out in, written by GDAL
 (rasterio) from GeoTIFFs it also writes: an Esri ASCII grid in UTM with nodata (its CRS
 in the .prj beside it), one in degrees with non-square cells (GDAL's dx and dy), and an
-SRTM tile (.hgt, 1201 x 1201 samples, voids), and that tile zipped (.hgt.zip, as NASA hands
-tiles out). Beside them, walks on the UTM grid and on
+SRTM tile (.hgt, 1201 x 1201 samples, voids), that tile zipped (.hgt.zip, as NASA hands
+tiles out), and DTED tiles of levels 0 and 1 (.dt0, .dt1, with voids and heights below
+sea level). Beside them, walks on the UTM grid and on
 the tile written by pyarrow. Prints one JSON line: each pair (GeoTIFF, its twin) and
 the walks."""
 
@@ -59,6 +60,16 @@ with zipfile.ZipFile(zipped, "w", zipfile.ZIP_DEFLATED) as archive:
 with rasterio.open(zipped) as src:
     assert src.bounds.left == 7.0 - half and (src.read(1) == tile).all(), src.bounds
 pairs.append([srtm, zipped])
+# DTED tiles (GDAL's DTED driver), as EarthExplorer also hands SRTM out: level 0
+# (121 x 121 posts of 30") with voids and heights below sea level, and level 1.
+for level, posts in [(0, 121), (1, 1201)]:
+    step = 1 / (posts - 1)
+    heights = np.fromfunction(lambda r, c: (r * 7 + c * 3) % 900 - 200, (posts, posts))
+    heights = heights.astype("int16")
+    heights[40:44, 60:66] = -32767
+    source = geotiff(f"N46E007_dted{level}.tif", heights, "EPSG:4326",
+                     from_origin(7.0 - step / 2, 47.0 + step / 2, step, step), -32767)
+    pairs.append([source, twin(source, f"n46_e007.dt{level}", "DTED")])
 
 walks = {"episode": [], "map": [], "t": [], "x": [], "y": []}
 for episode, map_name, points in [
