@@ -21,6 +21,7 @@ pub mod png;
 mod sidecar_bands;
 pub mod tables;
 pub mod vrt;
+pub mod xyz;
 
 use std::path::Path;
 
@@ -29,10 +30,10 @@ use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
-/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles.
-pub const RASTER_EXTENSIONS: [&str; 18] = [
+/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ.
+pub const RASTER_EXTENSIONS: [&str; 19] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -74,13 +75,15 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "png" | "jpg" | "jpeg" => picture::read_picture_rows(path, name),
         "bil" | "bip" | "bsq" | "flt" => ehdr::read_ehdr_rows(path, name),
         "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
+        "xyz" => xyz::read_xyz_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
-                 header (.bil, .bip, .bsq, .flt) or DTED tiles (.dt0, .dt1, .dt2), not \
+                 header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2) or gridded \
+                 XYZ text (.xyz), not \
                  '.{other}'"
             ),
         )),
@@ -91,7 +94,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
 /// ASCII grid's sidecars, a VRT's sources and theirs.
 pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
     match extension_of(path).as_str() {
-        "asc" => ascii_grid::ascii_grid_sidecars(path),
+        "asc" | "xyz" => ascii_grid::ascii_grid_sidecars(path),
         "vrt" => vrt::vrt_inputs(path),
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),

@@ -2,8 +2,8 @@
 (rasterio) from GeoTIFFs it also writes: an Esri ASCII grid in UTM with nodata (its CRS
 in the .prj beside it), one in degrees with non-square cells (GDAL's dx and dy), and an
 SRTM tile (.hgt, 1201 x 1201 samples, voids), that tile zipped (.hgt.zip, as NASA hands
-tiles out), and DTED tiles of levels 0 and 1 (.dt0, .dt1, with voids and heights below
-sea level). Beside them, walks on the UTM grid and on
+tiles out), DTED tiles of levels 0 and 1 (.dt0, .dt1, with voids and heights below
+sea level), and gridded XYZ text (GDAL's, and one by hand with cells missing). Beside them, walks on the UTM grid and on
 the tile written by pyarrow. Prints one JSON line: each pair (GeoTIFF, its twin) and
 the walks."""
 
@@ -17,6 +17,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import rasterio
 import rasterio.shutil
+from rasterio.enums import WktVersion
 from rasterio.transform import from_origin
 
 out = sys.argv[1]
@@ -70,6 +71,30 @@ for level, posts in [(0, 121), (1, 1201)]:
     source = geotiff(f"N46E007_dted{level}.tif", heights, "EPSG:4326",
                      from_origin(7.0 - step / 2, 47.0 + step / 2, step, step), -32767)
     pairs.append([source, twin(source, f"n46_e007.dt{level}", "DTED")])
+# Gridded XYZ, as LiDAR DEMs are handed out: GDAL's XYZ driver (and a .prj in ESRI's WKT
+# for its CRS, which the format cannot hold), and one written by hand with a header, tabs,
+# rows from the south and cells missing, beside GDAL's reading of it.
+lidar = geotiff("lidar.tif", (dem + 0.25).clip(1100, None), "EPSG:32632",
+                from_origin(400000, 5160000, 1, 1), None)
+pairs.append([lidar, twin(lidar, "lidar.xyz", "XYZ")])
+with rasterio.open(lidar) as src:
+    open(os.path.join(out, "lidar.prj"), "w").write(src.crs.to_wkt(version=WktVersion.WKT1_ESRI))
+sparse = os.path.join(out, "sparse.xyz")
+with open(sparse, "w") as f:
+    f.write("x\ty\televation\n")
+    for row in range(12):
+        for col in range(15):
+            if (row * 7 + col * 3) % 11 != 0:
+                f.write(f"{2500000.5 + col}\t{1100000.5 + row}\t{400 + row * 0.5 + col}\n")
+with rasterio.open(sparse) as src:
+    read = src.read().astype("float32")
+    read[src.read_masks() == 0] = np.nan
+    sparse_twin = os.path.join(out, "sparse.tif")
+    with rasterio.open(sparse_twin, "w", driver="GTiff", width=src.width, height=src.height,
+                       count=1, dtype="float32", transform=src.transform,
+                       nodata=float("nan")) as dst:
+        dst.write(read)
+pairs.append([sparse_twin, sparse])
 
 walks = {"episode": [], "map": [], "t": [], "x": [], "y": []}
 for episode, map_name, points in [
