@@ -217,4 +217,22 @@ mod tests {
                 .contains("longitude interval")
         );
     }
+
+    proptest::proptest! {
+        /// A label of any size over a body of any bytes reads or is refused with an
+        /// error: never a panic.
+        #[test]
+        fn any_label_over_any_body_reads_or_is_refused(
+            columns in 1usize..40,
+            rows in 1usize..40,
+            body in proptest::collection::vec(proptest::num::u8::ANY, 0..4000),
+        ) {
+            let mut file = label("0070000E0460000N", "03000300", &format!("{columns:04}{rows:04}"));
+            file.extend(body);
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("n46.dt0");
+            std::fs::write(&path, &file).unwrap();
+            let _ = read_dted(&path, "n46");
+        }
+    }
 }

@@ -432,4 +432,50 @@ mod tests {
             assert!(error.contains(needle), "{text:?}: {error}");
         }
     }
+
+    proptest::proptest! {
+        /// Any layout a header may give, over a file of any length, reads or is refused
+        /// with an error: never a panic, and never a read past the file.
+        #[test]
+        fn any_layout_over_any_file_reads_or_is_refused(
+            columns in 1usize..9,
+            rows in 1usize..9,
+            bands in 1usize..4,
+            kind in 0usize..6,
+            layout in 0usize..3,
+            skip in 0usize..5,
+            big_endian in proptest::bool::ANY,
+            length in 0usize..2000,
+            fill in 0u8..=255,
+        ) {
+            let (bits, pixel) = [(8, "UNSIGNEDINT"), (8, "SIGNEDINT"), (16, "SIGNEDINT"),
+                (32, "UNSIGNEDINT"), (32, "FLOAT"), (64, "FLOAT")][kind];
+            let dir = tempfile::tempdir().unwrap();
+            let path = dir.path().join("r.bil");
+            std::fs::write(
+                dir.path().join("r.hdr"),
+                format!(
+                    "NROWS {rows}\nNCOLS {columns}\nNBANDS {bands}\nNBITS {bits}\n\
+                     PIXELTYPE {pixel}\nLAYOUT {}\nSKIPBYTES {skip}\nBYTEORDER {}\n\
+                     ULXMAP 0.5\nULYMAP 9.5\nXDIM 1\nYDIM 1\n",
+                    ["BIL", "BIP", "BSQ"][layout],
+                    if big_endian { "M" } else { "I" }
+                ),
+            )
+            .unwrap();
+            std::fs::write(&path, vec![fill; length]).unwrap();
+            let needed = skip + columns * rows * bands * bits / 8;
+            match read_ehdr_rows(&path, "r") {
+                Ok((map, _)) => {
+                    proptest::prop_assert!(length >= needed);
+                    proptest::prop_assert_eq!(map.layers.len(), bands);
+                }
+                Err(e) => proptest::prop_assert!(
+                    length < needed || e.to_string().contains("nodata"),
+                    "{}",
+                    e
+                ),
+            }
+        }
+    }
 }

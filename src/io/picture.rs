@@ -432,4 +432,24 @@ mod tests {
             assert!(result.is_err());
         }
     }
+
+    proptest::proptest! {
+        /// Any bytes after a PNG's or a JPEG's signature, and any tail after a JPEG's
+        /// end marker, decode or give an error: never a panic.
+        #[test]
+        fn any_bytes_decode_or_are_refused(
+            body in proptest::collection::vec(proptest::num::u8::ANY, 0..600),
+            tail in proptest::collection::vec(proptest::num::u8::ANY, 0..40),
+        ) {
+            let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+            png.extend(&body);
+            let _ = decode_png(&png);
+            let mut jpeg = vec![0xff, 0xd8];
+            jpeg.extend(&body);
+            jpeg.extend([0xff, 0xd9]);
+            jpeg.extend(&tail);
+            let _ = decode_jpeg(&jpeg);
+            let _ = gdal_mask(&jpeg, body.len());
+        }
+    }
 }

@@ -245,4 +245,20 @@ mod tests {
         let scattered = read_points("0 0 1\n1000 1000 1\n1 1 1\n").unwrap();
         assert!(Grid::of(&scattered).unwrap_err().contains("scattered"));
     }
+
+    proptest::proptest! {
+        /// Any text of numbers and separators is points or an error, and any points a
+        /// grid or an error: never a panic.
+        #[test]
+        fn any_text_is_points_or_an_error(text in "[0-9 .,;\t\n\\-eExyz]{0,300}") {
+            if let Ok(points) = read_points(&text)
+                && let Ok(grid) = Grid::of(&points)
+            {
+                for &[x, y, _] in &points {
+                    proptest::prop_assert!(grid.index(x, grid.x0, grid.dx) < grid.columns);
+                    proptest::prop_assert!(grid.index(y, grid.y0, grid.dy) < grid.rows);
+                }
+            }
+        }
+    }
 }
