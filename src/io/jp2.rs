@@ -73,7 +73,11 @@ pub fn read_jp2_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         heights,
         sample: |band: usize, cell: usize| image.components[band][cell] as f32,
     };
-    let layers = sidecar_bands::layers(path, samples, &FileMasks::default())?;
+    let masks = FileMasks {
+        alpha: file.alpha.filter(|&a| a < image.components.len()),
+        ..FileMasks::default()
+    };
+    let layers = sidecar_bands::layers(path, samples, &masks)?;
     let map = Map {
         name: name.to_string(),
         geo,
@@ -356,6 +360,9 @@ struct File<'a> {
     geojp2: Option<&'a [u8]>,
     /// The GMLJP2 box's XML documents.
     gml: Vec<&'a [u8]>,
+    /// The component a channel definition box (`cdef`) marks as opacity: an alpha
+    /// band, which masks the others as GDAL reads them.
+    alpha: Option<usize>,
 }
 
 /// The boxes of a JP2 file (ISO/IEC 15444-1 Annex I), or a bare codestream.
@@ -365,6 +372,7 @@ fn parse_file(bytes: &[u8]) -> std::result::Result<File<'_>, String> {
             codestream: bytes,
             geojp2: None,
             gml: Vec::new(),
+            alpha: None,
         });
     }
     let top = boxes(bytes)?;
@@ -379,6 +387,7 @@ fn parse_file(bytes: &[u8]) -> std::result::Result<File<'_>, String> {
         codestream: &[],
         geojp2: None,
         gml: Vec::new(),
+        alpha: None,
     };
     for (kind, payload) in &top {
         match kind {
@@ -394,6 +403,9 @@ fn parse_file(bytes: &[u8]) -> std::result::Result<File<'_>, String> {
                             .into(),
                     );
                 }
+                if let Some((_, cdef)) = header.iter().find(|(kind, _)| kind == b"cdef") {
+                    file.alpha = opacity_channel(cdef);
+                }
             }
             _ => {}
         }
@@ -402,6 +414,16 @@ fn parse_file(bytes: &[u8]) -> std::result::Result<File<'_>, String> {
         return Err("has no codestream (jp2c box)".into());
     }
     Ok(file)
+}
+
+/// The component a channel definition box (`cdef`: a count, then channel, type and
+/// association, each a big-endian u16) marks as opacity (type 1, or 2 premultiplied).
+fn opacity_channel(cdef: &[u8]) -> Option<usize> {
+    let count = usize::from(u16::from_be_bytes([*cdef.first()?, *cdef.get(1)?]));
+    cdef.get(2..2 + 6 * count)?
+        .chunks_exact(6)
+        .find(|entry| matches!(u16::from_be_bytes([entry[2], entry[3]]), 1 | 2))
+        .map(|entry| usize::from(u16::from_be_bytes([entry[0], entry[1]])))
 }
 
 /// The `xml ` boxes among the boxes of an association (`asoc`), however deep.
@@ -748,5 +770,17 @@ mod tests {
             let _ = decode(&cs[..cut]);
         }
         assert!(decode(&cs).is_err());
+    }
+
+    #[test]
+    fn a_channel_definition_names_the_alpha_component() {
+        // RGBA: channels 0 to 2 colours (type 0) of red, green and blue, channel 3
+        // opacity (type 1) of the whole image.
+        let cdef = [
+            0, 4, 0, 0, 0, 0, 0, 1, 0, 1, 0, 0, 0, 2, 0, 2, 0, 0, 0, 3, 0, 3, 0, 1, 0, 0,
+        ];
+        assert_eq!(opacity_channel(&cdef), Some(3));
+        assert_eq!(opacity_channel(&[0, 1, 0, 0, 0, 0, 0, 1]), None);
+        assert_eq!(opacity_channel(&[0, 9, 0]), None);
     }
 }

@@ -3,7 +3,8 @@ the GeoTIFF of what GDAL reads it to: a Sentinel-2-like band (uint16 reflectance
 10 m, tiled with several resolutions and the RPCL progression ESA's files use), a
 3-band image with its georeference only in the GMLJP2 box and one with it only in the
 GeoJP2 box, a signed int16 DEM in degrees (GMLJP2's latitude-first axes), a band with
-nodata, a name and a scale in GDAL's sidecar, and a lossy (9/7 wavelet) copy of the
+nodata, a name and a scale in GDAL's sidecar, an RGBA image whose opacity masks its
+colours, and a lossy (9/7 wavelet) copy of the
 3-band image. The twins are float32, NaN where GDAL masks a cell, with the bands' names
 and scales. Also a bare codestream with no georeference.
 Prints one JSON line: the pairs (GeoTIFF twin, JPEG 2000 file), which are lossy, and
@@ -65,6 +66,10 @@ band = image[:1].copy()
 band[0, :20, :] = 0
 pairs.append(write("B04_nodata.jp2", band, *utm, nodata=0,
                    tags={"descriptions": ("B04",), "scales": (0.0001,)}, **lossless))
+# RGBA: the fourth component is opacity (a cdef box), which masks the others in GDAL.
+rgba = np.concatenate([(image[:3] // 50).astype("uint8"), np.full((1, 240, 320), 255, "uint8")])
+rgba[3, 100:140, :80] = 0
+pairs.append(write("rgba.jp2", rgba, *utm, ALPHA="YES", **lossless))
 lossy = write("lossy.jp2", image, *utm, QUALITY=20)
 pairs.append(lossy)
 
