@@ -4,8 +4,9 @@ formats a user may be handed instead of a GeoTIFF: a PNG (georeferenced by GDAL'
 .aux.xml), a JPEG (quality 75, as agencies ship orthophotos, with a world file), a BIL
 (ESRI .hdr and .prj), a gridded XYZ (one band; its .prj written beside it), a lossless
 JPEG 2000. Every copy runs `imitate bench terrain` with the same seed and teachers as the
-GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit, a lossy one
-shows what its compression costs.
+GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit. A lossy copy
+is another terrain (its teacher is drawn from the compressed image too), and an RGBA
+image written as BIL, which keeps no alpha, is read unmasked, as GDAL reads it.
 
     PYTHONPATH=target/python-deps python3 benches/terrain_formats.py \
         target/release/imitate target/formats [--teacher T ...] [--seed 7]
