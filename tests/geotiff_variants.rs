@@ -1570,18 +1570,9 @@ fn jpeg2000_rasters_read_as_gdal_reads_them() {
         .map(|v| v.as_str().unwrap())
         .collect();
     for pair in info["pairs"].as_array().unwrap() {
-        let (tif, jp2) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
-        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
-        let ours =
-            imitate::io::read_raster(Path::new(jp2), "a").unwrap_or_else(|e| panic!("{jp2}: {e}"));
-        // The same grid and CRS (the GeoKeys' citations aside).
-        let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
-            tiff_crs: None,
-            ..geo.clone()
-        };
-        assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{jp2}");
+        let (jp2, gdal, ours) = read_twins(pair);
+        let jp2 = jp2.as_str();
         let tolerance = if lossy.contains(&jp2) { 1.0 } else { 0.0 };
-        assert_eq!(gdal.layers.len(), ours.layers.len(), "{jp2}");
         for (a, b) in gdal.layers.iter().zip(&ours.layers) {
             let (worst, _) = differences_from_gdal(jp2, a, b);
             assert!(worst <= tolerance, "{jp2} {}: off by {worst}", b.name);
@@ -1615,16 +1606,8 @@ fn georeferenced_png_and_jpeg_images_read_as_gdal_reads_them() {
         .collect();
     let lossy = info["lossy"].as_object().unwrap();
     for pair in info["pairs"].as_array().unwrap() {
-        let (tif, picture) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
-        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
-        let ours = imitate::io::read_raster(Path::new(picture), "a")
-            .unwrap_or_else(|e| panic!("{picture}: {e}"));
-        let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
-            tiff_crs: None,
-            ..geo.clone()
-        };
-        assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{picture}");
-        assert_eq!(gdal.layers.len(), ours.layers.len(), "{picture}");
+        let (picture, gdal, ours) = read_twins(pair);
+        let picture = picture.as_str();
         for (a, b) in gdal.layers.iter().zip(&ours.layers) {
             let (worst, mean) = differences_from_gdal(picture, a, b);
             match lossy.get(picture) {
@@ -1656,6 +1639,23 @@ fn georeferenced_png_and_jpeg_images_read_as_gdal_reads_them() {
         &out,
         &["bare.png", "no georeference", ".aux.xml", "world file"],
     );
+}
+
+/// A pair of files a Python script wrote (a GeoTIFF twin of what GDAL reads a file to,
+/// and the file): the file's path, the twin read and the file read, once the two are
+/// checked to have the same grid, CRS (the GeoKeys' citations aside) and layer count.
+fn read_twins(pair: &serde_json::Value) -> (String, imitate::grid::Map, imitate::grid::Map) {
+    let (tif, file) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
+    let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
+    let ours =
+        imitate::io::read_raster(Path::new(file), "a").unwrap_or_else(|e| panic!("{file}: {e}"));
+    let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
+        tiff_crs: None,
+        ..geo.clone()
+    };
+    assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{file}");
+    assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
+    (file.to_string(), gdal, ours)
 }
 
 /// The largest and the mean difference of our layer's values from GDAL's, once the two
@@ -1697,16 +1697,8 @@ fn raw_rasters_with_an_esri_header_read_as_gdal_reads_them() {
     };
     let info = &written[0];
     for pair in info["pairs"].as_array().unwrap() {
-        let (tif, raw) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
-        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
-        let ours =
-            imitate::io::read_raster(Path::new(raw), "a").unwrap_or_else(|e| panic!("{raw}: {e}"));
-        let grid = |geo: &imitate::grid::GeoRef| imitate::grid::GeoRef {
-            tiff_crs: None,
-            ..geo.clone()
-        };
-        assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{raw}");
-        assert_eq!(gdal.layers.len(), ours.layers.len(), "{raw}");
+        let (raw, gdal, ours) = read_twins(pair);
+        let raw = raw.as_str();
         for (a, b) in gdal.layers.iter().zip(&ours.layers) {
             let (worst, _) = differences_from_gdal(raw, a, b);
             assert_eq!(worst, 0.0, "{raw} {}", b.name);
@@ -1717,4 +1709,39 @@ fn raw_rasters_with_an_esri_header_read_as_gdal_reads_them() {
         &["bench", "terrain", "headless.bil", "--method", "uniform"],
     );
     assert_input_error(&out, &["headless.bil", "headless.hdr", "header"]);
+}
+
+/// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length
+/// compressed blocks, edge blocks, blocks of 32, 1-, 4- and 8-bit to 64-bit samples,
+/// nodata, band names, a CRS from the PE string or from ERDAS's projection parameters
+/// alone; each reads to the grid, CRS, values, names and nodata GDAL reads it to, and a
+/// layer with a colour table holds classes. An ENVI `.img` is refused, naming the file.
+#[test]
+fn erdas_imagine_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("imagine_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let thematic: Vec<&str> = info["thematic"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    for pair in info["pairs"].as_array().unwrap() {
+        let (img, gdal, ours) = read_twins(pair);
+        let img = img.as_str();
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(img, a, b);
+            assert_eq!(worst, 0.0, "{img} {}", b.name);
+            let declared = b.kind == LayerKind::Classes;
+            assert_eq!(declared, thematic.contains(&img), "{img}");
+        }
+    }
+    let out = imitate(
+        dir.path(),
+        &["bench", "terrain", "envi_scene.img", "--method", "uniform"],
+    );
+    assert_input_error(&out, &["envi_scene.img", "ERDAS Imagine", "ENVI"]);
 }

@@ -84,8 +84,8 @@ pub fn read_ascii_grid(path: &Path, name: &str) -> Result<Map> {
         path,
         header.columns,
         header.rows,
-        Georeferencing {
-            transform: [
+        Georeferencing::of_grid(
+            [
                 dx,
                 0.0,
                 header.west,
@@ -93,11 +93,9 @@ pub fn read_ascii_grid(path: &Path, name: &str) -> Result<Map> {
                 -dy,
                 header.south + dy * header.rows as f64,
             ],
-            keys: &keys,
-            doubles: Vec::new(),
+            &keys,
             ascii,
-            pixel_is_point_tags: false,
-        },
+        ),
     )?;
     if heights != 1.0 {
         values

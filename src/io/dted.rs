@@ -100,13 +100,7 @@ pub fn read_dted(path: &Path, name: &str) -> Result<Map> {
         path,
         columns as u32,
         rows as u32,
-        Georeferencing {
-            transform,
-            keys: &WGS84_KEYS,
-            doubles: Vec::new(),
-            ascii: String::new(),
-            pixel_is_point_tags: false,
-        },
+        Georeferencing::of_grid(transform, &WGS84_KEYS, String::new()),
     )?;
     debug_assert_eq!(heights, 1.0);
     if values.iter().all(|v| v.is_nan()) {

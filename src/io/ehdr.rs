@@ -195,13 +195,7 @@ pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         path,
         width,
         height,
-        Georeferencing {
-            transform,
-            keys: &keys,
-            doubles: Vec::new(),
-            ascii,
-            pixel_is_point_tags: false,
-        },
+        Georeferencing::of_grid(transform, &keys, ascii),
     )?;
     let north_up = transform[4] < 0.0;
     let nodata = layout.nodata.map(|n| n as f32);
@@ -224,13 +218,7 @@ pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         nodata: vec![nodata; layout.bands],
         ..FileMasks::default()
     };
-    let layers = sidecar_bands::layers(path, samples, &masks)?;
-    let map = Map {
-        name: name.to_string(),
-        geo,
-        layers,
-    };
-    Ok((map, north_up))
+    sidecar_bands::map(path, name, geo, samples, &masks)
 }
 
 /// The layout, grid and nodata a header gives (keywords in any case, one a line, a

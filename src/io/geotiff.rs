@@ -457,6 +457,21 @@ pub(crate) struct Georeferencing<'a> {
     pub pixel_is_point_tags: bool,
 }
 
+impl<'a> Georeferencing<'a> {
+    /// A grid and CRS given outside TIFF tags (a header, a sidecar, a format's own
+    /// georeference): GDAL's transform, the GeoKeys of the CRS and the citations they
+    /// point into.
+    pub(crate) fn of_grid(transform: [f64; 6], keys: &'a [u16], ascii: String) -> Self {
+        Georeferencing {
+            transform,
+            keys,
+            doubles: Vec::new(),
+            ascii,
+            pixel_is_point_tags: false,
+        }
+    }
+}
+
 /// The grid of a `width` × `height` raster read from `path`, and metres per unit of its
 /// heights (vertical GeoKeys); an error says why the raster cannot be a map.
 pub(crate) fn georeference(

@@ -126,8 +126,8 @@ fn read_tile(path: &Path, tile: &Path, bytes: &[u8], name: &str) -> Result<Map> 
         path,
         side,
         side,
-        Georeferencing {
-            transform: [
+        Georeferencing::of_grid(
+            [
                 cell,
                 0.0,
                 lon - cell / 2.0,
@@ -135,11 +135,9 @@ fn read_tile(path: &Path, tile: &Path, bytes: &[u8], name: &str) -> Result<Map> 
                 -cell,
                 lat + 1.0 + cell / 2.0,
             ],
-            keys: &WGS84_KEYS,
-            doubles: Vec::new(),
-            ascii: String::new(),
-            pixel_is_point_tags: false,
-        },
+            &WGS84_KEYS,
+            String::new(),
+        ),
     )?;
     // Rows from the north in the file; ours start from the south.
     let mut values = vec![f32::NAN; n * n];

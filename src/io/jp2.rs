@@ -77,13 +77,7 @@ pub fn read_jp2_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         alpha: file.alpha.filter(|&a| a < image.components.len()),
         ..FileMasks::default()
     };
-    let layers = sidecar_bands::layers(path, samples, &masks)?;
-    let map = Map {
-        name: name.to_string(),
-        geo,
-        layers,
-    };
-    Ok((map, north_up))
+    sidecar_bands::map(path, name, geo, samples, &masks)
 }
 
 /// A decoded image: its size and each component's samples, row by row.

@@ -8,6 +8,7 @@ pub mod fs;
 pub mod geojson;
 pub mod geotiff;
 pub mod gpx;
+pub mod hfa;
 pub mod hgt;
 pub mod jp2;
 pub mod leftovers;
@@ -30,10 +31,11 @@ use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
-/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ.
-pub const RASTER_EXTENSIONS: [&str; 19] = [
+/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
+/// ERDAS Imagine.
+pub const RASTER_EXTENSIONS: [&str; 20] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -76,14 +78,15 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "bil" | "bip" | "bsq" | "flt" => ehdr::read_ehdr_rows(path, name),
         "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
         "xyz" => xyz::read_xyz_rows(path, name),
+        "img" => hfa::read_hfa_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
-                 header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2) or gridded \
-                 XYZ text (.xyz), not \
+                 header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
+                 XYZ text (.xyz) or ERDAS Imagine files (.img), not \
                  '.{other}'"
             ),
         )),
@@ -97,6 +100,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "asc" | "xyz" => ascii_grid::ascii_grid_sidecars(path),
         "vrt" => vrt::vrt_inputs(path),
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
+        "img" => hfa::hfa_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
         _ => geotiff::sidecars(path),
     }

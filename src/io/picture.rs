@@ -56,13 +56,7 @@ pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         path,
         width,
         height,
-        Georeferencing {
-            transform,
-            keys: &keys,
-            doubles: Vec::new(),
-            ascii: pam.citation,
-            pixel_is_point_tags: false,
-        },
+        Georeferencing::of_grid(transform, &keys, pam.citation),
     )?;
     let north_up = transform[4] < 0.0;
     let bands = image.bands;
@@ -74,13 +68,7 @@ pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         heights,
         sample: |band: usize, cell: usize| image.samples[cell * bands + band],
     };
-    let layers = sidecar_bands::layers(path, samples, &image.masks)?;
-    let map = Map {
-        name: name.to_string(),
-        geo,
-        layers,
-    };
-    Ok((map, north_up))
+    sidecar_bands::map(path, name, geo, samples, &image.masks)
 }
 
 /// A decoded image as GDAL presents it.
@@ -180,7 +168,7 @@ fn decode_png(bytes: &[u8]) -> std::result::Result<Picture, String> {
             picture.masks.alpha = Some(bands - 1)
         }
         ::png::ColorType::Indexed => {
-            picture.masks.palette = true;
+            picture.masks.classes = vec![true];
             // GDAL's nodata is the palette's one fully transparent entry, if it has
             // exactly one.
             if let Some(alphas) = &trns {
@@ -387,7 +375,7 @@ mod tests {
                 },
             );
             let picture = decode_png(&indexed).unwrap();
-            assert!(picture.masks.palette);
+            assert_eq!(picture.masks.classes, vec![true]);
             assert_eq!(picture.masks.nodata, [nodata]);
         }
     }

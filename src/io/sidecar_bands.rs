@@ -13,7 +13,7 @@ use rayon::prelude::*;
 use super::geotiff::metadata::{layer_names, metres_per_unit};
 use super::geotiff::{declared_class_bands, pam_bands};
 use crate::error::{Error, Result};
-use crate::grid::Layer;
+use crate::grid::{GeoRef, Layer, Map};
 
 /// What a file itself says of its cells' validity and meaning.
 #[derive(Debug, Default, Clone, PartialEq)]
@@ -27,8 +27,12 @@ pub(crate) struct FileMasks {
     pub nodata_values: Option<Vec<f32>>,
     /// The alpha band.
     pub alpha: Option<usize>,
-    /// Whether the bands hold a palette's indices (class codes).
-    pub palette: bool,
+    /// Whether each band holds class codes (a palette's indices, a thematic layer);
+    /// a band past its end does not.
+    pub classes: Vec<bool>,
+    /// Each band's description in the file itself (an Imagine layer's name), which the
+    /// sidecar's overrides; empty where the file gives none.
+    pub descriptions: Vec<Option<String>>,
 }
 
 /// A raster's samples as its file holds them, rows from the top.
@@ -45,10 +49,32 @@ pub(crate) struct Samples<F> {
     pub sample: F,
 }
 
+/// The raster at `path` as map `name` on `geo`, its layers as [`layers`] gives them,
+/// with whether the file's rows ran from the north.
+pub(crate) fn map<F>(
+    path: &Path,
+    name: &str,
+    geo: GeoRef,
+    raster: Samples<F>,
+    file: &FileMasks,
+) -> Result<(Map, bool)>
+where
+    F: Fn(usize, usize) -> f32 + Sync,
+{
+    let north_up = raster.north_up;
+    let layers = layers(path, raster, file)?;
+    let map = Map {
+        name: name.to_string(),
+        geo,
+        layers,
+    };
+    Ok((map, north_up))
+}
+
 /// The layers of the raster at `path`: named, scaled and masked as its sidecar and
 /// `file` say; an error names the sidecar where it is malformed, and the file where
 /// every cell is nodata.
-pub(crate) fn layers<F>(path: &Path, raster: Samples<F>, file: &FileMasks) -> Result<Vec<Layer>>
+fn layers<F>(path: &Path, raster: Samples<F>, file: &FileMasks) -> Result<Vec<Layer>>
 where
     F: Fn(usize, usize) -> f32 + Sync,
 {
@@ -63,7 +89,13 @@ where
     } = raster;
     let sidecar = pam_bands(path, bands).map_err(problem)?;
     let declared = declared_class_bands(path);
-    let names = layer_names(&sidecar.metadata);
+    let mut metadata = sidecar.metadata.clone();
+    for (band, own) in metadata.iter_mut().zip(&file.descriptions) {
+        if band.description.is_none() {
+            band.description.clone_from(own);
+        }
+    }
+    let names = layer_names(&metadata);
     let nodata: Vec<Option<f32>> = (0..bands)
         .map(|b| {
             let own = file.nodata.get(b).copied().flatten();
@@ -112,7 +144,7 @@ where
                 }
             });
             let layer = Layer::new(names[band].clone(), values);
-            if file.palette || declared.contains(&band) {
+            if file.classes.get(band) == Some(&true) || declared.contains(&band) {
                 layer.declared_classes()
             } else {
                 layer

@@ -441,13 +441,7 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
         path,
         width,
         height,
-        Georeferencing {
-            transform,
-            keys: &keys,
-            doubles: Vec::new(),
-            ascii,
-            pixel_is_point_tags: false,
-        },
+        Georeferencing::of_grid(transform, &keys, ascii),
     )?;
     let north_up = transform[4] < 0.0;
     let names = layer_names(

@@ -54,8 +54,8 @@ pub fn read_xyz_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         path,
         width as u32,
         height as u32,
-        Georeferencing {
-            transform: [
+        Georeferencing::of_grid(
+            [
                 grid.dx,
                 0.0,
                 grid.x0 - grid.dx / 2.0,
@@ -63,11 +63,9 @@ pub fn read_xyz_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                 -grid.dy,
                 grid.y0 + (height as f64 - 0.5) * grid.dy,
             ],
-            keys: &keys,
-            doubles: Vec::new(),
+            &keys,
             ascii,
-            pixel_is_point_tags: false,
-        },
+        ),
     )?;
     if heights != 1.0 {
         values
