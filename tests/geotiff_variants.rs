@@ -1711,11 +1711,39 @@ fn raw_rasters_with_an_esri_header_read_as_gdal_reads_them() {
     assert_input_error(&out, &["headless.bil", "headless.hdr", "header"]);
 }
 
+/// ENVI rasters as GDAL's ENVI driver writes them (`.img`, `.bil`, `.dat`; band-sequential,
+/// by line and by pixel; 16 to 64-bit integers, 32 and 64-bit floats; nodata and band
+/// names) and as ENVI writes a scene by hand (big-endian after a header offset, the
+/// header named `x.bsq.hdr`, the reference pixel at a cell's centre, a UTM zone south
+/// named by `map info` alone): each reads to the grid, CRS, names, values and nodata GDAL
+/// reads it to. A complex one is refused, naming the file and its data type.
+#[test]
+fn envi_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("envi_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (raster, gdal, ours) = read_twins(pair);
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(&raster, a, b);
+            assert_eq!(worst, 0.0, "{raster} {}", b.name);
+        }
+    }
+    let out = imitate(
+        dir.path(),
+        &["bench", "terrain", "complex.img", "--method", "uniform"],
+    );
+    assert_input_error(&out, &["complex.img", "complex.hdr", "data type 6"]);
+}
+
 /// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length
 /// compressed blocks, edge blocks, blocks of 32, 1-, 4- and 8-bit to 64-bit samples,
 /// nodata, band names, a CRS from the PE string or from ERDAS's projection parameters
-/// alone; each reads to the grid, CRS, values, names and nodata GDAL reads it to, and a
-/// layer with a colour table holds classes. An ENVI `.img` is refused, naming the file.
+/// alone, blocks in a spill file (`.ige`); each reads to the grid, CRS, values, names
+/// and nodata GDAL reads it to, and a layer with a colour table holds classes. A `.img`
+/// that is neither Imagine nor ENVI is refused, naming the file.
 #[test]
 fn erdas_imagine_rasters_read_as_gdal_reads_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -1741,7 +1769,7 @@ fn erdas_imagine_rasters_read_as_gdal_reads_them() {
     }
     let out = imitate(
         dir.path(),
-        &["bench", "terrain", "envi_scene.img", "--method", "uniform"],
+        &["bench", "terrain", "headerless.img", "--method", "uniform"],
     );
-    assert_input_error(&out, &["envi_scene.img", "ERDAS Imagine", "ENVI"]);
+    assert_input_error(&out, &["headerless.img", "ERDAS Imagine", "ENVI"]);
 }

@@ -37,7 +37,7 @@ pub fn ehdr_sidecars(path: &Path) -> Vec<PathBuf> {
 
 /// How one sample is stored.
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Sample {
+pub(super) enum Sample {
     Unsigned(usize),
     Signed(usize),
     Float(usize),
@@ -73,32 +73,66 @@ impl Sample {
 
 /// Where the samples lie and what they are, from the header.
 #[derive(Debug, Clone, PartialEq)]
-struct Layout {
-    columns: usize,
-    rows: usize,
-    bands: usize,
-    sample: Sample,
-    little_endian: bool,
+pub(super) struct Layout {
+    pub columns: usize,
+    pub rows: usize,
+    pub bands: usize,
+    pub sample: Sample,
+    pub little_endian: bool,
     /// Byte offsets: of the first sample, between rows, between a row's bands (BIL,
     /// BSQ), and between bands (BSQ).
-    skip: usize,
-    row_bytes: usize,
-    band_row_bytes: usize,
-    band_bytes: usize,
-    interleave: Interleave,
+    pub skip: usize,
+    pub row_bytes: usize,
+    pub band_row_bytes: usize,
+    pub band_bytes: usize,
+    pub interleave: Interleave,
     /// GDAL's geotransform as ours.
-    transform: Option<[f64; 6]>,
-    nodata: Option<f64>,
+    pub transform: Option<[f64; 6]>,
+    pub nodata: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq)]
-enum Interleave {
+pub(super) enum Interleave {
     Line,
     Pixel,
     Band,
 }
 
 impl Layout {
+    /// Samples of `sample` with no gaps: `skip` bytes, then rows of `columns` samples,
+    /// the bands interleaved as `interleave` says; no grid and no nodata yet.
+    pub(super) fn packed(
+        columns: usize,
+        rows: usize,
+        bands: usize,
+        sample: Sample,
+        little_endian: bool,
+        skip: usize,
+        interleave: Interleave,
+    ) -> std::result::Result<Self, String> {
+        let overflow = "its layout overflows memory";
+        let band_row_bytes = columns.checked_mul(sample.bytes()).ok_or(overflow)?;
+        let row_bytes = match interleave {
+            Interleave::Line | Interleave::Pixel => band_row_bytes.checked_mul(bands),
+            Interleave::Band => Some(band_row_bytes),
+        }
+        .ok_or(overflow)?;
+        Ok(Layout {
+            columns,
+            rows,
+            bands,
+            sample,
+            little_endian,
+            skip,
+            row_bytes,
+            band_row_bytes,
+            band_bytes: band_row_bytes.checked_mul(rows).ok_or(overflow)?,
+            interleave,
+            transform: None,
+            nodata: None,
+        })
+    }
+
     /// Where band `band`'s sample of cell `cell` (row by row from the top) starts.
     fn offset(&self, band: usize, cell: usize) -> usize {
         let (row, col) = (cell / self.columns, cell % self.columns);
@@ -163,6 +197,43 @@ pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         .is_some_and(|e| e.eq_ignore_ascii_case("flt"));
     let layout = read_header(&text, grid_float)
         .map_err(|e| problem(format!("its header {}: {e}", header.display())))?;
+    let crs = crs_keys(path).map_err(problem)?;
+    let raster = RawRaster {
+        layout,
+        crs,
+        descriptions: Vec::new(),
+        grid_keys: "ULXMAP/ULYMAP or xllcorner/yllcorner",
+    };
+    read_raw(path, name, &header, raster)
+}
+
+/// A raw raster as its header describes it.
+pub(super) struct RawRaster {
+    /// Where the samples lie, with the grid and nodata where the header gives them.
+    pub layout: Layout,
+    /// The CRS's GeoKeys and the citations they point into (empty where none).
+    pub crs: (Vec<u16>, String),
+    /// Each band's name in the header (empty where it names none).
+    pub descriptions: Vec<Option<String>>,
+    /// The header keys that would have given a grid, for the error where none does.
+    pub grid_keys: &'static str,
+}
+
+/// The raw raster at `path` as `header` describes it, as map `name`, with whether its
+/// rows ran from the north; a grid the header does not give comes from GDAL's sidecar.
+pub(super) fn read_raw(
+    path: &Path,
+    name: &str,
+    header: &Path,
+    raster: RawRaster,
+) -> Result<(Map, bool)> {
+    let problem = |message: String| Error::input(path, message);
+    let RawRaster {
+        layout,
+        crs: (keys, ascii),
+        descriptions,
+        grid_keys,
+    } = raster;
     let bytes = read_input(path)?;
     let needed = layout
         .extent()
@@ -183,13 +254,12 @@ pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
             .transform
             .ok_or_else(|| {
                 problem(format!(
-                    "no georeference: its header {} gives neither ULXMAP/ULYMAP nor \
-                     xllcorner/yllcorner, and no GDAL sidecar (.aux.xml) gives a grid",
+                    "no georeference: its header {} gives no {grid_keys}, and no GDAL \
+                     sidecar (.aux.xml) gives a grid",
                     header.display()
                 ))
             })?,
     };
-    let (keys, ascii) = crs_keys(path).map_err(problem)?;
     let (width, height) = (layout.columns as u32, layout.rows as u32);
     let (geo, heights) = georeference(
         path,
@@ -216,6 +286,7 @@ pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     };
     let masks = FileMasks {
         nodata: vec![nodata; layout.bands],
+        descriptions,
         ..FileMasks::default()
     };
     sidecar_bands::map(path, name, geo, samples, &masks)
@@ -285,18 +356,26 @@ fn read_header(text: &str, grid_float: bool) -> std::result::Result<Layout, Stri
         Some("BSQ") => Interleave::Band,
         Some(other) => return Err(format!("LAYOUT is '{other}', not BIL, BIP or BSQ")),
     };
-    let size = sample.bytes();
-    let band_row_bytes = count("bandrowbytes", Some(columns * size))?;
+    let skip = count("skipbytes", Some(0))?;
+    let packed = Layout::packed(
+        columns,
+        rows,
+        bands,
+        sample,
+        little_endian,
+        skip,
+        interleave,
+    )?;
+    let band_row_bytes = count("bandrowbytes", Some(packed.band_row_bytes))?;
     let row_bytes = count(
         "totalrowbytes",
-        Some(match interleave {
-            Interleave::Line => band_row_bytes * bands,
-            Interleave::Pixel => columns * bands * size,
-            Interleave::Band => band_row_bytes,
-        }),
+        match interleave {
+            Interleave::Line => band_row_bytes.checked_mul(bands),
+            Interleave::Pixel => Some(packed.row_bytes),
+            Interleave::Band => Some(band_row_bytes),
+        },
     )?;
     let band_gap = count("bandgapbytes", Some(0))?;
-    let skip = count("skipbytes", Some(0))?;
     let band_bytes = band_row_bytes
         .checked_mul(rows)
         .and_then(|b| b.checked_add(band_gap))
@@ -329,18 +408,12 @@ fn read_header(text: &str, grid_float: bool) -> std::result::Result<Layout, Stri
         None => number("nodata_value")?,
     };
     Ok(Layout {
-        columns,
-        rows,
-        bands,
-        sample,
-        little_endian,
-        skip,
         row_bytes,
         band_row_bytes,
         band_bytes,
-        interleave,
         transform,
         nodata,
+        ..packed
     })
 }
 

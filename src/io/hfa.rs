@@ -11,8 +11,9 @@
 //! a thematic layer (land cover) or one with a colour table holds class codes. GDAL's sidecar (`.aux.xml`) adds band
 //! metadata as for any raster.
 //!
-//! Not read: samples in an external spill file (`.ige`, GDAL's choice past 2 GiB),
-//! complex samples, grids given as a polynomial (`MapToPixelXForm`: rotated rasters).
+//! Samples past 2 GiB lie in a spill file beside the `.img` (`x.ige`, as NLCD's and
+//! GDAL's large files have them), read too. Not read: complex samples, grids given as a
+//! polynomial (`MapToPixelXForm`: rotated rasters).
 
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};
@@ -27,18 +28,28 @@ use dictionary::{
 
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference, pam_georeference, sidecar, wkt_geokeys};
+use super::named_crs::{self, Named};
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, read_input};
 use crate::grid::Map;
 
 /// The tag every Imagine file opens with.
 const HEADER_TAG: &[u8] = b"EHFA_HEADER_TAG";
+
+/// Whether the file at `path` is an Imagine file (opens with its tag), as GDAL tells one
+/// from an ENVI raster of the same name.
+pub fn is_imagine(path: &Path) -> bool {
+    use std::io::Read;
+    let mut tag = [0u8; 15];
+    std::fs::File::open(path).is_ok_and(|mut f| f.read_exact(&mut tag).is_ok() && tag == HEADER_TAG)
+}
 /// The most nodes a file's tree may have: a bound on malformed (cyclic) trees.
 const MAX_NODES: usize = 1 << 20;
 
-/// The files reading an Imagine raster depends on: GDAL's sidecar.
+/// The files reading an Imagine raster depends on: its spill file (`x.ige`, as GDAL and
+/// ERDAS name it) and GDAL's sidecar.
 pub fn hfa_sidecars(path: &Path) -> Vec<PathBuf> {
-    [sidecar(path)]
+    [path.with_extension("ige"), sidecar(path)]
         .into_iter()
         .filter(|f| f.is_file())
         .collect()
@@ -106,7 +117,7 @@ impl Imagine {
     fn parse(bytes: Vec<u8>) -> std::result::Result<Self, String> {
         if !bytes.starts_with(HEADER_TAG) {
             return Err("is not an ERDAS Imagine file (it does not open with \
-                        EHFA_HEADER_TAG); an ENVI .img with its .hdr is not read"
+                        EHFA_HEADER_TAG), nor an ENVI raster (no ENVI header beside it)"
                 .into());
         }
         let header = u32_at(&bytes, 16).ok_or(TRUNCATED)? as usize;
@@ -160,12 +171,15 @@ struct Band {
     /// Whether the layer holds class codes: a thematic layer (land cover), or one with a
     /// colour table or class names (GDAL reads either as a palette band).
     thematic: bool,
+    /// Whether the blocks lie in the spill file (`.ige`) rather than the `.img`.
+    in_spill: bool,
     blocks: Vec<Block>,
     nodata: Option<f64>,
 }
 
 impl Imagine {
-    fn band(&self, layer: &Node) -> std::result::Result<Band, String> {
+    /// The band of `layer`, whose blocks may lie in the file's `spill` (its `.ige`'s bytes).
+    fn band(&self, layer: &Node, spill: Option<&[u8]>) -> std::result::Result<Band, String> {
         let value = self.value(layer)?;
         let count = |field: &str| -> std::result::Result<usize, String> {
             value
@@ -184,29 +198,37 @@ impl Imagine {
                     layer.name
                 )
             })?;
-        let dms = layer.child_of_kind("Edms_State").ok_or_else(|| {
-            if layer.child_of_kind("ImgExternalRaster").is_some() {
-                format!(
-                    "layer {}: its samples lie in an external spill file (.ige), which is \
-                     not read; write the raster again without USE_SPILL, or as a GeoTIFF",
-                    layer.name
+        let (width, height) = (count("width")?, count("height")?);
+        let (block_width, block_height) = (count("blockWidth")?, count("blockHeight")?);
+        let external = layer.child_of_kind("ImgExternalRaster");
+        let blocks = match (layer.child_of_kind("Edms_State"), external, spill) {
+            (Some(state), ..) => listed_blocks(&self.value(state)?),
+            (None, Some(external), Some(spill)) => {
+                let block_bytes = block_width
+                    .checked_mul(block_height)
+                    .and_then(|n| n.checked_mul(pixel.bits()))
+                    .map(|bits| bits.div_ceil(8))
+                    .ok_or_else(|| format!("layer {}: its blocks are too large", layer.name))?;
+                spill_blocks(
+                    &self.value(external)?,
+                    spill,
+                    [width.div_ceil(block_width), height.div_ceil(block_height)],
+                    block_bytes,
                 )
-            } else {
-                format!("layer {}: it has no block list (Edms_State)", layer.name)
+                .map_err(|e| format!("layer {}: its spill file: {e}", layer.name))?
             }
-        })?;
-        let state = self.value(dms)?;
-        let blocks = match state.get("blockinfo") {
-            Some(Value::List(items)) => items
-                .iter()
-                .map(|info| Block {
-                    offset: info.number("offset").unwrap_or(0.0) as usize,
-                    size: info.number("size").unwrap_or(0.0) as usize,
-                    valid: info.text("logvalid").as_deref() == Some("true"),
-                    compressed: info.text("compressionType").as_deref() != Some("no compression"),
-                })
-                .collect(),
-            _ => Vec::new(),
+            (None, Some(_), None) => {
+                return Err(format!(
+                    "layer {}: its samples lie in a spill file (.ige) that cannot be read",
+                    layer.name
+                ));
+            }
+            (None, None, _) => {
+                return Err(format!(
+                    "layer {}: it has no block list (Edms_State)",
+                    layer.name
+                ));
+            }
         };
         let nodata = layer
             .child_of_kind("Eimg_NonInitializedValue")
@@ -215,11 +237,12 @@ impl Imagine {
             .and_then(|v| v.numbers("valueBD").first().copied());
         Ok(Band {
             name: layer.name.clone(),
-            width: count("width")?,
-            height: count("height")?,
+            width,
+            height,
             pixel,
-            block_width: count("blockWidth")?,
-            block_height: count("blockHeight")?,
+            block_width,
+            block_height,
+            in_spill: external.is_some() && layer.child_of_kind("Edms_State").is_none(),
             thematic: value.text("layerType").as_deref() == Some("thematic")
                 || layer.child_of_kind("Edsc_Table").is_some_and(|table| {
                     table
@@ -231,6 +254,77 @@ impl Imagine {
             nodata,
         })
     }
+}
+
+/// The blocks an `Edms_State` lists.
+fn listed_blocks(state: &Value) -> Vec<Block> {
+    match state.get("blockinfo") {
+        Some(Value::List(items)) => items
+            .iter()
+            .map(|info| Block {
+                offset: info.number("offset").unwrap_or(0.0) as usize,
+                size: info.number("size").unwrap_or(0.0) as usize,
+                valid: info.text("logvalid").as_deref() == Some("true"),
+                compressed: info.text("compressionType").as_deref() != Some("no compression"),
+            })
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+/// The tag a spill file (`.ige`) opens with.
+const SPILL_TAG: &[u8] = b"ERDAS_IMG_EXTERNAL_RASTER";
+
+/// The blocks of a layer in a spill file (`ImgExternalRaster`): raw blocks of
+/// `block_bytes`, the layers of a stack interleaved block by block from the data offset,
+/// each block valid where its bit is set in the bitmap after the flags offset's 20 bytes
+/// (a row of bits for each row of blocks, `across` × `down` blocks).
+fn spill_blocks(
+    external: &Value,
+    spill: &[u8],
+    [across, down]: [usize; 2],
+    block_bytes: usize,
+) -> std::result::Result<Vec<Block>, String> {
+    if !spill.starts_with(SPILL_TAG) {
+        return Err("it does not open with ERDAS_IMG_EXTERNAL_RASTER".into());
+    }
+    let wide = |field: &str| -> Option<usize> {
+        let words = external.numbers(field);
+        let low = *words.first()? as u64;
+        let high = words.get(1).copied().unwrap_or(0.0) as u64;
+        usize::try_from(high.checked_shl(32)? | low).ok()
+    };
+    let malformed = || "its block layout overflows memory".to_string();
+    let flags = wide("layerStackValidFlagsOffset").ok_or_else(malformed)?;
+    let data = wide("layerStackDataOffset").ok_or_else(malformed)?;
+    let count = external.number("layerStackCount").unwrap_or(1.0).max(1.0) as usize;
+    let index = external.number("layerStackIndex").unwrap_or(0.0).max(0.0) as usize;
+    let row_bytes = across.div_ceil(8);
+    (0..across.checked_mul(down).ok_or_else(malformed)?)
+        .map(|i| {
+            let (row, column) = (i / across, i % across);
+            let bit = row
+                .checked_mul(row_bytes * 8)
+                .and_then(|b| b.checked_add(column + 20 * 8))
+                .ok_or_else(malformed)?;
+            let flag = flags
+                .checked_add(bit / 8)
+                .and_then(|at| spill.get(at))
+                .ok_or("its validity bitmap lies past its end")?;
+            let offset = i
+                .checked_mul(count)
+                .and_then(|k| k.checked_add(index))
+                .and_then(|k| k.checked_mul(block_bytes))
+                .and_then(|o| o.checked_add(data))
+                .ok_or_else(malformed)?;
+            Ok(Block {
+                offset,
+                size: block_bytes,
+                valid: (flag >> (bit % 8)) & 1 == 1,
+                compressed: false,
+            })
+        })
+        .collect()
 }
 
 /// The samples of one block of `n` cells, in order.
@@ -477,36 +571,22 @@ fn parameter_keys(file: &Imagine, node: &Node) -> std::result::Result<Option<Vec
         Some(d) => file.value(d)?.text("datumname").unwrap_or_default(),
         None => String::new(),
     };
-    let datum = datum.to_ascii_uppercase().replace([' ', '_', '-'], "");
-    let family = match datum.as_str() {
-        "WGS84" => 0,
-        "NAD83" | "NORTHAMERICAN1983" => 1,
-        "NAD27" | "NORTHAMERICAN1927" => 2,
+    let crs = match value.number("proNumber") {
+        Some(0.0) => Named::Geographic,
+        Some(1.0) => {
+            let zone = value.number("proZone").unwrap_or(0.0);
+            Named::Utm {
+                zone: if (1.0..=60.0).contains(&zone) {
+                    zone as u16
+                } else {
+                    0
+                },
+                north: value.numbers("proParams").get(3).is_none_or(|&s| s >= 0.0),
+            }
+        }
         _ => return Ok(None),
     };
-    let number = value.number("proNumber").unwrap_or(-1.0);
-    let (projected, code) = if number == 0.0 {
-        (false, [4326, 4269, 4267][family])
-    } else if number == 1.0 {
-        let zone = value.number("proZone").unwrap_or(0.0);
-        if !(1.0..=60.0).contains(&zone) {
-            return Ok(None);
-        }
-        let north = value.numbers("proParams").get(3).is_none_or(|&s| s >= 0.0);
-        let zone = zone as u16;
-        match (family, north) {
-            (0, true) => (true, 32600 + zone),
-            (0, false) => (true, 32700 + zone),
-            (1, true) if zone <= 23 => (true, 26900 + zone),
-            (2, true) if zone <= 22 => (true, 26700 + zone),
-            _ => return Ok(None),
-        }
-    } else {
-        return Ok(None);
-    };
-    let mut keys = vec![1, 1, 0, 2, 1024, 0, 1, if projected { 1 } else { 2 }];
-    keys.extend([if projected { 3072 } else { 2048 }, 0, 1, code]);
-    Ok(Some(keys))
+    Ok(named_crs::geokeys(crs, &datum))
 }
 
 /// The Imagine raster at `path` as map `name`, with whether its rows ran from the north.
@@ -522,9 +602,29 @@ pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let Some(&first) = layers.first() else {
         return Err(problem("it holds no raster layer (Eimg_Layer)".into()));
     };
+    let spill = match layers
+        .iter()
+        .find_map(|layer| layer.child_of_kind("ImgExternalRaster"))
+    {
+        Some(external) => {
+            let name = file
+                .value(external)
+                .map_err(&problem)?
+                .text("fileName.string")
+                .unwrap_or_default();
+            let spill = path.with_file_name(&name);
+            if name.is_empty() || !spill.is_file() {
+                return Err(problem(format!(
+                    "its samples lie in a spill file '{name}' that is not beside it"
+                )));
+            }
+            Some(read_input(&spill)?)
+        }
+        None => None,
+    };
     let bands: Vec<Band> = layers
         .iter()
-        .map(|layer| file.band(layer))
+        .map(|layer| file.band(layer, spill.as_deref()))
         .collect::<std::result::Result<_, _>>()
         .map_err(problem)?;
     let (width, height) = (bands[0].width, bands[0].height);
@@ -584,7 +684,10 @@ pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let north_up = transform[4] < 0.0;
     let values: Vec<Vec<f32>> = bands
         .iter()
-        .map(|band| band_samples(&file.bytes, band))
+        .map(|band| match (&spill, band.in_spill) {
+            (Some(spill), true) => band_samples(spill, band),
+            _ => band_samples(&file.bytes, band),
+        })
         .collect::<std::result::Result<_, _>>()
         .map_err(problem)?;
     let samples = Samples {

@@ -4,6 +4,7 @@ pub mod ascii_grid;
 pub mod demo_tables;
 pub mod dted;
 pub mod ehdr;
+pub mod envi;
 pub mod fs;
 pub mod geojson;
 pub mod geotiff;
@@ -15,6 +16,7 @@ pub mod leftovers;
 pub mod mcap;
 pub mod mdp_tables;
 pub mod movingai;
+mod named_crs;
 pub mod nav2;
 pub mod parquet_check;
 pub mod picture;
@@ -32,10 +34,10 @@ use crate::grid::Map;
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
-/// ERDAS Imagine.
-pub const RASTER_EXTENSIONS: [&str; 20] = [
+/// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...).
+pub const RASTER_EXTENSIONS: [&str; 21] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -75,10 +77,15 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "vrt" => vrt::read_vrt_rows(path, name, 0),
         "jp2" | "j2k" => jp2::read_jp2_rows(path, name),
         "png" | "jpg" | "jpeg" => picture::read_picture_rows(path, name),
+        "img" if hfa::is_imagine(path) => hfa::read_hfa_rows(path, name),
+        "bil" | "bip" | "bsq" | "flt" | "img" | "dat" if envi::envi_header(path).is_some() => {
+            envi::read_envi_rows(path, name)
+        }
         "bil" | "bip" | "bsq" | "flt" => ehdr::read_ehdr_rows(path, name),
         "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
         "xyz" => xyz::read_xyz_rows(path, name),
         "img" => hfa::read_hfa_rows(path, name),
+        "dat" => envi::read_envi_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -86,7 +93,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
-                 XYZ text (.xyz) or ERDAS Imagine files (.img), not \
+                 XYZ text (.xyz), ERDAS Imagine files (.img) or ENVI rasters (.img, .dat \
+                 with an ENVI .hdr), not \
                  '.{other}'"
             ),
         )),
@@ -99,8 +107,12 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
     match extension_of(path).as_str() {
         "asc" | "xyz" => ascii_grid::ascii_grid_sidecars(path),
         "vrt" => vrt::vrt_inputs(path),
+        "img" if hfa::is_imagine(path) => hfa::hfa_sidecars(path),
+        "bil" | "bip" | "bsq" | "flt" | "img" | "dat" if envi::envi_header(path).is_some() => {
+            envi::envi_sidecars(path)
+        }
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
-        "img" => hfa::hfa_sidecars(path),
+        "img" | "dat" => hfa::hfa_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
         _ => geotiff::sidecars(path),
     }

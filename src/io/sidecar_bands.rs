@@ -30,8 +30,9 @@ pub(crate) struct FileMasks {
     /// Whether each band holds class codes (a palette's indices, a thematic layer);
     /// a band past its end does not.
     pub classes: Vec<bool>,
-    /// Each band's description in the file itself (an Imagine layer's name), which the
-    /// sidecar's overrides; empty where the file gives none.
+    /// Each band's description in the file itself (an Imagine layer's name, an ENVI
+    /// header's band name), which a sidecar listing the band overrides, even with none
+    /// (as GDAL reads it); empty where the file gives none.
     pub descriptions: Vec<Option<String>>,
 }
 
@@ -90,8 +91,12 @@ where
     let sidecar = pam_bands(path, bands).map_err(problem)?;
     let declared = declared_class_bands(path);
     let mut metadata = sidecar.metadata.clone();
-    for (band, own) in metadata.iter_mut().zip(&file.descriptions) {
-        if band.description.is_none() {
+    for ((band, own), listed) in metadata
+        .iter_mut()
+        .zip(&file.descriptions)
+        .zip(&sidecar.listed)
+    {
+        if !listed {
             band.description.clone_from(own);
         }
     }

@@ -57,8 +57,9 @@ pub struct IngestParams {
     /// .jpg: by its .aux.xml sidecar or world file), a raw raster with an ESRI header
     /// (.bil, .bip, .bsq, GridFloat .flt: EarthExplorer's SRTM and GTOPO30 tiles), a
     /// DTED tile (.dt0, .dt1, .dt2; layer elevation), gridded XYZ text (.xyz, as LiDAR
-    /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD) or a MovingAI
-    /// .map (layer `blocked`);
+    /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD), an ENVI raster
+    /// (.img, .dat, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes) or a
+    /// MovingAI .map (layer `blocked`);
     /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
@@ -187,8 +188,8 @@ fn load_map(path: &Path) -> Result<Map> {
                 "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
                  (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .png/.jpg \
                  (georeferenced image), .bil/.bip/.bsq/.flt (raw raster with an ESRI .hdr), \
-                 .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine), .map \
-                 (MovingAI) or .yaml (Nav2) files, not '.{other}'"
+                 .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
+                 .dat (ENVI), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),
         )),
     }

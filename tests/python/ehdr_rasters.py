@@ -19,6 +19,8 @@ import rasterio
 import rasterio.errors
 from rasterio.transform import from_origin
 
+from gdal_twin import twin
+
 warnings.filterwarnings("ignore", category=rasterio.errors.NotGeoreferencedWarning)
 
 out = sys.argv[1]
@@ -36,21 +38,6 @@ def write(name, values, crs, transform, **options):
                        crs=crs, transform=transform, **options) as dst:
         dst.write(values)
     return path_of(name)
-
-
-def twin(path):
-    """The GeoTIFF of what GDAL reads `path` to."""
-    with rasterio.open(path) as src:
-        values = src.read().astype("float32")
-        values[src.read_masks() == 0] = np.nan
-        profile = dict(driver="GTiff", width=src.width, height=src.height, count=src.count,
-                       dtype="float32", transform=src.transform, nodata=float("nan"))
-        if src.crs:
-            profile["crs"] = src.crs
-        with rasterio.open(path + ".tif", "w", **profile) as dst:
-            dst.write(values)
-            dst.descriptions = src.descriptions
-    return [path + ".tif", path]
 
 
 def relaid(source, name, layout, big_endian=False):

@@ -4,10 +4,11 @@ no data, the band names carried over): an int16 DEM in UTM with nodata and a ban
 (raw blocks), a float32 3-band image in degrees (run-length compressed), a thematic
 uint8 land cover with a colour table (compressed, edge blocks), uint16 with nodata in
 blocks of 32, 4-bit and 1-bit samples, int8, int32 and uint32 (compressed), float64, and
-a UTM DEM written without a PE string (ERDAS's projection parameters alone). Also an
-ENVI `.img` (raw samples beside an ENVI header), which is not an Imagine file. Prints
-one JSON line: the pairs (GeoTIFF twin, Imagine file), the thematic files and the ENVI
-file."""
+a UTM DEM written without a PE string (ERDAS's projection parameters alone), two layers
+whose blocks lie in a spill file (`.ige`); the DEM has an ENVI raster of its own name
+beside it (`dem_utm.dat`, its header `dem_utm.hdr`). Also raw
+samples named `.img` with no header at all (`headerless.img`). Prints one JSON line: the
+pairs (GeoTIFF twin, Imagine file) and the thematic files."""
 
 import json
 import os
@@ -16,6 +17,8 @@ import sys
 import numpy as np
 import rasterio
 from rasterio.transform import from_origin
+
+from gdal_twin import twin
 
 out = sys.argv[1]
 rng = np.random.default_rng(5)
@@ -36,20 +39,6 @@ def write(name, values, crs, transform, descriptions=None, colormap=None, **opti
         if colormap:
             dst.write_colormap(1, colormap)
     return path_of(name)
-
-
-def twin(path):
-    """The GeoTIFF of what GDAL reads `path` to."""
-    with rasterio.open(path) as src:
-        values = src.read().astype("float32")
-        values[src.read_masks() == 0] = np.nan
-        with rasterio.open(path + ".tif", "w", driver="GTiff", width=src.width,
-                           height=src.height, count=src.count, dtype="float32",
-                           transform=src.transform, crs=src.crs,
-                           nodata=float("nan")) as dst:
-            dst.write(values)
-            dst.descriptions = src.descriptions
-    return [path + ".tif", path]
 
 
 utm = from_origin(440000, 4640000, 30, 30)
@@ -87,11 +76,18 @@ files.append(write("doubles.img", field[:2].astype("float64"), "EPSG:32616", utm
                    nodata=-1e30))
 files.append(write("dem_parameters.img", dem[None], "EPSG:26915", utm, nodata=-32768,
                    DISABLEPESTRING="YES"))
+# Blocks in a spill file (x.ige), as GDAL writes past 2 GiB and NLCD comes: two layers
+# stacked block by block.
+files.append(write("spilled.img", np.stack([dem, (field[1] * 9).astype("int16")]),
+                   "EPSG:32616", utm, nodata=-32768, USE_SPILL="YES"))
 
-envi = path_of("envi_scene.img")
-with rasterio.open(envi, "w", driver="ENVI", width=50, height=40, count=1, dtype="uint8",
-                   crs="EPSG:32616", transform=utm) as dst:
-    dst.write(np.zeros((1, 40, 50), "uint8"))
+# An ENVI raster of the same name beside an Imagine file (its header dem_utm.hdr): the
+# .img is still Imagine, as GDAL tells them apart by the file's own tag.
+with rasterio.open(path_of("dem_utm.dat"), "w", driver="ENVI", width=50, height=40, count=1,
+                   dtype="uint8", crs="EPSG:32616", transform=utm) as dst:
+    dst.write(np.ones((1, 40, 50), "uint8"))
 
-print(json.dumps({"pairs": [twin(p) for p in files], "thematic": [thematic],
-                  "envi": envi}))
+# Raw samples named .img with no header of any kind: neither Imagine nor ENVI.
+np.zeros((40, 50), "uint8").tofile(path_of("headerless.img"))
+
+print(json.dumps({"pairs": [twin(p) for p in files], "thematic": [thematic]}))

@@ -22,6 +22,8 @@ import rasterio
 import rasterio.errors
 from rasterio.transform import from_origin
 
+from gdal_twin import twin
+
 warnings.filterwarnings("ignore", category=rasterio.errors.NotGeoreferencedWarning)
 
 out = sys.argv[1]
@@ -42,25 +44,6 @@ def write(name, values, crs, transform, driver, colormap=None, tags=None, **opti
         for key, value in (tags or {}).items():
             setattr(dst, key, value)
     return path
-
-
-def twin(path):
-    """The GeoTIFF of what GDAL reads `path` to."""
-    with rasterio.open(path) as src:
-        values = src.read().astype("float32")
-        values[src.read_masks() == 0] = np.nan
-        twin = path + ".tif"
-        profile = dict(driver="GTiff", width=src.width, height=src.height, count=src.count,
-                       dtype="float32", transform=src.transform, nodata=float("nan"))
-        if src.crs:
-            profile["crs"] = src.crs
-        with rasterio.open(twin, "w", **profile) as dst:
-            dst.write(values)
-            dst.descriptions = src.descriptions
-            dst.units = src.units
-            dst.scales = src.scales
-            dst.offsets = src.offsets
-    return [twin, path]
 
 
 field = rng.normal(size=(3, 180, 240)).cumsum(1).cumsum(2)
@@ -101,7 +84,6 @@ grey_nodata = write("grey_nodata.jpg", grey, *utm, "JPEG", nodata=3)
 
 pairs = [twin(p) for p in [ortho, ortho_alpha, dem16, classes, rgb_nodata, two_bit, photo,
                            grey_nodata]]
-
 
 
 def peer_difference(path):

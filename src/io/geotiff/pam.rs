@@ -496,6 +496,9 @@ pub(crate) struct PamBands {
     pub metadata: Vec<BandMetadata>,
     /// Each band's `<NoDataValue>`.
     pub nodata: Vec<Option<f64>>,
+    /// Whether the sidecar has a `<PAMRasterBand>` for the band: GDAL then takes its
+    /// `<Description>`, empty where it has none, over the band's own description.
+    pub listed: Vec<bool>,
     /// The dataset's `NODATA_VALUES` (one per band: a cell is nodata where every band
     /// holds its value), as GDAL keeps an RGB PNG's transparent colour.
     pub nodata_values: Option<Vec<f64>>,
@@ -509,6 +512,7 @@ pub(crate) fn bands(path: &Path, count: usize) -> Result<PamBands, String> {
         metadata: vec![BandMetadata::default(); count],
         nodata: vec![None; count],
         nodata_values: None,
+        listed: vec![false; count],
     };
     let Ok(xml) = std::fs::read_to_string(&pam) else {
         return Ok(bands);
@@ -541,7 +545,12 @@ fn read_bands(xml: &str, bands: &mut PamBands) -> Result<(), String> {
             Event::Eof => break,
             Event::Start(tag) => {
                 match tag.name().as_ref() {
-                    b"PAMRasterBand" => band = band_number(&tag),
+                    b"PAMRasterBand" => {
+                        band = band_number(&tag);
+                        if let Some(listed) = band.and_then(|b| bands.listed.get_mut(b)) {
+                            *listed = true;
+                        }
+                    }
                     b"Metadata" => {
                         default_domain = tag
                             .attributes()
@@ -807,9 +816,11 @@ mod tests {
             metadata: vec![BandMetadata::default(); 3],
             nodata: vec![None; 3],
             nodata_values: None,
+            listed: vec![false; 3],
         };
         read_bands(xml, &mut bands).unwrap();
         assert_eq!(bands.nodata, [None, Some(-9999.0), None]);
+        assert_eq!(bands.listed, [false, true, false]);
         assert_eq!(bands.nodata_values, Some(vec![5.0; 3]));
         let band = &bands.metadata[1];
         assert_eq!(band.description.as_deref(), Some("elevation"));
