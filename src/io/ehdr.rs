@@ -11,6 +11,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference, sidecar};
 use super::sidecar_bands::{self, FileMasks, Samples};
@@ -234,6 +235,17 @@ pub(super) fn read_raw(
         descriptions,
         grid_keys,
     } = raster;
+    let cells = layout
+        .columns
+        .saturating_mul(layout.rows)
+        .saturating_mul(layout.bands);
+    if cells > MAX_MAP_CELLS {
+        return Err(problem(format!(
+            "its header {} declares {cells} cells in all, more than the {MAX_MAP_CELLS} a \
+             map may hold: clip it to the site first (gdal_translate -projwin)",
+            header.display()
+        )));
+    }
     let bytes = read_input(path)?;
     let needed = layout
         .extent()
@@ -420,6 +432,20 @@ fn read_header(text: &str, grid_float: bool) -> std::result::Result<Layout, Stri
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_header_declaring_a_continent_is_refused_before_its_samples_are_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("conus.bil");
+        std::fs::write(&path, [0u8; 16]).unwrap();
+        std::fs::write(
+            dir.path().join("conus.hdr"),
+            "NROWS 104424\nNCOLS 161190\nULXMAP 0\nULYMAP 0\n",
+        )
+        .unwrap();
+        let error = read_ehdr_rows(&path, "conus").unwrap_err().to_string();
+        assert!(error.contains("clip"), "{error}");
+    }
 
     #[test]
     fn headers_as_gdal_and_the_usgs_write_them() {

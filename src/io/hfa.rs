@@ -26,6 +26,7 @@ use dictionary::{
     Dictionary, MAX_DEPTH, PixelType, TRUNCATED, Value, decode_object, parse_dictionary, u32_at,
 };
 
+use super::MAX_MAP_CELLS as MAX_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference, pam_georeference, sidecar, wkt_geokeys};
 use super::named_crs::{self, Named};
@@ -602,6 +603,20 @@ pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let Some(&first) = layers.first() else {
         return Err(problem("it holds no raster layer (Eimg_Layer)".into()));
     };
+    // Before a spill file of many gigabytes is read: a national product (NLCD's 16
+    // billion cells) is clipped first.
+    let mut cells = 0usize;
+    for layer in &layers {
+        let value = file.value(layer).map_err(&problem)?;
+        let side = |field: &str| value.number(field).unwrap_or(0.0).max(0.0) as usize;
+        cells = cells.saturating_add(side("width").saturating_mul(side("height")));
+    }
+    if cells > MAX_CELLS {
+        return Err(problem(format!(
+            "its layers hold {cells} cells, more than the {MAX_CELLS} a map may hold: clip \
+             it to the site first (gdal_translate -projwin)"
+        )));
+    }
     let spill = match layers
         .iter()
         .find_map(|layer| layer.child_of_kind("ImgExternalRaster"))
@@ -898,6 +913,23 @@ mod tests {
         assert_eq!(values, [2.0, 3.0, 4.0, 5.0]);
         // Runs short of the block are refused.
         assert!(run_length_block(&block, PixelType::Signed(16), 600).is_err());
+    }
+
+    #[test]
+    fn a_national_product_is_refused_before_its_samples_are_read() {
+        let mut file = small_file();
+        // The layer's data (width, height) is the first blob after the blocks: find it
+        // by its 5 and 3.
+        let at = file
+            .windows(8)
+            .position(|w| w == [5, 0, 0, 0, 3, 0, 0, 0])
+            .unwrap();
+        file[at..at + 8].copy_from_slice(&[0x40, 0x75, 0x02, 0, 0x40, 0x94, 0x01, 0]);
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("conus.img");
+        std::fs::write(&path, file).unwrap();
+        let error = read_hfa_rows(&path, "conus").unwrap_err().to_string();
+        assert!(error.contains("clip"), "{error}");
     }
 
     #[test]

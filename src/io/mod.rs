@@ -29,6 +29,10 @@ pub mod xyz;
 use std::path::Path;
 
 use crate::error::{Error, Result};
+
+/// The most cells a raster read as a map may declare (per band of a VRT, in all the
+/// layers of an Imagine or raw raster): its layers must fit in memory as f32.
+pub(crate) const MAX_MAP_CELLS: usize = 1 << 32;
 use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,

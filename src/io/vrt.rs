@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::reader::Reader;
 
+use super::MAX_MAP_CELLS as MAX_CELLS;
 use super::geotiff::metadata::{BandMetadata, layer_names, metres_per_unit};
 use super::geotiff::{Georeferencing, dataset_georeference, georeference, wkt_geokeys};
 use crate::error::{Error, Result, read_input};
@@ -23,9 +24,6 @@ use crate::grid::{Layer, LayerKind, Map};
 
 /// How deep VRTs may nest (a VRT of VRTs, as tile indexes are built): deeper is a loop.
 const MAX_NESTING: usize = 8;
-
-/// Most cells a VRT may declare per band: its layers must fit in memory as f32.
-const MAX_CELLS: usize = 1 << 32;
 
 /// The VRT at `path` as map `name`.
 pub fn read_vrt(path: &Path, name: &str) -> Result<Map> {
