@@ -3,10 +3,11 @@ raster of ../shared/data/raster as GDAL writes it again (rasterio's CreateCopy) 
 formats a user may be handed instead of a GeoTIFF: a PNG (georeferenced by GDAL's
 .aux.xml), a JPEG (quality 75, as agencies ship orthophotos, with a world file), a BIL
 (ESRI .hdr and .prj), a gridded XYZ (one band; its .prj written beside it), a lossless
-JPEG 2000, an ERDAS Imagine file (run-length compressed), an ENVI raster (`.dat`, by pixel). Every copy runs `imitate bench terrain` with the same seed and teachers as the
+JPEG 2000, an ERDAS Imagine file (run-length compressed), an ENVI raster (`.dat`, by
+pixel), a netCDF-4 file with Deflate (a variable per band). Every copy runs `imitate bench terrain` with the same seed and teachers as the
 GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit. A lossy copy
 is another terrain (its teacher is drawn from the compressed image too), and an RGBA
-image written as BIL, which keeps no alpha, is read unmasked, as GDAL reads it.
+image written as BIL (or any format keeping no alpha) is read unmasked, as GDAL reads it.
 
     PYTHONPATH=target/python-deps python3 benches/terrain_formats.py \
         target/release/imitate target/formats [--teacher T ...] [--seed 7]
@@ -60,6 +61,8 @@ def copies(source, out):
     # Its own name: an ENVI header is x.hdr, as the BIL's is.
     rasterio.shutil.copy(source, stem + "_envi.dat", driver="ENVI", INTERLEAVE="BIP")
     made.append(("ENVI", stem + "_envi.dat", True))
+    rasterio.shutil.copy(source, stem + ".nc", driver="netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
+    made.append(("netCDF-4", stem + ".nc", True))
     return made
 
 

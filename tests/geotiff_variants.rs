@@ -881,10 +881,20 @@ fn damaged_variants_are_errors_not_panics() {
 }
 
 /// Reads seeded damages of each file of `files` (JSON lines with its `name` in `dir`)
-/// under 400 kB: bytes changed in its header or anywhere, cut short, offsets and
-/// counts set to 0 or 0xFFFFFFFF. Each must read, or fail naming the file, never
-/// panic. Returns how many damaged files were read.
+/// under 400 kB, as [`damage_files`] does.
 fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
+    let paths: Vec<PathBuf> = files
+        .iter()
+        .map(|f| dir.join(format!("{}.tif", f["name"].as_str().unwrap())))
+        .collect();
+    damage_files(&paths, &dir.join("damaged.tif"), 12)
+}
+
+/// Reads `per_file` seeded damages of each of `files` under 400 kB, written to `damaged`
+/// (whose extension picks the reader): bytes changed in its header or anywhere, cut
+/// short, offsets and counts set to 0 or 0xFFFFFFFF. Each must read, or fail naming the
+/// file, never panic. Returns how many damaged files were read.
+fn damage_files(files: &[PathBuf], damaged: &Path, per_file: usize) -> usize {
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {
         state ^= state << 13;
@@ -892,16 +902,16 @@ fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
         state ^= state << 17;
         state
     };
-    let damaged = dir.join("damaged.tif");
+    let damaged_name = damaged.file_name().unwrap().to_str().unwrap();
     let mut reads = 0;
     for file in files {
-        let name = file["name"].as_str().unwrap();
-        let original = std::fs::read(dir.join(format!("{name}.tif"))).unwrap();
+        let name = file.display();
+        let original = std::fs::read(file).unwrap();
         if original.len() > 400_000 {
             continue;
         }
         let n = original.len() as u64;
-        for kind in 0..12 {
+        for kind in 0..per_file {
             let mut bytes = original.clone();
             match kind % 4 {
                 0 => {
@@ -921,11 +931,11 @@ fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
                     bytes[at..at + 4].copy_from_slice(&field);
                 }
             }
-            std::fs::write(&damaged, &bytes).unwrap();
-            let read = std::panic::catch_unwind(|| read_geotiff(&damaged, "m"));
+            std::fs::write(damaged, &bytes).unwrap();
+            let read = std::panic::catch_unwind(|| imitate::io::read_raster(damaged, "m"));
             match read {
                 Ok(Ok(_)) => {}
-                Ok(Err(e)) => assert!(e.to_string().contains("damaged.tif"), "{name}: {e}"),
+                Ok(Err(e)) => assert!(e.to_string().contains(damaged_name), "{name}: {e}"),
                 Err(_) => panic!("{name}, damage {kind}: the reader panicked"),
             }
             reads += 1;
@@ -1563,12 +1573,7 @@ fn jpeg2000_rasters_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    let lossy: Vec<&str> = info["lossy"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
+    let lossy = strings(&info["lossy"]);
     for pair in info["pairs"].as_array().unwrap() {
         let (jp2, gdal, ours) = read_twins(pair);
         let jp2 = jp2.as_str();
@@ -1598,12 +1603,7 @@ fn georeferenced_png_and_jpeg_images_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    let classes: Vec<&str> = info["classes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
+    let classes = strings(&info["classes"]);
     let lossy = info["lossy"].as_object().unwrap();
     for pair in info["pairs"].as_array().unwrap() {
         let (picture, gdal, ours) = read_twins(pair);
@@ -1656,6 +1656,15 @@ fn read_twins(pair: &serde_json::Value) -> (String, imitate::grid::Map, imitate:
     assert_eq!(grid(&gdal.geo), grid(&ours.geo), "{file}");
     assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
     (file.to_string(), gdal, ours)
+}
+
+/// The strings of a JSON array the Python writers print.
+fn strings(list: &serde_json::Value) -> Vec<&str> {
+    list.as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect()
 }
 
 /// The largest and the mean difference of our layer's values from GDAL's, once the two
@@ -1738,6 +1747,103 @@ fn envi_rasters_read_as_gdal_reads_them() {
     assert_input_error(&out, &["complex.img", "complex.hdr", "data type 6"]);
 }
 
+/// netCDF rasters as GDAL, netCDF4-python and xarray write them (classic and netCDF-4,
+/// Deflate, latitudes either way, time steps, packed integers with fill and missing
+/// values, `_Unsigned` bytes, a `spatial_ref` WKT, heights in kilometres): each reads to
+/// the grid, values, nodata and names GDAL reads it to; CRSs that only CF's grid-mapping
+/// parameters give (polar stereographic, Lambert conformal on a sphere) are measured on
+/// the ground as GDAL's CRS for them is (its twin a user-defined GeoTIFF CRS); a variable
+/// with `flag_values` holds classes, longitudes running west read as the same grid
+/// running east, damaged files are errors, never panics, and files that cannot be a map
+/// are refused naming the file and why.
+#[test]
+fn netcdf_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("netcdf_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let classes = strings(&info["classes"]);
+    for pair in info["pairs"].as_array().unwrap() {
+        let (tif, file) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
+        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
+        let ours = imitate::io::read_raster(Path::new(file), "a")
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        // GDAL's transform from coordinate variables carries its own float noise.
+        let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
+        let (g, o) = (&gdal.geo, &ours.geo);
+        assert_eq!(
+            (g.width, g.height, &g.frame, g.degrees),
+            (o.width, o.height, &o.frame, o.degrees),
+            "{file}"
+        );
+        assert!(near(g.resolution, o.resolution), "{file}: {g:?} {o:?}");
+        assert!(
+            near(
+                g.resolution_y.unwrap_or(g.resolution),
+                o.resolution_y.unwrap_or(o.resolution)
+            ),
+            "{file}: {g:?} {o:?}"
+        );
+        assert!(
+            near(g.origin[0], o.origin[0]) && near(g.origin[1], o.origin[1]),
+            "{file}: {g:?} {o:?}"
+        );
+        let scales = |geo: &imitate::grid::GeoRef| geo.ground_scale.map(|s| s.per_axis());
+        match (scales(g), scales(o)) {
+            (Some(a), Some(b)) => assert!(
+                (0..2).all(|i| (a[i] - b[i]).abs() <= 1e-6 * a[i]),
+                "{file}: {a:?} {b:?}"
+            ),
+            (a, b) => assert_eq!(a, b, "{file}"),
+        }
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(file, a, b);
+            assert!(
+                worst <= 1e-6 * a.values.iter().fold(1f32, |m, v| m.max(v.abs())),
+                "{file} {}: {worst}",
+                b.name
+            );
+            let declared = b.kind == LayerKind::Classes;
+            assert_eq!(
+                declared,
+                classes.contains(&file) && b.name == "land_cover",
+                "{file} {}",
+                b.name
+            );
+        }
+    }
+    let read =
+        |key: &str| imitate::io::read_raster(Path::new(info[key].as_str().unwrap()), "a").unwrap();
+    let (east, west) = (read("east"), read("west"));
+    assert_eq!(east.geo, west.geo);
+    assert_eq!(east.layers[0].values, west.layers[0].values);
+    let refusals = [
+        ("uneven", "not evenly spaced"),
+        ("transposed", "x before y"),
+        ("no_wkt", "gives no WKT"),
+        ("points", "no gridded variable"),
+        ("surfer", "not a netCDF file"),
+    ];
+    let files: Vec<PathBuf> = info["pairs"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
+        .collect();
+    assert!(damage_files(&files, &dir.path().join("damaged.nc"), 60) >= 400);
+    for (key, why) in refusals {
+        let file = Path::new(info["refused"][key].as_str().unwrap());
+        let name = file.file_name().unwrap().to_str().unwrap();
+        let out = imitate(
+            dir.path(),
+            &["bench", "terrain", name, "--method", "uniform"],
+        );
+        assert_input_error(&out, &[name, why]);
+    }
+}
+
 /// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length
 /// compressed blocks, edge blocks, blocks of 32, 1-, 4- and 8-bit to 64-bit samples,
 /// nodata, band names, a CRS from the PE string or from ERDAS's projection parameters
@@ -1751,12 +1857,7 @@ fn erdas_imagine_rasters_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    let thematic: Vec<&str> = info["thematic"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
+    let thematic = strings(&info["thematic"]);
     for pair in info["pairs"].as_array().unwrap() {
         let (img, gdal, ours) = read_twins(pair);
         let img = img.as_str();

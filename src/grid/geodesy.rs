@@ -287,6 +287,12 @@ impl Projection {
         Projection::polar_stereographic(PolarScale::TrueLatitude(latitude), false_origin)
     }
 
+    /// Polar stereographic on WGS 84 about either pole with scale `k0` at the pole
+    /// (EPSG's variant A), from its false origin (metres).
+    pub fn polar_stereographic_scaled_at_pole(k0: f64, false_origin: [f64; 2]) -> Projection {
+        Projection::polar_stereographic(PolarScale::AtPole(k0), false_origin)
+    }
+
     /// Mercator on WGS 84, true to scale on the equator (EPSG:3395).
     pub(super) fn world_mercator() -> Projection {
         Projection(Kind::Conformal(Conformal::WorldMercator))

@@ -18,6 +18,7 @@ pub mod mdp_tables;
 pub mod movingai;
 mod named_crs;
 pub mod nav2;
+pub mod netcdf;
 pub mod parquet_check;
 pub mod picture;
 pub mod png;
@@ -38,10 +39,11 @@ use crate::grid::Map;
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
-/// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...).
-pub const RASTER_EXTENSIONS: [&str; 21] = [
+/// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
+/// netCDF (classic and netCDF-4; GMT's `.grd`).
+pub const RASTER_EXTENSIONS: [&str; 24] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -90,6 +92,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "xyz" => xyz::read_xyz_rows(path, name),
         "img" => hfa::read_hfa_rows(path, name),
         "dat" => envi::read_envi_rows(path, name),
+        "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -97,8 +100,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
-                 XYZ text (.xyz), ERDAS Imagine files (.img) or ENVI rasters (.img, .dat \
-                 with an ENVI .hdr), not \
+                 XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
+                 with an ENVI .hdr) or netCDF grids (.nc, .nc4, GMT's .grd), not \
                  '.{other}'"
             ),
         )),
@@ -117,6 +120,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         }
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
+        "nc" | "nc4" | "grd" => netcdf::netcdf_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
         _ => geotiff::sidecars(path),
     }

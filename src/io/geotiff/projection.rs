@@ -122,6 +122,19 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
                 ],
             ));
         }
+        POLAR_STEREOGRAPHIC => {
+            // GDAL writes a latitude of true scale (EPSG's variant B) as the natural
+            // origin's latitude; at a pole it is variant A, with its scale there.
+            let latitude = degrees(NATURAL_ORIGIN_LATITUDE)?;
+            return Some(if (latitude.abs() - 90.0).abs() > 1e-9 {
+                Projection::polar_stereographic_true_at(latitude.abs(), false_easting_northing)
+            } else {
+                Projection::polar_stereographic_scaled_at_pole(
+                    double(SCALE_AT_NATURAL_ORIGIN).unwrap_or(1.0),
+                    false_easting_northing,
+                )
+            });
+        }
         LAMBERT_CONFORMAL_1SP => {
             let latitude = degrees(NATURAL_ORIGIN_LATITUDE)?;
             return Some(Projection::lambert_conformal(

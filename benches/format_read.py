@@ -1,0 +1,101 @@
+"""Reading the formats a GeoTIFF may come as instead: 8192² files (UTM, 30 m) written by
+GDAL: ERDAS Imagine (its HFA driver) with an int16 DEM in raw blocks, a 9-class uint8
+cover in raw blocks and the same cover run-length compressed; netCDF (its netCDF
+driver) with the DEM in classic netCDF and in netCDF-4 with Deflate; each beside an
+uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
+the raster as costs and plans two cells apart: the read is the time; wall and user CPU
+seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
+(`read(1)`). Each time the best of three (by wall time), the files written and synced
+first.
+
+    PYTHONPATH=target/python-deps python3 benches/format_read.py \\
+        target/release/imitate target/format_read
+
+Prints a Markdown table: file, bytes, imitate on the file, imitate on the GeoTIFF twin,
+GDAL's read of the file, and the ratio of imitate's file to its GeoTIFF.
+"""
+
+import os
+import resource
+import subprocess
+import sys
+import time
+
+import numpy as np
+import rasterio
+import rasterio.shutil
+from rasterio.transform import from_origin
+
+SIZE = 8192
+#: Each time is the best of this many runs, the files in the page cache.
+REPEATS = 3
+
+
+def write(path, values, driver, **options):
+    """`values` written to `path` by GDAL's `driver` (a create-copy driver from a
+    GeoTIFF)."""
+    if driver == "netCDF":
+        source = write(path + ".source.tif", values, "GTiff")
+        rasterio.shutil.copy(source, path, driver=driver, **options)
+        os.remove(source)
+        return path
+    with rasterio.open(path, "w", driver=driver, width=values.shape[1],
+                       height=values.shape[0], count=1, dtype=values.dtype,
+                       crs="EPSG:32616", transform=from_origin(440000, 4640000, 30, 30),
+                       **options) as dst:
+        dst.write(values, 1)
+    return path
+
+
+def timed_plan(binary, raster):
+    """Wall seconds and user CPU seconds of one `imitate plan` on `raster`."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime
+    start = time.perf_counter()
+    run = subprocess.run([binary, "plan", raster, "--cells", "--start", "100,100",
+                          "--goal", "102,103"], capture_output=True, text=True)
+    assert run.returncode == 0, run.stderr
+    wall = time.perf_counter() - start
+    return wall, resource.getrusage(resource.RUSAGE_CHILDREN).ru_utime - before
+
+
+def timed_gdal(raster, values):
+    start = time.perf_counter()
+    with rasterio.open(raster) as src:
+        read = src.read(1)
+    elapsed = time.perf_counter() - start
+    assert (read == values).all()
+    return elapsed
+
+
+def main():
+    binary, out = sys.argv[1], sys.argv[2]
+    os.makedirs(out, exist_ok=True)
+    rng = np.random.default_rng(1)
+    field = rng.normal(size=(SIZE, SIZE)).cumsum(0).cumsum(1)
+    field /= np.abs(field).max()
+    dem = (field * 15000 + 16000).astype("int16")
+    cover = ((field * 30).round() % 9 + 1).astype("uint8")
+    cases = [("Imagine: DEM, raw", "dem.img", dem, "HFA", {}),
+             ("Imagine: cover, raw", "cover.img", cover, "HFA", {}),
+             ("Imagine: cover, run-length", "cover_rle.img", cover, "HFA",
+              {"COMPRESSED": "YES"}),
+             ("netCDF classic: DEM", "dem.nc", dem, "netCDF", {"FORMAT": "NC"}),
+             ("netCDF-4: DEM, Deflate", "dem_deflate.nc", dem, "netCDF",
+              {"FORMAT": "NC4", "COMPRESS": "DEFLATE"})]
+    print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
+          "GDAL, the file | the file to GeoTIFF, user CPU |")
+    print("|---|---|---|---|---|---|")
+    for label, name, values, driver, options in cases:
+        path = write(os.path.join(out, name), values, driver, **options)
+        tif = write(os.path.join(out, name + ".tif"), values, "GTiff")
+        os.sync()
+        ours = min(timed_plan(binary, path) for _ in range(REPEATS))
+        twin = min(timed_plan(binary, tif) for _ in range(REPEATS))
+        gdal = min(timed_gdal(path, values) for _ in range(REPEATS))
+        print(f"| {label} | {os.path.getsize(path):,} | {ours[0]:.2f} s / {ours[1]:.2f} s | "
+              f"{twin[0]:.2f} s / {twin[1]:.2f} s | {gdal:.2f} s | {ours[1] / twin[1]:.2f} |",
+              flush=True)
+
+
+if __name__ == "__main__":
+    main()
