@@ -6,12 +6,16 @@ matplotlib's wheel ships two real elevation grids in its sample data:
 Tennessee: int16 metres, EPSG:4326, 1/1200° cells) and `topobathy.npz` (topography and
 bathymetry off Vancouver Island: float32 metres on a 2-arc-minute longitude/latitude
 grid). This script downloads the wheel with pip (no install), reads both, and writes
-them with rasterio (GDAL) as north-up GeoTIFFs in EPSG:4326, ZSTD-compressed:
+them with rasterio (GDAL) as north-up GeoTIFFs in EPSG:4326, ZSTD-compressed; and the
+bathymetry as climate and ocean data come too, `topobathy.nc`: CF netCDF-4 written by
+xarray, the file's own longitudes (234–238 °E) and latitudes (from the south) as
+coordinates, no grid mapping:
 
     python3 benches/terrain_dems.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/jacksboro_fault_dem.tif OUT_DIR/topobathy.tif
 
-Needs rasterio (`scripts/python-deps.sh` installs it into target/python-deps).
+Needs rasterio and xarray (`scripts/python-deps.sh` installs them into
+target/python-deps).
 """
 
 import io
@@ -58,3 +62,13 @@ dx, dy = float(lon[1] - lon[0]), float(lat[1] - lat[0])
 values = t[::-1] if dy > 0 else t
 write("topobathy", values.astype("float32"), float(lon[0]) - 360 - abs(dx) / 2,
       float(lat.max()) + abs(dy) / 2, abs(dx), abs(dy))
+
+# The same grid as xarray writes it: its own coordinates, latitudes from the south.
+import xarray as xr  # noqa: E402
+
+xr.Dataset(
+    {"elevation": (("lat", "lon"), t.astype("float32"), {"units": "m"})},
+    coords={"lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
+            "lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"})},
+).to_netcdf(os.path.join(out, "topobathy.nc"))
+print(os.path.join(out, "topobathy.nc"))

@@ -53,6 +53,8 @@ def copies(source, out):
         with open(stem + ".prj", "w") as f:
             f.write(crs.to_wkt(version=WktVersion.WKT1_ESRI))
         made.append(("XYZ", stem + ".xyz", True))
+        rasterio.shutil.copy(source, stem + ".grd", driver="GS7BG")
+        made.append(("Surfer 7", stem + ".grd", True))
     rasterio.shutil.copy(source, stem + ".jp2", driver="JP2OpenJPEG", QUALITY=100,
                          REVERSIBLE="YES")
     made.append(("JPEG 2000", stem + ".jp2", True))

@@ -1824,7 +1824,7 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
         ("transposed", "x before y"),
         ("no_wkt", "gives no WKT"),
         ("points", "no gridded variable"),
-        ("surfer", "not a netCDF file"),
+        ("neither", "not a netCDF file"),
     ];
     let files: Vec<PathBuf> = info["pairs"]
         .as_array()
@@ -1842,6 +1842,28 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
         );
         assert_input_error(&out, &[name, why]);
     }
+}
+
+/// Surfer grids as GDAL writes them (ASCII, Surfer 6 and Surfer 7 binary): each reads to
+/// the grid, CRS, values and blanked nodes GDAL reads it to; damaged, each is read or
+/// refused naming the file, never a panic.
+#[test]
+fn surfer_grids_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("surfer_grids.py", &[dir.path()]) else {
+        return;
+    };
+    let pairs = written[0]["pairs"].as_array().unwrap();
+    for pair in pairs {
+        let (grd, gdal, ours) = read_twins(pair);
+        let (worst, _) = differences_from_gdal(&grd, &gdal.layers[0], &ours.layers[0]);
+        assert_eq!(worst, 0.0, "{grd}");
+    }
+    let files: Vec<PathBuf> = pairs
+        .iter()
+        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
+        .collect();
+    assert!(damage_files(&files, &dir.path().join("damaged.grd"), 60) >= 180);
 }
 
 /// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length

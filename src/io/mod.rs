@@ -23,6 +23,7 @@ pub mod parquet_check;
 pub mod picture;
 pub mod png;
 mod sidecar_bands;
+pub mod surfer;
 pub mod tables;
 pub mod vrt;
 pub mod xyz;
@@ -40,7 +41,7 @@ use crate::grid::Map;
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
-/// netCDF (classic and netCDF-4; GMT's `.grd`).
+/// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`).
 pub const RASTER_EXTENSIONS: [&str; 24] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd",
@@ -92,6 +93,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "xyz" => xyz::read_xyz_rows(path, name),
         "img" => hfa::read_hfa_rows(path, name),
         "dat" => envi::read_envi_rows(path, name),
+        "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
         "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
         other => Err(Error::input(
             path,
@@ -101,7 +103,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
-                 with an ENVI .hdr) or netCDF grids (.nc, .nc4, GMT's .grd), not \
+                 with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd) or Surfer \
+                 grids (.grd), not \
                  '.{other}'"
             ),
         )),
@@ -120,6 +123,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         }
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
+        "grd" if surfer::is_surfer(path) => surfer::surfer_sidecars(path),
         "nc" | "nc4" | "grd" => netcdf::netcdf_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
         _ => geotiff::sidecars(path),

@@ -660,7 +660,7 @@ pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     if !is_netcdf(&bytes) {
         return Err(problem(
             "it is not a netCDF file (neither classic CDF nor netCDF-4/HDF5); a .grd is \
-             read as GMT writes it, in netCDF (Surfer's grids are not read)"
+             read as GMT writes it, in netCDF, or as Surfer does (DSAA, DSBB, DSRB)"
                 .into(),
         ));
     }

@@ -60,7 +60,8 @@ pub struct IngestParams {
     /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD), an ENVI raster
     /// (.img, .dat, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes), a
     /// netCDF grid (.nc, .nc4, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
-    /// gridded variable and time step) or a MovingAI .map (layer `blocked`);
+    /// gridded variable and time step), a Surfer grid (.grd) or a MovingAI .map (layer
+    /// `blocked`);
     /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]

@@ -17,8 +17,8 @@ gridded variable's bands in the file's order, named by their variable):
   (WRF's).
 
 Also, by hand: the same grid with longitudes running west and east (read alike), and
-files a reader must refuse: uneven latitudes, no gridded variable, a Surfer grid named
-`.grd`, a variable lying (lon, lat), a rotated-pole grid mapping with no WKT. Prints one JSON line."""
+files a reader must refuse: uneven latitudes, no gridded variable, an Esri ASCII grid
+named `.grd`, a variable lying (lon, lat), a rotated-pole grid mapping with no WKT. Prints one JSON line."""
 
 import json
 import os
@@ -243,9 +243,9 @@ with netCDF4.Dataset(path_of("points.nc"), "w", format="NETCDF4") as ds:
     ds.createDimension("station", 5)
     ds.createVariable("height", "f4", ("station",))[:] = np.arange(5)
 refused["points"] = path_of("points.nc")
-with open(path_of("surfer.grd"), "w") as f:
-    f.write("DSAA\n2 2\n0 1\n0 1\n0 1\n0 1\n0 1\n")
-refused["surfer"] = path_of("surfer.grd")
+with open(path_of("ascii_grid.grd"), "w") as f:
+    f.write("ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n3 4\n")
+refused["neither"] = path_of("ascii_grid.grd")
 
 print(json.dumps({"pairs": pairs, "east": east, "west": west, "refused": refused,
                   "classes": [xarray_utm]}))
