@@ -7,9 +7,9 @@ Tennessee: int16 metres, EPSG:4326, 1/1200° cells) and `topobathy.npz` (topogra
 bathymetry off Vancouver Island: float32 metres on a 2-arc-minute longitude/latitude
 grid). This script downloads the wheel with pip (no install), reads both, and writes
 them with rasterio (GDAL) as north-up GeoTIFFs in EPSG:4326, ZSTD-compressed; and the
-bathymetry as climate and ocean data come too, `topobathy.nc`: CF netCDF-4 written by
-xarray, the file's own longitudes (234–238 °E) and latitudes (from the south) as
-coordinates, no grid mapping:
+bathymetry as climate and ocean data come too, `topobathy.nc`: the GeoTIFF's grid as CF
+netCDF-4 written by xarray, single-precision coordinates, longitudes 234–238 °E,
+latitudes from the south, no grid mapping:
 
     python3 benches/terrain_dems.py OUT_DIR
     target/release/imitate bench terrain OUT_DIR/jacksboro_fault_dem.tif OUT_DIR/topobathy.tif
@@ -63,12 +63,21 @@ values = t[::-1] if dy > 0 else t
 write("topobathy", values.astype("float32"), float(lon[0]) - 360 - abs(dx) / 2,
       float(lat.max()) + abs(dy) / 2, abs(dx), abs(dy))
 
-# The same grid as xarray writes it: its own coordinates, latitudes from the south.
+# The GeoTIFF's grid as xarray writes it: single-precision coordinates at the cells'
+# centres, longitudes east of Greenwich (234–238 °E), latitudes from the south. (The
+# file's own latitudes are even in Mercator y, not in degrees: GDAL gives them no grid,
+# and imitate refuses them naming the first uneven one.)
 import xarray as xr  # noqa: E402
 
+rows = np.arange(len(lat))
+even_lat = float(lat.max()) - abs(dy) * (len(lat) - 1 - rows)
+even_lon = float(lon[0]) + abs(dx) * np.arange(len(lon))
 xr.Dataset(
-    {"elevation": (("lat", "lon"), t.astype("float32"), {"units": "m"})},
-    coords={"lat": ("lat", lat, {"units": "degrees_north", "standard_name": "latitude"}),
-            "lon": ("lon", lon, {"units": "degrees_east", "standard_name": "longitude"})},
+    {"elevation": (("lat", "lon"), (t if dy > 0 else t[::-1]).astype("float32"),
+                   {"units": "m"})},
+    coords={"lat": ("lat", even_lat.astype("float32"),
+                    {"units": "degrees_north", "standard_name": "latitude"}),
+            "lon": ("lon", even_lon.astype("float32"),
+                    {"units": "degrees_east", "standard_name": "longitude"})},
 ).to_netcdf(os.path.join(out, "topobathy.nc"))
 print(os.path.join(out, "topobathy.nc"))

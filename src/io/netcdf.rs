@@ -35,7 +35,7 @@ use super::geotiff::metadata::metres_per_unit;
 use super::geotiff::{Georeferencing, georeference, sidecars, wkt_geokeys};
 use super::named_crs::{self, Named};
 use super::sidecar_bands::{self, FileMasks, Samples};
-use crate::error::{Error, Result, read_input};
+use crate::error::{Error, Result, open_input};
 use crate::grid::Map;
 
 /// The files reading a netCDF raster depends on: a `.prj` and GDAL's sidecar.
@@ -43,11 +43,6 @@ pub fn netcdf_sidecars(path: &Path) -> Vec<PathBuf> {
     let mut files = sidecars(path);
     files.extend(Some(path.with_extension("prj")).filter(|prj| prj.is_file()));
     files
-}
-
-/// Whether `bytes` open as a netCDF file does: classic `CDF` or HDF5's signature.
-fn is_netcdf(bytes: &[u8]) -> bool {
-    bytes.starts_with(b"CDF") || bytes.starts_with(b"\x89HDF\r\n\x1a\n")
 }
 
 /// The text of attribute `name`, where it is text.
@@ -656,16 +651,17 @@ fn band(
 /// The netCDF raster at `path` as map `name`, with whether its rows ran from the north.
 pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let problem = |message: String| Error::input(path, message);
-    let bytes = read_input(path)?;
-    if !is_netcdf(&bytes) {
-        return Err(problem(
-            "it is not a netCDF file (neither classic CDF nor netCDF-4/HDF5); a .grd is \
-             read as GMT writes it, in netCDF, or as Surfer does (DSAA, DSBB, DSRB)"
+    // Mapped, not read: a file is known too large to be a map from its header alone.
+    open_input(path)?;
+    let file = NcFile::open(path).map_err(|e| {
+        problem(match e {
+            netcdf_reader::Error::InvalidMagic => "it is not a netCDF file (neither classic \
+                CDF nor netCDF-4/HDF5); a .grd is read as GMT writes it, in netCDF, or as \
+                Surfer does (DSAA, DSBB, DSRB)"
                 .into(),
-        ));
-    }
-    let file = NcFile::from_vec(bytes)
-        .map_err(|e| problem(format!("it cannot be read as netCDF: {e}")))?;
+            e => format!("it cannot be read as netCDF: {e}"),
+        })
+    })?;
     let group = file
         .root_group()
         .map_err(|e| problem(format!("its groups cannot be read: {e}")))?;
