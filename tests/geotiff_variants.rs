@@ -890,11 +890,16 @@ fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
     damage_files(&paths, &dir.join("damaged.tif"), 12)
 }
 
-/// Reads `per_file` seeded damages of each of `files` under 400 kB, written to `damaged`
-/// (whose extension picks the reader): bytes changed in its header or anywhere, cut
-/// short, offsets and counts set to 0 or 0xFFFFFFFF. Each must read, or fail naming the
-/// file, never panic. Returns how many damaged files were read.
+/// Reads `per_file` seeded damages of each of `files` under 400 kB (`IMITATE_DAMAGES`
+/// sets another count, for a longer campaign), written to `damaged` (whose extension
+/// picks the reader): bytes changed in its header or anywhere, cut short, offsets and
+/// counts set to 0 or 0xFFFFFFFF. Each must read, or fail naming the file, never panic.
+/// Returns how many damaged files were read.
 fn damage_files(files: &[PathBuf], damaged: &Path, per_file: usize) -> usize {
+    let per_file = std::env::var("IMITATE_DAMAGES")
+        .ok()
+        .and_then(|n| n.parse().ok())
+        .unwrap_or(per_file);
     let mut state = 0x9E37_79B9_7F4A_7C15u64;
     let mut next = move || {
         state ^= state << 13;
