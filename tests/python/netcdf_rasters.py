@@ -11,7 +11,8 @@ gridded variable's bands in the file's order, named by their variable):
   a time dimension of three steps, int16 packed by `scale_factor`/`add_offset` with a
   `_FillValue` and a `missing_value`, and a float32 variable beside it with NaN voids;
 - xarray with a `spatial_ref` grid mapping holding `crs_wkt` (rioxarray's form): UTM
-  heights in kilometres and a land cover with CF `flag_values`;
+  heights in kilometres and a land cover with CF `flag_values`, through the netCDF
+  library and through h5py (the h5netcdf engine, chunked and compressed);
 - netCDF4-python with CF grid-mapping parameters and no WKT: an Antarctic polar
   stereographic grid (NSIDC's, BedMachine's) and a Lambert conformal grid on a sphere
   (WRF's).
@@ -135,6 +136,14 @@ xarray_utm = path_of("xarray_utm.nc")
 dataset.to_netcdf(xarray_utm, encoding={"land_cover": {"_FillValue": None}})
 files.append(xarray_utm)
 
+# The same through h5py rather than the netCDF library (xarray's h5netcdf engine),
+# chunked and compressed.
+h5netcdf_utm = path_of("h5netcdf_utm.nc")
+dataset.to_netcdf(h5netcdf_utm, engine="h5netcdf", encoding={
+    "land_cover": {"_FillValue": None},
+    "height": {"zlib": True, "complevel": 4, "chunksizes": (16, 32)}})
+files.append(h5netcdf_utm)
+
 
 def cf_projected(name, mapping):
     """A grid in metres whose CRS only CF's grid-mapping parameters give (no WKT), as
@@ -248,4 +257,4 @@ with open(path_of("ascii_grid.grd"), "w") as f:
 refused["neither"] = path_of("ascii_grid.grd")
 
 print(json.dumps({"pairs": pairs, "east": east, "west": west, "refused": refused,
-                  "classes": [xarray_utm]}))
+                  "classes": [xarray_utm, h5netcdf_utm]}))
