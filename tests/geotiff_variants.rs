@@ -1758,8 +1758,8 @@ fn envi_rasters_read_as_gdal_reads_them() {
 /// the grid, values, nodata and names GDAL reads it to; CRSs that only CF's grid-mapping
 /// parameters give (polar stereographic, Lambert conformal on a sphere) are measured on
 /// the ground as GDAL's CRS for them is (its twin a user-defined GeoTIFF CRS); a variable
-/// with `flag_values` holds classes, longitudes running west read as the same grid
-/// running east, damaged files are errors, never panics, and files that cannot be a map
+/// with `flag_values` holds classes, longitudes running west and packed coordinates read
+/// as the same grid running east, damaged files are errors, never panics, and files that cannot be a map
 /// are refused naming the file and why.
 #[test]
 fn netcdf_rasters_read_as_gdal_reads_them() {
@@ -1769,13 +1769,13 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
     };
     let info = &written[0];
     let classes = strings(&info["classes"]);
+    // GDAL's transform from coordinate variables carries its own float noise.
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
     for pair in info["pairs"].as_array().unwrap() {
         let (tif, file) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
         let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
         let ours = imitate::io::read_raster(Path::new(file), "a")
             .unwrap_or_else(|e| panic!("{file}: {e}"));
-        // GDAL's transform from coordinate variables carries its own float noise.
-        let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
         let (g, o) = (&gdal.geo, &ours.geo);
         assert_eq!(
             (g.width, g.height, &g.frame, g.degrees),
@@ -1821,9 +1821,12 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
     }
     let read =
         |key: &str| imitate::io::read_raster(Path::new(info[key].as_str().unwrap()), "a").unwrap();
-    let (east, west) = (read("east"), read("west"));
+    let (east, west, packed) = (read("east"), read("west"), read("packed"));
     assert_eq!(east.geo, west.geo);
     assert_eq!(east.layers[0].values, west.layers[0].values);
+    assert!(near(east.geo.resolution, packed.geo.resolution));
+    assert!((0..2).all(|i| near(east.geo.origin[i], packed.geo.origin[i])));
+    assert_eq!(east.layers[0].values, packed.layers[0].values);
     let refusals = [
         ("uneven", "not evenly spaced"),
         ("transposed", "x before y"),

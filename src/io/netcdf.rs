@@ -472,8 +472,9 @@ impl Grid {
             ));
         }
         let axis = |coordinate: &NcVariable| -> std::result::Result<(Spacing, usize), String> {
+            // Packed coordinates (integers with a `scale_factor`) unpacked, as CF says.
             let values: Vec<f64> = file
-                .read_variable_as_f64(coordinate.name())
+                .read_variable_unpacked(coordinate.name())
                 .map_err(|e| {
                     format!(
                         "its coordinate variable {} cannot be read: {e}",

@@ -17,7 +17,8 @@ gridded variable's bands in the file's order, named by their variable):
   stereographic grid (NSIDC's, BedMachine's) and a Lambert conformal grid on a sphere
   (WRF's).
 
-Also, by hand: the same grid with longitudes running west and east (read alike), and
+Also, by hand: the same grid with longitudes running west and east and with its
+coordinates packed as int32 micro-degrees (read alike), and
 files a reader must refuse: uneven latitudes, no gridded variable, an Esri ASCII grid
 named `.grd`, a variable lying (lon, lat), a rotated-pole grid mapping with no WKT. Prints one JSON line."""
 
@@ -225,6 +226,19 @@ for path, order in [(east, 1), (west, -1)]:
         ds["lon"].units = "degrees_east"
         ds.createVariable("z", "f4", ("lat", "lon"))[:] = field[0][:, ::order]
 
+# The eastward grid again with its coordinates packed: int32 micro-degrees.
+packed = path_of("packed.nc")
+with netCDF4.Dataset(packed, "w", format="NETCDF4") as ds:
+    for name, values in [("lat", 10 + (np.arange(60) + 0.5) / 100),
+                         ("lon", 20 + (np.arange(80) + 0.5) / 100)]:
+        ds.createDimension(name, len(values))
+        coordinate = ds.createVariable(name, "i4", (name,))
+        coordinate.set_auto_maskandscale(False)
+        coordinate.scale_factor = 1e-6
+        coordinate.units = "degrees_north" if name == "lat" else "degrees_east"
+        coordinate[:] = np.round(values * 1e6).astype("int32")
+    ds.createVariable("z", "f4", ("lat", "lon"))[:] = field[0]
+
 
 def lat_lon_file(name, lat_values, dims=("lat", "lon"), mapping=None):
     with netCDF4.Dataset(path_of(name), "w", format="NETCDF4") as ds:
@@ -256,5 +270,6 @@ with open(path_of("ascii_grid.grd"), "w") as f:
     f.write("ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n3 4\n")
 refused["neither"] = path_of("ascii_grid.grd")
 
-print(json.dumps({"pairs": pairs, "east": east, "west": west, "refused": refused,
+print(json.dumps({"pairs": pairs, "east": east, "west": west, "packed": packed,
+                  "refused": refused,
                   "classes": [xarray_utm, h5netcdf_utm]}))
