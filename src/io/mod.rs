@@ -123,8 +123,8 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         }
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
-        "grd" if surfer::is_surfer(path) => surfer::surfer_sidecars(path),
-        "nc" | "nc4" | "grd" => netcdf::netcdf_sidecars(path),
+        // netCDF and Surfer grids take their CRS where an ASCII grid does.
+        "nc" | "nc4" | "grd" => ascii_grid::ascii_grid_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
         _ => geotiff::sidecars(path),
     }

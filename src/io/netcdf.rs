@@ -20,7 +20,7 @@
 //!   lengths in another unit (`units: km`, `ft`) become metres;
 //! - a variable with `flag_values` holds classes (CF's categorical data).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use netcdf_reader::masked::MaskParams;
 use netcdf_reader::unpack::{SignParams, UnpackParams};
@@ -32,18 +32,11 @@ use rayon::prelude::*;
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::metadata::metres_per_unit;
-use super::geotiff::{Georeferencing, georeference, sidecars, wkt_geokeys};
+use super::geotiff::{Georeferencing, georeference, wkt_geokeys};
 use super::named_crs::{self, Named};
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, open_input};
 use crate::grid::Map;
-
-/// The files reading a netCDF raster depends on: a `.prj` and GDAL's sidecar.
-pub fn netcdf_sidecars(path: &Path) -> Vec<PathBuf> {
-    let mut files = sidecars(path);
-    files.extend(Some(path.with_extension("prj")).filter(|prj| prj.is_file()));
-    files
-}
 
 /// The text of attribute `name`, where it is text.
 fn text(var: &NcVariable, name: &str) -> Option<String> {

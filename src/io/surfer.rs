@@ -5,11 +5,11 @@
 //! centres) and its values row by row from the south; nodes at or above the blanking
 //! value (1.70141e38) are nodata. The CRS comes from the `.prj` or GDAL's sidecar.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
-use super::geotiff::{Georeferencing, georeference, sidecars};
+use super::geotiff::{Georeferencing, georeference};
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, read_input};
 use crate::grid::Map;
@@ -24,13 +24,6 @@ pub fn is_surfer(path: &Path) -> bool {
     std::fs::File::open(path)
         .and_then(|mut f| std::io::Read::read_exact(&mut f, &mut tag))
         .is_ok_and(|()| [b"DSAA", b"DSBB", b"DSRB"].contains(&&tag))
-}
-
-/// The files reading a Surfer grid depends on: a `.prj` and GDAL's sidecar.
-pub fn surfer_sidecars(path: &Path) -> Vec<PathBuf> {
-    let mut files = sidecars(path);
-    files.extend(Some(path.with_extension("prj")).filter(|prj| prj.is_file()));
-    files
 }
 
 /// A grid as its file gives it.
