@@ -1,7 +1,9 @@
 """Reading the formats a GeoTIFF may come as instead: 8192² files (UTM, 30 m) written by
 GDAL: ERDAS Imagine (its HFA driver) with an int16 DEM in raw blocks, a 9-class uint8
 cover in raw blocks and the same cover run-length compressed; netCDF (its netCDF
-driver) with the DEM in classic netCDF and in netCDF-4 with Deflate; each beside an
+driver) with the DEM in classic netCDF and in netCDF-4 with Deflate; GeoPackage (its
+GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both in
+256² PNG tiles; each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
 the raster as costs and plans two cells apart: the read is the time; wall and user CPU
 seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
@@ -34,7 +36,7 @@ REPEATS = 3
 def write(path, values, driver, **options):
     """`values` written to `path` by GDAL's `driver` (a create-copy driver from a
     GeoTIFF)."""
-    if driver == "netCDF":
+    if driver in ("netCDF", "GPKG"):
         source = write(path + ".source.tif", values, "GTiff")
         rasterio.shutil.copy(source, path, driver=driver, **options)
         os.remove(source)
@@ -81,7 +83,10 @@ def main():
               {"COMPRESSED": "YES"}),
              ("netCDF classic: DEM", "dem.nc", dem, "netCDF", {"FORMAT": "NC"}),
              ("netCDF-4: DEM, Deflate", "dem_deflate.nc", dem, "netCDF",
-              {"FORMAT": "NC4", "COMPRESS": "DEFLATE"})]
+              {"FORMAT": "NC4", "COMPRESS": "DEFLATE"}),
+             ("GeoPackage: DEM, coverage in PNG tiles", "dem.gpkg", dem, "GPKG", {}),
+             ("GeoPackage: cover, PNG tiles", "cover.gpkg", cover, "GPKG",
+              {"TILE_FORMAT": "PNG"})]
     print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
           "GDAL, the file | the file to GeoTIFF, user CPU |")
     print("|---|---|---|---|---|---|")

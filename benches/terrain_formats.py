@@ -4,7 +4,8 @@ formats a user may be handed instead of a GeoTIFF: a PNG (georeferenced by GDAL'
 .aux.xml), a JPEG (quality 75, as agencies ship orthophotos, with a world file), a BIL
 (ESRI .hdr and .prj), a gridded XYZ (one band; its .prj written beside it), a lossless
 JPEG 2000, an ERDAS Imagine file (run-length compressed), an ENVI raster (`.dat`, by
-pixel), a netCDF-4 file with Deflate (a variable per band). Every copy runs `imitate bench terrain` with the same seed and teachers as the
+pixel), a netCDF-4 file with Deflate (a variable per band), a GeoPackage (PNG tiles, or a
+gridded coverage for one band of 16 or 32 bits). Every copy runs `imitate bench terrain` with the same seed and teachers as the
 GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit. A lossy copy
 is another terrain (its teacher is drawn from the compressed image too), and an RGBA
 image written as BIL (or any format keeping no alpha) is read unmasked, as GDAL reads it.
@@ -65,6 +66,12 @@ def copies(source, out):
     made.append(("ENVI", stem + "_envi.dat", True))
     rasterio.shutil.copy(source, stem + ".nc", driver="netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
     made.append(("netCDF-4", stem + ".nc", True))
+    # GeoPackage: 8-bit imagery in PNG tiles (a fourth band is its alpha), one band of
+    # any other type as a gridded coverage (float in TIFF tiles).
+    if dtype == "uint8" or (count == 1 and dtype in ("int16", "uint16", "float32")):
+        tiles = "TIFF" if dtype == "float32" else "PNG"
+        rasterio.shutil.copy(source, stem + ".gpkg", driver="GPKG", TILE_FORMAT=tiles)
+        made.append(("GeoPackage", stem + ".gpkg", True))
     return made
 
 

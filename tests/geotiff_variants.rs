@@ -1874,6 +1874,81 @@ fn surfer_grids_read_as_gdal_reads_them() {
     assert!(damage_files(&files, &dir.path().join("damaged.grd"), 60) >= 180);
 }
 
+/// GeoPackage rasters as GDAL writes them (its GPKG driver): imagery in JPEG and PNG
+/// tiles (GDAL's default), PNG, palette PNG and (lossy) WebP tiles, grey with nodata, cells
+/// not square, overviews, a Web Mercator tile grid; gridded coverages (int16, uint16,
+/// float32 in PNG and in TIFF tiles, heights in feet, one in degrees). Each reads to
+/// the grid, CRS,
+/// colour bands, values and nodata GDAL reads it to (lossy tiles as close to GDAL's
+/// decoding as libjpeg-turbo's or libwebp's is). Two rasters in
+/// one file, a file of features alone and a file that is not SQLite are refused by
+/// name; damaged, each is read or refused naming the file, never a panic.
+#[test]
+fn geopackage_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("geopackage_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let lossy = info["lossy"].as_object().unwrap();
+    let pairs = info["pairs"].as_array().unwrap();
+    assert!(pairs.len() >= 15 && lossy.len() >= 3, "{pairs:?} {lossy:?}");
+    for pair in pairs {
+        let (gpkg, gdal, ours) = read_twins(pair);
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, mean) = differences_from_gdal(&gpkg, a, b);
+            match lossy.get(&gpkg) {
+                // As close to GDAL's decoding as libjpeg-turbo's or libwebp's is, give
+                // or take a level.
+                Some(peer) => {
+                    let peer_worst = peer[0].as_f64().unwrap() as f32;
+                    let peer_mean = peer[1].as_f64().unwrap() as f32;
+                    assert!(
+                        worst <= peer_worst.max(1.0) + 1.0 && mean <= peer_mean * 1.25 + 0.05,
+                        "{gpkg} {}: off by {worst}, {mean} on average; the peer by \
+                         {peer_worst}, {peer_mean}",
+                        b.name
+                    );
+                }
+                None => assert_eq!(worst, 0.0, "{gpkg} {}", b.name),
+            }
+        }
+    }
+    let refusals = [
+        (
+            "two",
+            &["two_rasters.gpkg", "2 rasters", "a map is one"][..],
+        ),
+        (
+            "features",
+            &["features.gpkg", "no raster", "roads (features)"],
+        ),
+        ("text", &["text.gpkg", "not a GeoPackage"]),
+    ];
+    for (key, needles) in refusals {
+        let file = Path::new(info["refused"][key].as_str().unwrap());
+        let name = file.file_name().unwrap().to_str().unwrap();
+        let out = imitate(
+            dir.path(),
+            &["bench", "terrain", name, "--method", "uniform"],
+        );
+        assert_input_error(&out, needles);
+    }
+    let files: Vec<PathBuf> = pairs
+        .iter()
+        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
+        .collect();
+    assert!(damage_files(&files, &dir.path().join("damaged.gpkg"), 40) >= 200);
+    // Read, never written: SQLite left nothing beside the files.
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with("-journal") || n.ends_with("-wal") || n.ends_with("-shm"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
 /// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length
 /// compressed blocks, edge blocks, blocks of 32, 1-, 4- and 8-bit to 64-bit samples,
 /// nodata, band names, a CRS from the PE string or from ERDAS's projection parameters

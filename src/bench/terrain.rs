@@ -108,7 +108,7 @@ pub enum Features {
 
 #[derive(Debug, clap::Args)]
 pub struct TerrainArgs {
-    /// Rasters (GeoTIFF, Esri ASCII grid, SRTM tile (.hgt, .hgt.zip), GDAL VRT, JPEG 2000, georeferenced PNG or JPEG, BIL/GridFloat, DTED, XYZ, ERDAS Imagine, ENVI, netCDF, Surfer; every band a layer).
+    /// Rasters (GeoTIFF, Esri ASCII grid, SRTM tile (.hgt, .hgt.zip), GDAL VRT, JPEG 2000, georeferenced PNG or JPEG, BIL/GridFloat, DTED, XYZ, ERDAS Imagine, ENVI, netCDF, Surfer, GeoPackage; every band a layer).
     #[arg(required = true, value_name = "RASTER")]
     pub rasters: Vec<PathBuf>,
     /// Teachers to run (repeat the flag); default: the first eight, `threshold` to

@@ -7,6 +7,7 @@ pub mod ehdr;
 pub mod envi;
 pub mod fs;
 pub mod geojson;
+pub mod geopackage;
 pub mod geotiff;
 pub mod gpx;
 pub mod hfa;
@@ -41,10 +42,11 @@ use crate::grid::Map;
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
-/// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`).
-pub const RASTER_EXTENSIONS: [&str; 24] = [
+/// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
+/// rasters (`.gpkg`).
+pub const RASTER_EXTENSIONS: [&str; 25] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -95,6 +97,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "dat" => envi::read_envi_rows(path, name),
         "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
         "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
+        "gpkg" => geopackage::read_geopackage_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -103,9 +106,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
-                 with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd) or Surfer \
-                 grids (.grd), not \
-                 '.{other}'"
+                 with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
+                 grids (.grd) or GeoPackage rasters (.gpkg), not '.{other}'"
             ),
         )),
     }

@@ -29,7 +29,8 @@ pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
     let image = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
-        decode_png(&bytes).map_err(|e| problem(format!("not a readable PNG: {e}")))?
+        decode_png(&bytes, ::png::Transformations::IDENTITY)
+            .map_err(|e| problem(format!("not a readable PNG: {e}")))?
     } else if bytes.starts_with(&[0xff, 0xd8]) {
         decode_jpeg(&bytes).map_err(|e| problem(format!("not a readable JPEG: {e}")))?
     } else {
@@ -73,15 +74,15 @@ pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
 
 /// A decoded image as GDAL presents it.
 #[derive(Debug, Default)]
-struct Picture {
-    width: u32,
-    height: u32,
-    bands: usize,
+pub(super) struct Picture {
+    pub width: u32,
+    pub height: u32,
+    pub bands: usize,
     /// Band-interleaved samples, row by row from the top.
-    samples: Vec<f32>,
+    pub samples: Vec<f32>,
     /// What the file says of its cells: its alpha band, palette, transparent values,
     /// GDAL's mask appended to a JPEG.
-    masks: FileMasks,
+    pub masks: FileMasks,
 }
 
 /// An output buffer of `len` bytes, or an error where the image is too large to hold.
@@ -96,20 +97,26 @@ fn buffer(len: usize) -> std::result::Result<Vec<u8>, String> {
     Ok(out)
 }
 
-/// Decodes a PNG's samples as they are stored (no palette expansion, no scaling of
-/// low bit depths), as GDAL reads them.
-fn decode_png(bytes: &[u8]) -> std::result::Result<Picture, String> {
+/// Decodes a PNG's samples: as they are stored with `IDENTITY` (no palette expansion, no
+/// scaling of low bit depths), as GDAL reads a PNG; with `EXPAND` as 8- or 16-bit grey
+/// or colour, a palette's colours and a transparent value as alpha, as GDAL reads a
+/// GeoPackage's tiles.
+pub(super) fn decode_png(
+    bytes: &[u8],
+    transformations: ::png::Transformations,
+) -> std::result::Result<Picture, String> {
     let mut decoder = ::png::Decoder::new_with_limits(
         Cursor::new(bytes),
         ::png::Limits {
             bytes: MAX_DECODED_BYTES,
         },
     );
-    decoder.set_transformations(::png::Transformations::IDENTITY);
+    decoder.set_transformations(transformations);
     let mut reader = decoder.read_info().map_err(|e| e.to_string())?;
     let info = reader.info();
     let (width, height) = (info.width, info.height);
-    let (colour, depth) = (info.color_type, info.bit_depth as u8);
+    let (colour, depth) = reader.output_color_type();
+    let depth = depth as u8;
     let trns = info.trns.as_ref().map(|t| t.to_vec());
     let palette_len = info.palette.as_ref().map_or(0, |p| p.len() / 3);
     let size = reader
@@ -196,7 +203,7 @@ fn decode_png(bytes: &[u8]) -> std::result::Result<Picture, String> {
 
 /// Decodes a JPEG as GDAL's libjpeg does (grey stays grey, YCbCr and CMYK become RGB),
 /// with the bit mask GDAL appends after the image where it has one.
-fn decode_jpeg(bytes: &[u8]) -> std::result::Result<Picture, String> {
+pub(super) fn decode_jpeg(bytes: &[u8]) -> std::result::Result<Picture, String> {
     use zune_jpeg::zune_core::colorspace::ColorSpace;
     use zune_jpeg::zune_core::options::DecoderOptions;
     let options = DecoderOptions::default()
@@ -313,7 +320,7 @@ mod tests {
             ::png::BitDepth::Two,
             &[0b0001_1000, 0b1100_0100],
         );
-        let picture = decode_png(&grey).unwrap();
+        let picture = decode_png(&grey, ::png::Transformations::IDENTITY).unwrap();
         assert_eq!(picture.samples, [0.0, 1.0, 2.0, 3.0, 0.0, 1.0]);
         let wide = png(
             2,
@@ -322,7 +329,12 @@ mod tests {
             ::png::BitDepth::Sixteen,
             &[0x12, 0x34, 0xff, 0xfe],
         );
-        assert_eq!(decode_png(&wide).unwrap().samples, [4660.0, 65534.0]);
+        assert_eq!(
+            decode_png(&wide, ::png::Transformations::IDENTITY)
+                .unwrap()
+                .samples,
+            [4660.0, 65534.0]
+        );
         let rgba = png(
             1,
             1,
@@ -330,7 +342,7 @@ mod tests {
             ::png::BitDepth::Eight,
             &[1, 2, 3, 0],
         );
-        let picture = decode_png(&rgba).unwrap();
+        let picture = decode_png(&rgba, ::png::Transformations::IDENTITY).unwrap();
         assert_eq!((picture.bands, picture.masks.alpha), (4, Some(3)));
     }
 
@@ -346,7 +358,13 @@ mod tests {
                 e.set_trns(vec![0, 9]);
             },
         );
-        assert_eq!(decode_png(&grey).unwrap().masks.nodata, [Some(9.0)]);
+        assert_eq!(
+            decode_png(&grey, ::png::Transformations::IDENTITY)
+                .unwrap()
+                .masks
+                .nodata,
+            [Some(9.0)]
+        );
         let rgb = png_with(
             1,
             1,
@@ -358,7 +376,10 @@ mod tests {
             },
         );
         assert_eq!(
-            decode_png(&rgb).unwrap().masks.nodata_values,
+            decode_png(&rgb, ::png::Transformations::IDENTITY)
+                .unwrap()
+                .masks
+                .nodata_values,
             Some(vec![5.0; 3])
         );
         // One clear entry is nodata; two are not (GDAL sets none).
@@ -374,7 +395,7 @@ mod tests {
                     e.set_trns(alphas);
                 },
             );
-            let picture = decode_png(&indexed).unwrap();
+            let picture = decode_png(&indexed, ::png::Transformations::IDENTITY).unwrap();
             assert_eq!(picture.masks.classes, vec![true]);
             assert_eq!(picture.masks.nodata, [nodata]);
         }
@@ -413,7 +434,7 @@ mod tests {
             &[0xff, 0xd8, 0xff, 0xd9, 0, 0, 0, 0],
         ] {
             let result = if bytes[0] == 0x89 {
-                decode_png(bytes).map(|_| ())
+                decode_png(bytes, ::png::Transformations::IDENTITY).map(|_| ())
             } else {
                 decode_jpeg(bytes).map(|_| ())
             };
@@ -431,7 +452,7 @@ mod tests {
         ) {
             let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
             png.extend(&body);
-            let _ = decode_png(&png);
+            let _ = decode_png(&png, ::png::Transformations::IDENTITY);
             let mut jpeg = vec![0xff, 0xd8];
             jpeg.extend(&body);
             jpeg.extend([0xff, 0xd9]);
