@@ -3,7 +3,7 @@
 
 mod common;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 use arrow::array::{
@@ -512,7 +512,8 @@ fn gps_tracks_in_gpx_files_land_on_a_utm_dem() {
 
 /// Routes an expert drew over a map in QGIS, saved as GeoJSON by GDAL's OGR: in the
 /// layer's UTM CRS (a legacy crs member) and as RFC 7946 longitude and latitude, a
-/// MultiLineString among them. Both give the same episodes on the same cells.
+/// MultiLineString among them; and as GeoPackage line layers (QGIS's default), in UTM
+/// and in WGS 84, with Z. All give the same episodes on the same cells.
 #[test]
 fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
     let dir = tempfile::tempdir().unwrap();
@@ -538,8 +539,19 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
         );
         assert!(out.status.success(), "{kind}: {}", stderr(&out));
     }
+    // The same routes as GeoPackage line layers (with Z), in UTM and in WGS 84.
+    for kind in ["gpkg_utm", "gpkg_wgs84"] {
+        let file = text(kind);
+        let out = imitate(
+            dir.path(),
+            &["ingest", "--map", &raster, "--gpkg", &file, "--out", kind],
+        );
+        assert!(out.status.success(), "{kind}: {}", stderr(&out));
+    }
     let paths = |kind: &str| std::fs::read(dir.path().join(kind).join("paths.parquet")).unwrap();
     assert_eq!(paths("utm"), paths("wgs84"));
+    assert_eq!(paths("utm"), paths("gpkg_utm"));
+    assert_eq!(paths("utm"), paths("gpkg_wgs84"));
     let read = imitate::io::tables::read_paths(&dir.path().join("utm/paths.parquet")).unwrap();
     let names: Vec<&str> = read.iter().map(|p| p.episode.as_str()).collect();
     let episodes: Vec<String> = serde_json::from_value(info["episodes"].clone()).unwrap();
@@ -578,9 +590,16 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
         r#"{"type":"FeatureCollection","crs":{"type":"name","properties":{"name":"my local grid"}},"features":[]}"#,
     )
     .unwrap();
-    for (file, says) in [
-        (&points, "holds no LineString"),
-        (&odd, "names 'my local grid', not an EPSG code"),
+    let points_gpkg = PathBuf::from(text("points_gpkg"));
+    for (flag, file, says) in [
+        ("--geojson", &points, "holds no LineString"),
+        ("--geojson", &odd, "names 'my local grid', not an EPSG code"),
+        (
+            "--gpkg",
+            &points_gpkg,
+            "holds no LineString or MultiLineString",
+        ),
+        ("--gpkg", &PathBuf::from(&raster), "not a GeoPackage"),
     ] {
         let out = imitate(
             dir.path(),
@@ -588,7 +607,7 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
                 "ingest",
                 "--map",
                 &raster,
-                "--geojson",
+                flag,
                 file.to_str().unwrap(),
                 "--out",
                 "bad",

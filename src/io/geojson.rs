@@ -84,35 +84,23 @@ pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<Draw
         let name = label("episode")
             .or_else(|| label("name"))
             .unwrap_or_else(|| format!("{stem}-{index:03}"));
-        let map = label("map")
-            .or_else(|| default_map.map(String::from))
-            .ok_or_else(|| {
-                problem(format!(
-                    "feature {index} names no map (a 'map' property) and no default map is \
-                     given (--default-map)"
-                ))
-            })?;
-        for (k, part) in parts.iter().enumerate() {
-            let poses = line_poses(part)
-                .map_err(|why| problem(format!("feature {index} ('{name}'), line {k}: {why}")))?;
-            let episode = if parts.len() == 1 {
-                name.clone()
-            } else {
-                format!("{name}-{k}")
-            };
-            demonstrations.push(Demonstration {
-                episode,
-                map: map.clone(),
-                poses,
-            });
-        }
+        let lines = parts
+            .iter()
+            .enumerate()
+            .map(|(k, part)| {
+                positions(part)
+                    .map_err(|why| format!("feature {index} ('{name}'), line {k}: {why}"))
+            })
+            .collect::<std::result::Result<Vec<_>, String>>()
+            .map_err(&problem)?;
+        let feature = DrawnFeature {
+            index,
+            name,
+            map: label("map"),
+        };
+        demonstrations.extend(feature.episodes(&lines, default_map).map_err(&problem)?);
     }
-    if passed_over > 0 {
-        tracing::warn!(
-            "{}: {passed_over} feature(s) that are not lines passed over",
-            path.display()
-        );
-    }
+    warn_of_passed_over(path, passed_over);
     if demonstrations.is_empty() {
         return Err(problem(
             "holds no LineString or MultiLineString: paths are lines".into(),
@@ -124,27 +112,101 @@ pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<Draw
     })
 }
 
-/// A line's vertices as poses, timed by their order.
-fn line_poses(coordinates: &Value) -> std::result::Result<Vec<Pose>, String> {
+/// A line's positions [x, y] (any further coordinate dropped).
+fn positions(coordinates: &Value) -> std::result::Result<Vec<[f64; 2]>, String> {
     let vertices = coordinates
         .as_array()
         .ok_or("its coordinates are not a list of positions")?;
-    if vertices.len() < 2 {
-        return Err(format!("{} vertex(es); a path needs 2", vertices.len()));
-    }
     vertices
         .iter()
         .enumerate()
         .map(|(i, vertex)| {
             let number = |axis: usize| vertex.get(axis).and_then(Value::as_f64);
             match (number(0), number(1)) {
-                (Some(x), Some(y)) if x.is_finite() && y.is_finite() => Ok(Pose {
+                (Some(x), Some(y)) => Ok([x, y]),
+                _ => Err(format!("vertex {i} ({vertex}) is not a position [x, y]")),
+            }
+        })
+        .collect()
+}
+
+/// A drawn feature (a GeoJSON feature, a GeoPackage row): its index in its file or
+/// layer, its name (its `episode` or `name`, else one made of the file or layer and
+/// the index) and the map it names, if any.
+pub(super) struct DrawnFeature {
+    pub index: usize,
+    pub name: String,
+    pub map: Option<String>,
+}
+
+impl DrawnFeature {
+    /// Its lines as episodes on its map or `default_map`: one line as `name`, the parts
+    /// of a multi-line as `name-K`.
+    pub(super) fn episodes(
+        &self,
+        lines: &[Vec<[f64; 2]>],
+        default_map: Option<&str>,
+    ) -> std::result::Result<Vec<Demonstration>, String> {
+        let DrawnFeature { index, name, map } = self;
+        let map = map
+            .clone()
+            .or_else(|| default_map.map(String::from))
+            .ok_or_else(|| {
+                format!(
+                    "feature {index} names no map (a 'map' property or column) and no default \
+                 map is given (--default-map)"
+                )
+            })?;
+        lines
+            .iter()
+            .enumerate()
+            .map(|(k, line)| {
+                let poses = vertex_poses(line)
+                    .map_err(|why| format!("feature {index} ('{name}'), line {k}: {why}"))?;
+                let episode = if lines.len() == 1 {
+                    name.clone()
+                } else {
+                    format!("{name}-{k}")
+                };
+                Ok(Demonstration {
+                    episode,
+                    map: map.clone(),
+                    poses,
+                })
+            })
+            .collect()
+    }
+}
+
+/// Says how many features of the file at `path` were not lines.
+pub(super) fn warn_of_passed_over(path: &Path, passed_over: usize) {
+    if passed_over > 0 {
+        tracing::warn!(
+            "{}: {passed_over} feature(s) that are not lines passed over",
+            path.display()
+        );
+    }
+}
+
+/// A drawn line's vertices (x, y) as poses, timed by their order: a path of two or more
+/// finite vertices.
+fn vertex_poses(vertices: &[[f64; 2]]) -> std::result::Result<Vec<Pose>, String> {
+    if vertices.len() < 2 {
+        return Err(format!("{} vertex(es); a path needs 2", vertices.len()));
+    }
+    vertices
+        .iter()
+        .enumerate()
+        .map(|(i, &[x, y])| {
+            if x.is_finite() && y.is_finite() {
+                Ok(Pose {
                     t: i as f64,
                     x,
                     y,
                     yaw: None,
-                }),
-                _ => Err(format!("vertex {i} ({vertex}) is not a position [x, y]")),
+                })
+            } else {
+                Err(format!("vertex {i} ({x}, {y}) is not a finite position"))
             }
         })
         .collect()

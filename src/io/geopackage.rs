@@ -170,14 +170,7 @@ impl Window {
 /// north (always: tiles run from the north-west).
 pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let problem = |message: String| Error::input(path, message);
-    let mut magic = [0u8; 16];
-    let read = std::io::Read::read_exact(&mut open_input(path)?, &mut magic);
-    if read.is_err() || &magic != SQLITE_MAGIC {
-        return Err(problem(
-            "it is not a GeoPackage (not an SQLite database)".into(),
-        ));
-    }
-    let db = open_immutable(path).map_err(&problem)?;
+    let db = open_geopackage(path)?;
     let table = raster_table(&db).map_err(&problem)?;
     let matrix = tile_matrix(&db, &table).map_err(&problem)?;
     let window = Window::of(&table, &matrix).map_err(&problem)?;
@@ -219,7 +212,7 @@ pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let gdal = gdal_metadata(&db, &table.name).map_err(&problem)?;
     let raster = match &coverage {
         Some(coverage) => Raster::of_coverage(&decoded, coverage, &matrix, &window),
-        None => Raster::of_imagery(&decoded, gdal.colour, &matrix, &window),
+        None => Raster::of_imagery(&decoded, Bands::of(gdal.band_count), &matrix, &window),
     };
     let Raster { bands, values } = raster;
     // A coverage's unit of measure, where it is a length, sets the metres of its values.
@@ -243,6 +236,20 @@ pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         },
     };
     sidecar_bands::map(path, name, geo, samples, &masks)
+}
+
+/// The GeoPackage at `path`, opened read-only; an input error where it is not an
+/// SQLite database.
+pub(super) fn open_geopackage(path: &Path) -> Result<Connection> {
+    let mut magic = [0u8; 16];
+    let read = std::io::Read::read_exact(&mut open_input(path)?, &mut magic);
+    if read.is_err() || &magic != SQLITE_MAGIC {
+        return Err(Error::input(
+            path,
+            "it is not a GeoPackage (not an SQLite database)",
+        ));
+    }
+    open_immutable(path).map_err(|message| Error::input(path, message))
 }
 
 /// The database at `path`, opened read-only and immutable (SQLite then takes no lock
@@ -270,7 +277,7 @@ fn as_gdal_reads(value: f64) -> f64 {
 }
 
 /// Whether the database holds every one of the (optional) tables `names`.
-fn has_tables(db: &Connection, names: &[&str]) -> std::result::Result<bool, String> {
+pub(super) fn has_tables(db: &Connection, names: &[&str]) -> std::result::Result<bool, String> {
     for name in names {
         let count: i64 = db
             .query_row(
@@ -287,7 +294,7 @@ fn has_tables(db: &Connection, names: &[&str]) -> std::result::Result<bool, Stri
 }
 
 /// A table name quoted for SQL.
-fn quoted(name: &str) -> String {
+pub(super) fn quoted(name: &str) -> String {
     format!("\"{}\"", name.replace('"', "\"\""))
 }
 
@@ -519,8 +526,9 @@ fn crs_keys(db: &Connection, srs_id: i64) -> std::result::Result<(Vec<u16>, Stri
 /// domain), where it does.
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 struct GdalMetadata {
-    /// Colour (`BAND_COUNT` 3 or 4) or grey (1 or 2); `None` where unrecorded.
-    colour: Option<bool>,
+    /// `BAND_COUNT`: 1 grey, 2 grey and alpha, 3 RGB, 4 RGBA; `None` where unrecorded
+    /// (GDAL then shows RGBA).
+    band_count: Option<u32>,
     /// `NODATA_VALUE`.
     nodata: Option<f32>,
 }
@@ -557,7 +565,7 @@ fn gdal_metadata(db: &Connection, name: &str) -> std::result::Result<GdalMetadat
             Some(domain[at..at + length].trim().to_string())
         };
         if let Some(count) = item("BAND_COUNT").and_then(|c| c.parse::<u32>().ok()) {
-            found.colour = Some(count >= 3);
+            found.band_count = Some(count);
         }
         if let Some(nodata) = item("NODATA_VALUE").and_then(|v| v.parse::<f32>().ok()) {
             found.nodata = Some(nodata);
@@ -729,24 +737,49 @@ struct Raster {
     values: Vec<f32>,
 }
 
+/// The bands GDAL shows of imagery tiles.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Bands {
+    /// Colour (3 bands) or grey (1); `None` where GDAL recorded no band count: colour
+    /// where any tile is.
+    colour: Option<bool>,
+    /// Whether an alpha band is among them (GDAL's RGBA where no count is recorded):
+    /// then alpha 0 and missing tiles are nodata; without, GDAL skipped writing tiles
+    /// of zeros, and missing tiles read as zeros.
+    alpha: bool,
+}
+
+impl Bands {
+    fn of(band_count: Option<u32>) -> Self {
+        Bands {
+            colour: band_count.map(|n| n >= 3),
+            alpha: band_count.is_none_or(|n| n == 2 || n == 4),
+        }
+    }
+}
+
 impl Raster {
-    /// Imagery: grey or colour as GDAL recorded (`colour`), else grey where every tile is
-    /// grey; a grey tile's one value in each band of a colour raster, a colour tile's
-    /// first channel in a grey one.
+    /// Imagery: grey or colour as GDAL recorded, else grey where every tile is grey; a
+    /// grey tile's one value in each band of a colour raster, a colour tile's first
+    /// channel in a grey one.
     fn of_imagery(
         decoded: &[(Tile, Picture)],
-        colour: Option<bool>,
+        bands: Bands,
         matrix: &TileMatrix,
         window: &Window,
     ) -> Self {
-        let colour = colour.unwrap_or_else(|| decoded.iter().any(|(_, p)| p.bands >= 3));
-        let mut raster = Raster::empty(if colour { 3 } else { 1 }, window);
+        let colour = bands
+            .colour
+            .unwrap_or_else(|| decoded.iter().any(|(_, p)| p.bands >= 3));
+        let missing = if bands.alpha { f32::NAN } else { 0.0 };
+        let mut raster = Raster::filled(if colour { 3 } else { 1 }, window, missing);
         for (tile, picture) in decoded {
             let alpha = picture.masks.alpha;
             let colours = picture.bands - usize::from(alpha.is_some());
             raster.place(tile, picture, matrix, window, |pixel, out| {
                 let at = pixel * picture.bands;
-                if alpha.is_some_and(|a| picture.samples[at + a] == 0.0) {
+                let clear = alpha.is_some_and(|a| picture.samples[at + a] == 0.0);
+                if clear && bands.alpha {
                     return;
                 }
                 // GDAL reads a colour tile of a grey raster as its first channel.
@@ -761,14 +794,21 @@ impl Raster {
     /// A gridded coverage: a 16-bit PNG tile's stored values scaled by its tile's and
     /// the coverage's scale and offset (rounded to whole units where the precision is
     /// 1), a float TIFF tile's as they are (the spec fixes their scales at 1 and
-    /// offsets at 0; GDAL applies none); the null value holds no data.
+    /// offsets at 0; GDAL applies none); the null value, and missing tiles where there
+    /// is one, hold no data.
     fn of_coverage(
         decoded: &[(Tile, Picture)],
         coverage: &Coverage,
         matrix: &TileMatrix,
         window: &Window,
     ) -> Self {
-        let mut raster = Raster::empty(1, window);
+        // GDAL fills a missing tile with the nodata value, else zeros.
+        let missing = if coverage.null.is_some() {
+            f32::NAN
+        } else {
+            0.0
+        };
+        let mut raster = Raster::filled(1, window, missing);
         for (tile, picture) in decoded {
             let png = tile.data.starts_with(PNG_SIGNATURE);
             let (tile_scale, tile_offset) =
@@ -794,10 +834,11 @@ impl Raster {
         raster
     }
 
-    fn empty(bands: usize, window: &Window) -> Self {
+    /// A raster of `bands` holding `missing` where no tile is.
+    fn filled(bands: usize, window: &Window, missing: f32) -> Self {
         Raster {
             bands,
-            values: vec![f32::NAN; window.width * window.height * bands],
+            values: vec![missing; window.width * window.height * bands],
         }
     }
 
@@ -920,7 +961,7 @@ mod tests {
             grey(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
             grey(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
         ];
-        let raster = Raster::of_imagery(&tiles, None, &m, &w);
+        let raster = Raster::of_imagery(&tiles, Bands::of(None), &m, &w);
         assert_eq!(raster.bands, 1);
         // Column 0 of the window is the tile grid's column 1.
         let held: Vec<bool> = raster.values.iter().map(|v| !v.is_nan()).collect();
@@ -1007,14 +1048,19 @@ mod tests {
                 },
             ),
         ];
-        let raster = Raster::of_imagery(&tiles, None, &m, &w);
+        let raster = Raster::of_imagery(&tiles, Bands::of(None), &m, &w);
         assert_eq!(raster.bands, 3);
         assert_eq!(raster.values[..3], [7.0, 7.0, 7.0]);
         assert!(raster.values[3..].iter().all(|v| v.is_nan()));
+        // Recorded without alpha, missing tiles and clear cells read as GDAL reads them.
+        let grey = Raster::of_imagery(&tiles[..1], Bands::of(Some(1)), &m, &w);
+        assert_eq!(grey.values, [7.0, 0.0]);
+        let rgb = Raster::of_imagery(&tiles[1..], Bands::of(Some(3)), &m, &w);
+        assert_eq!(rgb.values, [0.0, 0.0, 0.0, 1.0, 2.0, 3.0]);
         // Recorded as grey, a colour tile reads as its first channel.
         let mut opaque = tiles;
         opaque[1].1.samples[3] = 255.0;
-        let raster = Raster::of_imagery(&opaque, Some(false), &m, &w);
+        let raster = Raster::of_imagery(&opaque, Bands::of(Some(2)), &m, &w);
         assert_eq!(raster.values, [7.0, 1.0]);
     }
 

@@ -8,6 +8,7 @@ pub mod envi;
 pub mod fs;
 pub mod geojson;
 pub mod geopackage;
+pub mod geopackage_paths;
 pub mod geotiff;
 pub mod gpx;
 pub mod hfa;

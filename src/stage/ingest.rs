@@ -2,7 +2,7 @@
 //! and each demonstration rasterised into a connected 8-neighbour cell path. Maps come
 //! from Parquet tables, GeoTIFF rasters, MovingAI `.map` files or the logs' map topic;
 //! demonstrations from a Parquet table, LeRobot datasets, GPS tracks (GPX), drawn paths
-//! (GeoJSON) or robot logs (MCAP).
+//! (GeoJSON, GeoPackage) or robot logs (MCAP).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -18,7 +18,8 @@ use crate::grid::{
     factor_for_cells, factor_for_metres, rasterize, resampled_layers,
 };
 use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
-use crate::io::geojson::read_geojson_paths;
+use crate::io::geojson::{DrawnPaths, read_geojson_paths};
+use crate::io::geopackage_paths::read_geopackage_paths;
 use crate::io::gpx::{GPX_CRS, read_gpx};
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
@@ -110,6 +111,13 @@ pub struct IngestParams {
     #[arg(long = "geojson", value_name = "FILE", num_args = 1..)]
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub geojson: Vec<PathBuf>,
+    /// Paths as a GeoPackage of lines (.gpkg: how QGIS saves a new line layer by
+    /// default): every line layer read as --geojson reads a file, its features' `map`,
+    /// `episode` and `name` columns as those properties, coordinates in the layer's
+    /// CRS (an EPSG code) moved into the map's. Several after one --gpkg.
+    #[arg(long = "gpkg", value_name = "FILE", num_args = 1..)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub gpkg: Vec<PathBuf>,
     /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
     /// is read from observation.state elements named x, y (yaw) unless --column says.
     #[arg(long = "lerobot", value_name = "DIR", num_args = 1..)]
@@ -499,16 +507,32 @@ impl IngestParams {
             reproject_into_maps(&mut tracks, GPX_CRS, maps, "GPX tracks (WGS84)")?;
             demos.extend(tracks);
         }
-        for path in &self.geojson {
-            let drawn = read_geojson_paths(path, default_map)?;
-            let mut paths: Vec<_> = drawn
-                .demonstrations
-                .into_iter()
-                .map(|d| (d, path.clone()))
-                .collect();
-            let what = format!("GeoJSON paths ({})", drawn.crs);
-            reproject_into_maps(&mut paths, &drawn.crs, maps, &what)?;
-            demos.extend(paths);
+        let geojson = self.geojson.iter().map(|path| {
+            Ok((
+                path,
+                "GeoJSON",
+                vec![read_geojson_paths(path, default_map)?],
+            ))
+        });
+        let gpkg = self.gpkg.iter().map(|path| {
+            Ok((
+                path,
+                "GeoPackage",
+                read_geopackage_paths(path, default_map)?,
+            ))
+        });
+        for read in geojson.chain(gpkg) {
+            let (path, format, layers): (&PathBuf, &str, Vec<DrawnPaths>) = read?;
+            for drawn in layers {
+                let mut paths: Vec<_> = drawn
+                    .demonstrations
+                    .into_iter()
+                    .map(|d| (d, path.clone()))
+                    .collect();
+                let what = format!("{format} paths ({})", drawn.crs);
+                reproject_into_maps(&mut paths, &drawn.crs, maps, &what)?;
+                demos.extend(paths);
+            }
         }
         Ok(demos)
     }
@@ -572,6 +596,7 @@ impl StageParams for IngestParams {
         deps.extend(self.lerobot.iter().cloned());
         deps.extend(self.gpx.iter().cloned());
         deps.extend(self.geojson.iter().cloned());
+        deps.extend(self.gpkg.iter().cloned());
         deps
     }
 
@@ -603,10 +628,11 @@ impl IngestParams {
             && self.lerobot.is_empty()
             && self.gpx.is_empty()
             && self.geojson.is_empty()
+            && self.gpkg.is_empty()
         {
             return Err(Error::Usage(
                 "ingest needs demonstrations: a Parquet table, LeRobot datasets, GPS tracks \
-                 (GPX), paths (GeoJSON) or logs (MCAP)"
+                 (GPX), paths (GeoJSON, GeoPackage) or logs (MCAP)"
                     .into(),
             ));
         }

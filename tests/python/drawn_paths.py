@@ -1,8 +1,10 @@
 """Routes an expert drew over a map, saved as QGIS saves a line layer: GeoJSON written
 by GDAL's OGR (pyogrio), once in the layer's CRS (UTM 32N, with the legacy crs member
 OGR writes) and once as RFC 7946 asks (WGS 84 longitude and latitude, 7 decimals), the
-last route a MultiLineString of two strokes. Beside them a DEM in the same UTM zone
-(rasterio). Prints one JSON line: the files and the routes' names in order."""
+last route a MultiLineString of two strokes; the same routes as GeoPackage line layers
+(as QGIS saves a new layer), in UTM and in WGS 84, with Z; a GeoPackage of points alone.
+Beside them a DEM in the same UTM zone (rasterio). Prints one JSON line: the files and
+the routes' names in order."""
 
 import json
 import os
@@ -44,5 +46,23 @@ for kind, options in [("utm", {}), ("wgs84", {"RFC7946": "YES"})]:
                       crs="EPSG:32632", driver="GeoJSON", geometry_type="Unknown",
                       layer_options=options)
     files[kind] = path
-print(json.dumps({"raster": raster, **files,
+
+# The same routes as QGIS saves a new line layer by default: a GeoPackage, in the
+# layer's UTM CRS and in WGS 84 (the RFC 7946 file's coordinates, moved there by GDAL),
+# the lines written with Z as a GPS-snapped layer has them.
+for kind, crs in [("utm", "EPSG:32632"), ("wgs84", "EPSG:4326")]:
+    _, _, wkb, _ = pyogrio.raw.read(files[kind])
+    lines = [shapely.force_3d(shapely.from_wkb(g), 1200.0) for g in wkb]
+    path = os.path.join(out, f"routes_{kind}.gpkg")
+    pyogrio.raw.write(path, geometry=np.array([shapely.to_wkb(line) for line in lines],
+                                              dtype=object),
+                      field_data=[names], fields=["name"], crs=crs, driver="GPKG",
+                      geometry_type="Unknown", layer="routes")
+    files[f"gpkg_{kind}"] = path
+points = os.path.join(out, "points.gpkg")
+pyogrio.raw.write(points, geometry=np.array([shapely.to_wkb(shapely.Point(at(3, 3)))],
+                                            dtype=object),
+                  field_data=[], fields=[], crs="EPSG:32632", driver="GPKG",
+                  geometry_type="Point", layer="fixes")
+print(json.dumps({"raster": raster, **files, "points_gpkg": points,
                   "episodes": ["north-east", "valley", "two strokes-0", "two strokes-1"]}))

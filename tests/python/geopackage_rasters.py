@@ -1,7 +1,8 @@
 """GeoPackage rasters as GDAL writes them (its GPKG driver, through rasterio), each beside
 a GeoTIFF twin of what GDAL reads it to: imagery tiles (GDAL's default mix of JPEG and
 PNG, PNG alone, grey JPEG, 8-bit palette PNG, WebP (lossy: GDAL's GPKG driver writes no
-lossless WebP); RGB, grey with a nodata value; cells not square; overviews, which leave
+lossless WebP); RGB, grey with a nodata value; grey and RGB with a tile of zeros, which
+GDAL leaves out; cells not square; overviews, which leave
 the full resolution the highest zoom level; a Web Mercator tile grid the raster sits
 inside at an offset) and gridded coverages (int16, uint16 and float32 DEMs with nodata
 in 16-bit PNG tiles, float32 in TIFF tiles; one in feet, one in degrees). GDAL shows imagery as the
@@ -117,6 +118,15 @@ pairs.append(imagery_twin(grey_jpeg, 1))
 lossy.append(grey_jpeg)
 oblong = geotiff("oblong", rgb, transform=from_origin(500000, 4200000, 30, 20))
 pairs.append(imagery_twin(gpkg("oblong", oblong, TILE_FORMAT="PNG"), 3))
+
+# Tiles of zeros alone: GDAL leaves them out, and reads them back as zeros where the
+# raster has no alpha band.
+sparse = rgb.copy()
+sparse[:, :260, :260] = 0
+pairs.append(imagery_twin(gpkg("sparse_grey", geotiff("sparse_grey", sparse[:1]),
+                               TILE_FORMAT="PNG"), 1))
+pairs.append(imagery_twin(gpkg("sparse_rgb", geotiff("sparse_rgb", sparse),
+                               TILE_FORMAT="PNG"), 3))
 
 # Overviews: GDAL adds zoom levels below the full resolution.
 with_overviews = gpkg("overviews", rgb_tif, TILE_FORMAT="PNG")
