@@ -21,6 +21,7 @@
 use std::collections::HashMap;
 use std::io::Cursor;
 use std::path::Path;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 use rusqlite::{Connection, OpenFlags, OptionalExtension};
@@ -199,21 +200,19 @@ pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     window
         .check_filled(tiles.len(), &matrix)
         .map_err(&problem)?;
-    let decoded: Vec<(Tile, Picture)> = first_error_in_order(
-        tiles
-            .into_par_iter()
-            .map(|tile| {
-                let picture = decode_tile(&tile, coverage.is_some(), &matrix)?;
-                Ok((tile, picture))
-            })
-            .collect(),
-    )
-    .map_err(&problem)?;
     let gdal = gdal_metadata(&db, &table.name).map_err(&problem)?;
     let raster = match &coverage {
-        Some(coverage) => Raster::of_coverage(&decoded, coverage, &matrix, &window),
-        None => Raster::of_imagery(&decoded, Bands::of(gdal.band_count), &matrix, &window),
-    };
+        Some(coverage) => {
+            let decode = |tile: &Tile| decode_tile(tile, true, &matrix);
+            Raster::of_coverage(tiles, decode, coverage, &matrix, &window)
+        }
+        None => {
+            let decode = |tile: &Tile| decode_tile(tile, false, &matrix);
+            let bands = Bands::of(gdal.band_count);
+            Raster::of_imagery(tiles, decode, bands, &matrix, &window)
+        }
+    }
+    .map_err(&problem)?;
     let Raster { bands, values } = raster;
     // A coverage's unit of measure, where it is a length, sets the metres of its values.
     let unit = coverage.as_ref().and_then(|c| c.uom.as_deref());
@@ -575,6 +574,7 @@ fn gdal_metadata(db: &Connection, name: &str) -> std::result::Result<GdalMetadat
 }
 
 /// One stored tile.
+#[derive(Debug, Clone)]
 struct Tile {
     id: i64,
     column: i64,
@@ -763,32 +763,43 @@ impl Raster {
     /// grey tile's one value in each band of a colour raster, a colour tile's first
     /// channel in a grey one.
     fn of_imagery(
-        decoded: &[(Tile, Picture)],
+        tiles: Vec<Tile>,
+        decode: impl Fn(&Tile) -> std::result::Result<Picture, String> + Sync,
         bands: Bands,
         matrix: &TileMatrix,
         window: &Window,
-    ) -> Self {
-        let colour = bands
-            .colour
-            .unwrap_or_else(|| decoded.iter().any(|(_, p)| p.bands >= 3));
+    ) -> std::result::Result<Self, String> {
         let missing = if bands.alpha { f32::NAN } else { 0.0 };
-        let mut raster = Raster::filled(if colour { 3 } else { 1 }, window, missing);
-        for (tile, picture) in decoded {
+        let any_colour = AtomicBool::new(false);
+        let decode = |tile: &Tile| {
+            let picture = decode(tile)?;
+            if picture.bands >= 3 {
+                any_colour.store(true, Ordering::Relaxed);
+            }
+            Ok(picture)
+        };
+        let write = |_: &Tile, picture: &Picture, pixel: usize, out: &mut [f32]| {
             let alpha = picture.masks.alpha;
             let colours = picture.bands - usize::from(alpha.is_some());
-            raster.place(tile, picture, matrix, window, |pixel, out| {
-                let at = pixel * picture.bands;
-                let clear = alpha.is_some_and(|a| picture.samples[at + a] == 0.0);
-                if clear && bands.alpha {
-                    return;
-                }
-                // GDAL reads a colour tile of a grey raster as its first channel.
-                for (band, value) in out.iter_mut().enumerate() {
-                    *value = picture.samples[at + band.min(colours - 1)];
-                }
-            });
+            let at = pixel * picture.bands;
+            let clear = alpha.is_some_and(|a| picture.samples[at + a] == 0.0);
+            if clear && bands.alpha {
+                return;
+            }
+            // GDAL reads a colour tile of a grey raster as its first channel.
+            for (band, value) in out.iter_mut().enumerate() {
+                *value = picture.samples[at + band.min(colours - 1)];
+            }
+        };
+        // Where GDAL recorded no band count, read as colour, then keep one band if no
+        // tile held colour.
+        let count = if bands.colour == Some(false) { 1 } else { 3 };
+        let mut raster = Raster::read(tiles, count, missing, matrix, window, decode, write)?;
+        if bands.colour.is_none() && !any_colour.into_inner() {
+            raster.values = raster.values.iter().step_by(3).copied().collect();
+            raster.bands = 1;
         }
-        raster
+        Ok(raster)
     }
 
     /// A gridded coverage: a 16-bit PNG tile's stored values scaled by its tile's and
@@ -797,81 +808,111 @@ impl Raster {
     /// offsets at 0; GDAL applies none); the null value, and missing tiles where there
     /// is one, hold no data.
     fn of_coverage(
-        decoded: &[(Tile, Picture)],
+        tiles: Vec<Tile>,
+        decode: impl Fn(&Tile) -> std::result::Result<Picture, String> + Sync,
         coverage: &Coverage,
         matrix: &TileMatrix,
         window: &Window,
-    ) -> Self {
+    ) -> std::result::Result<Self, String> {
         // GDAL fills a missing tile with the nodata value, else zeros.
         let missing = if coverage.null.is_some() {
             f32::NAN
         } else {
             0.0
         };
-        let mut raster = Raster::filled(1, window, missing);
-        for (tile, picture) in decoded {
-            let png = tile.data.starts_with(PNG_SIGNATURE);
-            let (tile_scale, tile_offset) =
-                coverage.tiles.get(&tile.id).copied().unwrap_or((1.0, 0.0));
-            raster.place(tile, picture, matrix, window, |pixel, out| {
-                let stored = f64::from(picture.samples[pixel]);
-                if coverage.null == Some(stored) || !stored.is_finite() {
-                    return;
-                }
-                out[0] = if png {
-                    let value =
-                        (stored * tile_scale + tile_offset) * coverage.scale + coverage.offset;
-                    if coverage.whole {
-                        (value + 0.5).floor() as f32
-                    } else {
-                        value as f32
-                    }
+        let write = |tile: &Tile, picture: &Picture, pixel: usize, out: &mut [f32]| {
+            let stored = f64::from(picture.samples[pixel]);
+            if coverage.null == Some(stored) || !stored.is_finite() {
+                return;
+            }
+            out[0] = if tile.data.starts_with(PNG_SIGNATURE) {
+                let (tile_scale, tile_offset) =
+                    coverage.tiles.get(&tile.id).copied().unwrap_or((1.0, 0.0));
+                let value = (stored * tile_scale + tile_offset) * coverage.scale + coverage.offset;
+                if coverage.whole {
+                    (value + 0.5).floor() as f32
                 } else {
-                    stored as f32
-                };
-            });
-        }
-        raster
+                    value as f32
+                }
+            } else {
+                stored as f32
+            };
+        };
+        Raster::read(tiles, 1, missing, matrix, window, decode, write)
     }
 
-    /// A raster of `bands` holding `missing` where no tile is.
-    fn filled(bands: usize, window: &Window, missing: f32) -> Self {
-        Raster {
-            bands,
-            values: vec![missing; window.width * window.height * bands],
-        }
-    }
-
-    /// Gives the tile's cells that fall in the window to `set`, with the tile pixel and
-    /// the cell's band values (NaN until set).
-    fn place(
-        &mut self,
-        tile: &Tile,
-        picture: &Picture,
+    /// The window's `bands` (holding `missing` where no tile is) from `tiles`, a row of
+    /// tiles at a time in parallel, each tile decoded by `decode` and its pixels in the
+    /// window given to `write` with the cell's band values: no tile is held decoded
+    /// longer than its copy takes.
+    fn read(
+        tiles: Vec<Tile>,
+        bands: usize,
+        missing: f32,
         matrix: &TileMatrix,
         window: &Window,
-        set: impl Fn(usize, &mut [f32]),
-    ) {
+        decode: impl Fn(&Tile) -> std::result::Result<Picture, String> + Sync,
+        write: impl Fn(&Tile, &Picture, usize, &mut [f32]) + Sync,
+    ) -> std::result::Result<Self, String> {
         let [tw, th] = matrix.tile;
-        let bands = self.bands;
-        debug_assert_eq!(picture.samples.len() as i64, tw * th * picture.bands as i64);
-        for y in 0..th {
-            let row = tile.row * th + y - window.shift[1];
-            if row < 0 || row >= window.height as i64 {
-                continue;
-            }
-            for x in 0..tw {
-                let column = tile.column * tw + x - window.shift[0];
-                if column < 0 || column >= window.width as i64 {
-                    continue;
-                }
-                let cell = row as usize * window.width + column as usize;
-                set(
-                    (y * tw + x) as usize,
-                    &mut self.values[cell * bands..(cell + 1) * bands],
-                );
+        let [_, _, first_row, last_row] = window.tiles(matrix);
+        let height = window.height as i64;
+        let row_length = window.width * bands;
+        let mut values = vec![missing; row_length * window.height];
+        // The window's rows each row of tiles covers (from `top`), and its tiles; rows
+        // beyond the tile matrix stay as they are.
+        let mut rows: Vec<(i64, &mut [f32], Vec<Tile>)> = Vec::new();
+        let (mut rest, mut reached) = (values.as_mut_slice(), 0);
+        for r in first_row..=last_row {
+            let top = (r * th - window.shift[1]).clamp(reached, height);
+            let bottom = ((r + 1) * th - window.shift[1]).clamp(top, height);
+            let (_, after) =
+                std::mem::take(&mut rest).split_at_mut((top - reached) as usize * row_length);
+            let (these, others) = after.split_at_mut((bottom - top) as usize * row_length);
+            rest = others;
+            reached = bottom;
+            rows.push((top, these, Vec::new()));
+        }
+        for tile in tiles {
+            if let Some(row) = usize::try_from(tile.row - first_row)
+                .ok()
+                .and_then(|i| rows.get_mut(i))
+            {
+                row.2.push(tile);
             }
         }
+        let results: Vec<std::result::Result<(), String>> = rows
+            .into_par_iter()
+            .map(|(top, out, row_tiles)| {
+                for tile in &row_tiles {
+                    let picture = decode(tile)?;
+                    debug_assert_eq!(picture.samples.len() as i64, tw * th * picture.bands as i64);
+                    for y in 0..th {
+                        let row = tile.row * th + y - window.shift[1];
+                        if row < top || row >= window.height as i64 {
+                            continue;
+                        }
+                        let line = (row - top) as usize * window.width;
+                        for x in 0..tw {
+                            let column = tile.column * tw + x - window.shift[0];
+                            if column < 0 || column >= window.width as i64 {
+                                continue;
+                            }
+                            let cell = line + column as usize;
+                            write(
+                                tile,
+                                &picture,
+                                (y * tw + x) as usize,
+                                &mut out[cell * bands..(cell + 1) * bands],
+                            );
+                        }
+                    }
+                }
+                Ok(())
+            })
+            .collect();
+        first_error_in_order(results)?;
+        Ok(Raster { bands, values })
     }
 }
 
@@ -887,6 +928,29 @@ mod tests {
             extent,
             origin,
         }
+    }
+
+    /// `tiles` read as the reader reads them, each decoded to its picture.
+    fn imagery(tiles: &[(Tile, Picture)], bands: Bands, m: &TileMatrix, w: &Window) -> Raster {
+        let (stored, decode) = decoded(tiles);
+        Raster::of_imagery(stored, decode, bands, m, w).unwrap()
+    }
+
+    fn covered(tiles: &[(Tile, Picture)], c: &Coverage, m: &TileMatrix, w: &Window) -> Raster {
+        let (stored, decode) = decoded(tiles);
+        Raster::of_coverage(stored, decode, c, m, w).unwrap()
+    }
+
+    type Decode = Box<dyn Fn(&Tile) -> std::result::Result<Picture, String> + Sync>;
+
+    fn decoded(tiles: &[(Tile, Picture)]) -> (Vec<Tile>, Decode) {
+        let pictures: HashMap<i64, Picture> =
+            tiles.iter().map(|(t, p)| (t.id, p.clone())).collect();
+        let stored = tiles.iter().map(|(t, _)| t.clone()).collect();
+        (
+            stored,
+            Box::new(move |tile: &Tile| Ok(pictures[&tile.id].clone())),
+        )
     }
 
     fn matrix() -> TileMatrix {
@@ -961,7 +1025,7 @@ mod tests {
             grey(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
             grey(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
         ];
-        let raster = Raster::of_imagery(&tiles, Bands::of(None), &m, &w);
+        let raster = imagery(&tiles, Bands::of(None), &m, &w);
         assert_eq!(raster.bands, 1);
         // Column 0 of the window is the tile grid's column 1.
         let held: Vec<bool> = raster.values.iter().map(|v| !v.is_nan()).collect();
@@ -981,12 +1045,12 @@ mod tests {
             field_name: None,
             uom: None,
         };
-        let raster = Raster::of_coverage(&tiles, &coverage, &m, &w);
+        let raster = covered(&tiles, &coverage, &m, &w);
         assert_eq!(raster.values[0], 3.0);
         // (5 × 0.5 + 10) × 2 − 1
         assert_eq!(raster.values[7], 24.0);
         let nulls = [grey(2, 1, 1, [8.0, 6.0, 7.0, 8.0])];
-        let raster = Raster::of_coverage(&nulls, &coverage, &m, &w);
+        let raster = covered(&nulls, &coverage, &m, &w);
         assert!(raster.values[7].is_nan() && !raster.values[8].is_nan());
         // At a precision of 1, (5 × 0.25 + 10) × 2 − 1 = 21.5 rounds half up, as GDAL.
         let whole = Coverage {
@@ -994,11 +1058,51 @@ mod tests {
             tiles: HashMap::from([(2, (0.25, 10.0))]),
             ..coverage.clone()
         };
-        assert_eq!(Raster::of_coverage(&tiles, &whole, &m, &w).values[7], 22.0);
+        assert_eq!(covered(&tiles, &whole, &m, &w).values[7], 22.0);
         // A float TIFF tile's values are as stored.
         let mut tiff = tiles;
         tiff[1].0.data = b"II*\0".to_vec();
-        assert_eq!(Raster::of_coverage(&tiff, &whole, &m, &w).values[7], 5.0);
+        assert_eq!(covered(&tiff, &whole, &m, &w).values[7], 5.0);
+    }
+
+    #[test]
+    fn a_window_reaching_past_the_tile_grid_keeps_its_rows_in_place() {
+        let m = TileMatrix {
+            tile: [2, 2],
+            columns: 1,
+            rows: 2,
+            ..matrix()
+        };
+        // One column, from a row above the grid to a row below it.
+        let w = Window {
+            width: 1,
+            height: 6,
+            shift: [0, -1],
+        };
+        let tile = |id, row, values: [f32; 4]| {
+            (
+                Tile {
+                    id,
+                    column: 0,
+                    row,
+                    data: Vec::new(),
+                },
+                Picture {
+                    width: 2,
+                    height: 2,
+                    bands: 1,
+                    samples: values.to_vec(),
+                    masks: FileMasks::default(),
+                },
+            )
+        };
+        let tiles = [
+            tile(1, 0, [1.0, 9.0, 2.0, 9.0]),
+            tile(2, 1, [3.0, 9.0, 4.0, 9.0]),
+        ];
+        assert_eq!(w.tiles(&m), [0, 0, 0, 1]);
+        let raster = imagery(&tiles, Bands::of(Some(1)), &m, &w);
+        assert_eq!(raster.values, [0.0, 1.0, 2.0, 3.0, 4.0, 0.0]);
     }
 
     #[test]
@@ -1048,19 +1152,19 @@ mod tests {
                 },
             ),
         ];
-        let raster = Raster::of_imagery(&tiles, Bands::of(None), &m, &w);
+        let raster = imagery(&tiles, Bands::of(None), &m, &w);
         assert_eq!(raster.bands, 3);
         assert_eq!(raster.values[..3], [7.0, 7.0, 7.0]);
         assert!(raster.values[3..].iter().all(|v| v.is_nan()));
         // Recorded without alpha, missing tiles and clear cells read as GDAL reads them.
-        let grey = Raster::of_imagery(&tiles[..1], Bands::of(Some(1)), &m, &w);
+        let grey = imagery(&tiles[..1], Bands::of(Some(1)), &m, &w);
         assert_eq!(grey.values, [7.0, 0.0]);
-        let rgb = Raster::of_imagery(&tiles[1..], Bands::of(Some(3)), &m, &w);
+        let rgb = imagery(&tiles[1..], Bands::of(Some(3)), &m, &w);
         assert_eq!(rgb.values, [0.0, 0.0, 0.0, 1.0, 2.0, 3.0]);
         // Recorded as grey, a colour tile reads as its first channel.
         let mut opaque = tiles;
         opaque[1].1.samples[3] = 255.0;
-        let raster = Raster::of_imagery(&opaque, Bands::of(Some(2)), &m, &w);
+        let raster = imagery(&opaque, Bands::of(Some(2)), &m, &w);
         assert_eq!(raster.values, [7.0, 1.0]);
     }
 

@@ -73,7 +73,7 @@ pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
 }
 
 /// A decoded image as GDAL presents it.
-#[derive(Debug, Default)]
+#[derive(Debug, Default, Clone)]
 pub(super) struct Picture {
     pub width: u32,
     pub height: u32,
