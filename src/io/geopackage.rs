@@ -953,6 +953,25 @@ mod tests {
         )
     }
 
+    /// A grey 2 × 2 tile, stored as PNG (its signature is all the reading looks at).
+    fn grey_tile(id: i64, column: i64, row: i64, values: [f32; 4]) -> (Tile, Picture) {
+        (
+            Tile {
+                id,
+                column,
+                row,
+                data: PNG_SIGNATURE.to_vec(),
+            },
+            Picture {
+                width: 2,
+                height: 2,
+                bands: 1,
+                samples: values.to_vec(),
+                masks: FileMasks::default(),
+            },
+        )
+    }
+
     fn matrix() -> TileMatrix {
         TileMatrix {
             zoom: 3,
@@ -1003,24 +1022,7 @@ mod tests {
             height: 3,
             shift: [1, 0],
         };
-        // Tiles stored as PNG (their signature is all the placing looks at).
-        let grey = |id, column, row, values: [f32; 4]| {
-            (
-                Tile {
-                    id,
-                    column,
-                    row,
-                    data: PNG_SIGNATURE.to_vec(),
-                },
-                Picture {
-                    width: 2,
-                    height: 2,
-                    bands: 1,
-                    samples: values.to_vec(),
-                    masks: FileMasks::default(),
-                },
-            )
-        };
+        let grey = grey_tile;
         let tiles = [
             grey(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
             grey(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
@@ -1079,26 +1081,9 @@ mod tests {
             height: 6,
             shift: [0, -1],
         };
-        let tile = |id, row, values: [f32; 4]| {
-            (
-                Tile {
-                    id,
-                    column: 0,
-                    row,
-                    data: Vec::new(),
-                },
-                Picture {
-                    width: 2,
-                    height: 2,
-                    bands: 1,
-                    samples: values.to_vec(),
-                    masks: FileMasks::default(),
-                },
-            )
-        };
         let tiles = [
-            tile(1, 0, [1.0, 9.0, 2.0, 9.0]),
-            tile(2, 1, [3.0, 9.0, 4.0, 9.0]),
+            grey_tile(1, 0, 0, [1.0, 9.0, 2.0, 9.0]),
+            grey_tile(2, 0, 1, [3.0, 9.0, 4.0, 9.0]),
         ];
         assert_eq!(w.tiles(&m), [0, 0, 0, 1]);
         let raster = imagery(&tiles, Bands::of(Some(1)), &m, &w);
