@@ -268,6 +268,23 @@ fn open_immutable(path: &Path) -> std::result::Result<Connection, String> {
     Connection::open_with_flags(uri, flags).map_err(|e| format!("it cannot be opened: {e}"))
 }
 
+/// `value` rounded half up, as GDAL rounds a coverage's values (`floor(v + 0.5)`), by
+/// truncation where it fits an integer: `floor` is a library call on baseline x86-64,
+/// and a coverage rounds every one of its cells.
+fn half_up(value: f64) -> f64 {
+    let shifted = value + 0.5;
+    if shifted.abs() < 4.5e15 {
+        let truncated = shifted as i64 as f64;
+        if truncated > shifted {
+            truncated - 1.0
+        } else {
+            truncated
+        }
+    } else {
+        shifted.floor()
+    }
+}
+
 /// A real as GDAL reads it from a GeoPackage: through SQLite's text, which keeps 15
 /// significant digits (Web Mercator's 19.10925707129406 m cells are 19.1092570712941 m
 /// to GDAL), so that the grid is GDAL's to the last bit.
@@ -820,23 +837,32 @@ impl Raster {
         } else {
             0.0
         };
-        let write = |tile: &Tile, picture: &Picture, pixel: usize, out: &mut [f32]| {
-            let stored = f64::from(picture.samples[pixel]);
-            if coverage.null == Some(stored) || !stored.is_finite() {
-                return;
-            }
-            out[0] = if tile.data.starts_with(PNG_SIGNATURE) {
-                let (tile_scale, tile_offset) =
-                    coverage.tiles.get(&tile.id).copied().unwrap_or((1.0, 0.0));
-                let value = (stored * tile_scale + tile_offset) * coverage.scale + coverage.offset;
-                if coverage.whole {
-                    (value + 0.5).floor() as f32
+        // Each tile's values, scaled once: the copy then takes them as they are.
+        let decode = |tile: &Tile| {
+            let mut picture = decode(tile)?;
+            let png = tile.data.starts_with(PNG_SIGNATURE);
+            let (tile_scale, tile_offset) =
+                coverage.tiles.get(&tile.id).copied().unwrap_or((1.0, 0.0));
+            for sample in &mut picture.samples {
+                let stored = f64::from(*sample);
+                *sample = if coverage.null == Some(stored) || !stored.is_finite() {
+                    f32::NAN
+                } else if png {
+                    let value =
+                        (stored * tile_scale + tile_offset) * coverage.scale + coverage.offset;
+                    if coverage.whole {
+                        half_up(value) as f32
+                    } else {
+                        value as f32
+                    }
                 } else {
-                    value as f32
-                }
-            } else {
-                stored as f32
-            };
+                    stored as f32
+                };
+            }
+            Ok(picture)
+        };
+        let write = |_: &Tile, picture: &Picture, pixel: usize, out: &mut [f32]| {
+            out[0] = picture.samples[pixel];
         };
         Raster::read(tiles, 1, missing, matrix, window, decode, write)
     }
@@ -1151,6 +1177,16 @@ mod tests {
         opaque[1].1.samples[3] = 255.0;
         let raster = imagery(&opaque, Bands::of(Some(2)), &m, &w);
         assert_eq!(raster.values, [7.0, 1.0]);
+    }
+
+    #[test]
+    fn values_round_half_up_as_floor_does() {
+        for v in [
+            -2.5, -2.4999, -0.5, -0.2, 0.0, 0.49999, 0.5, 2.5, 1965.4999, 1e17, -1e17,
+        ] {
+            assert_eq!(half_up(v), (v + 0.5).floor(), "{v}");
+        }
+        assert!(half_up(f64::NAN).is_nan());
     }
 
     #[test]
