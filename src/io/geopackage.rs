@@ -19,35 +19,20 @@
 //! The file is opened read-only and immutable: nothing is ever written beside it.
 
 use std::collections::HashMap;
-use std::io::Cursor;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 
-use rayon::prelude::*;
-use rusqlite::{Connection, OpenFlags, OptionalExtension};
+use rusqlite::{Connection, OptionalExtension};
 
-use super::MAX_MAP_CELLS;
 use super::geotiff::metadata::metres_per_unit;
 use super::geotiff::{Georeferencing, georeference, wkt_geokeys};
-use super::picture::{Picture, decode_jpeg, decode_png};
+use super::picture::Picture;
 use super::sidecar_bands::{self, FileMasks, Samples};
-use crate::error::{Error, Result, catch_decoder_panic, first_error_in_order, open_input};
+use super::sqlite_tiles::{
+    Bands, MAX_TILE_SIDE, PNG_SIGNATURE, Raster, Tile, TileMatrix, Window, decode_tile, has_tables,
+    open_sqlite, quoted,
+};
+use crate::error::{Error, Result};
 use crate::grid::Map;
-
-/// The first bytes of every PNG image.
-const PNG_SIGNATURE: &[u8] = b"\x89PNG\r\n\x1a\n";
-
-/// The first 16 bytes of every SQLite 3 database.
-const SQLITE_MAGIC: &[u8; 16] = b"SQLite format 3\0";
-
-/// The widest tile a tile matrix may declare, in cells each way (GDAL writes 256 or
-/// 512; the spec sets no limit).
-const MAX_TILE_SIDE: i64 = 1 << 14;
-
-/// A window of up to this many cells is read however few tiles it holds; a larger one
-/// must hold tiles for at least 1/`SPARSE_RATIO` of its cells.
-const SPARSE_WINDOW_CELLS: f64 = (1u64 << 24) as f64;
-const SPARSE_RATIO: f64 = 64.0;
 
 /// A raster table, as `gpkg_contents` and its tile matrix set give it.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,16 +46,6 @@ struct RasterTable {
     extent: [f64; 4],
     /// The tile matrix set's west and north edges, where tile (0, 0) starts.
     origin: [f64; 2],
-}
-
-/// The tile matrix of the zoom level read.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct TileMatrix {
-    zoom: i64,
-    columns: i64,
-    rows: i64,
-    tile: [i64; 2],
-    pixel: [f64; 2],
 }
 
 /// How a gridded coverage's stored values become its values.
@@ -90,91 +65,14 @@ struct Coverage {
     uom: Option<String>,
 }
 
-/// The raster's grid: its size in cells and where its first cell lies in the tile grid.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Window {
-    width: usize,
-    height: usize,
-    /// Cells from the tile grid's west and north edges to the raster's.
-    shift: [i64; 2],
-}
-
-impl Window {
-    /// GDAL's window: the extent in whole cells (rounded), snapped to the tile grid.
-    fn of(table: &RasterTable, matrix: &TileMatrix) -> std::result::Result<Self, String> {
-        let [west, south, east, north] = table.extent;
-        let [px, py] = matrix.pixel;
-        let cells = |span: f64, size: f64| (span / size + 0.5).floor();
-        let (width, height) = (cells(east - west, px), cells(north - south, py));
-        if !(width >= 1.0 && height >= 1.0) {
-            return Err(format!(
-                "its extent {west}, {south} to {east}, {north} holds no cell of {px} × {py}"
-            ));
-        }
-        if width * height > MAX_MAP_CELLS as f64 {
-            return Err(format!(
-                "its {width} × {height} cells are more than the {MAX_MAP_CELLS} a map may \
-                 hold: clip it to the site first (gdal_translate -projwin)"
-            ));
-        }
-        let shift = [
-            ((west - table.origin[0]) / px + 0.5).floor(),
-            ((table.origin[1] - north) / py + 0.5).floor(),
-        ];
-        if !shift.iter().all(|s| s.abs() < 1e15) {
-            return Err(format!(
-                "its extent lies {} × {} cells from its tile grid's origin",
-                shift[0], shift[1]
-            ));
-        }
-        Ok(Window {
-            width: width as usize,
-            height: height as usize,
-            shift: [shift[0] as i64, shift[1] as i64],
-        })
-    }
-
-    /// Refuses a window far larger than its stored tiles could fill: the extent of a
-    /// damaged file, which would take memory for nothing.
-    fn check_filled(&self, tiles: usize, matrix: &TileMatrix) -> std::result::Result<(), String> {
-        let cells = self.width as f64 * self.height as f64;
-        let filled = tiles as f64 * (matrix.tile[0] * matrix.tile[1]) as f64;
-        if cells > SPARSE_WINDOW_CELLS.max(SPARSE_RATIO * filled) {
-            return Err(format!(
-                "its extent of {} × {} cells holds only {tiles} tiles of {} × {}: its bounds \
-                 in gpkg_contents are far wider than its raster",
-                self.width, self.height, matrix.tile[0], matrix.tile[1]
-            ));
-        }
-        Ok(())
-    }
-
-    /// The tiles (first and last column, first and last row) that hold the window's
-    /// cells.
-    fn tiles(&self, matrix: &TileMatrix) -> [i64; 4] {
-        let [tw, th] = matrix.tile;
-        let last = |shift: i64, n: usize| shift + n as i64 - 1;
-        [
-            self.shift[0].div_euclid(tw).max(0),
-            last(self.shift[0], self.width)
-                .div_euclid(tw)
-                .min(matrix.columns - 1),
-            self.shift[1].div_euclid(th).max(0),
-            last(self.shift[1], self.height)
-                .div_euclid(th)
-                .min(matrix.rows - 1),
-        ]
-    }
-}
-
 /// The GeoPackage raster at `path` as map `name`, with whether its rows ran from the
 /// north (always: tiles run from the north-west).
 pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let problem = |message: String| Error::input(path, message);
-    let db = open_geopackage(path)?;
+    let db = open_sqlite(path, "GeoPackage")?;
     let table = raster_table(&db).map_err(&problem)?;
     let matrix = tile_matrix(&db, &table).map_err(&problem)?;
-    let window = Window::of(&table, &matrix).map_err(&problem)?;
+    let window = Window::of(table.extent, table.origin, &matrix).map_err(&problem)?;
     let coverage = if table.coverage {
         Some(coverage(&db, &table.name).map_err(&problem)?)
     } else {
@@ -237,37 +135,6 @@ pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     sidecar_bands::map(path, name, geo, samples, &masks)
 }
 
-/// The GeoPackage at `path`, opened read-only; an input error where it is not an
-/// SQLite database.
-pub(super) fn open_geopackage(path: &Path) -> Result<Connection> {
-    let mut magic = [0u8; 16];
-    let read = std::io::Read::read_exact(&mut open_input(path)?, &mut magic);
-    if read.is_err() || &magic != SQLITE_MAGIC {
-        return Err(Error::input(
-            path,
-            "it is not a GeoPackage (not an SQLite database)",
-        ));
-    }
-    open_immutable(path).map_err(|message| Error::input(path, message))
-}
-
-/// The database at `path`, opened read-only and immutable (SQLite then takes no lock
-/// and reads no journal: nothing is created beside the file).
-fn open_immutable(path: &Path) -> std::result::Result<Connection, String> {
-    let mut uri = String::from("file:");
-    for &byte in path.as_os_str().as_encoded_bytes() {
-        match byte {
-            b'%' | b'?' | b'#' | 0..=0x20 | 0x7f.. => uri.push_str(&format!("%{byte:02X}")),
-            _ => uri.push(char::from(byte)),
-        }
-    }
-    uri.push_str("?immutable=1");
-    let flags = OpenFlags::SQLITE_OPEN_READ_ONLY
-        | OpenFlags::SQLITE_OPEN_URI
-        | OpenFlags::SQLITE_OPEN_NO_MUTEX;
-    Connection::open_with_flags(uri, flags).map_err(|e| format!("it cannot be opened: {e}"))
-}
-
 /// `value` rounded half up, as GDAL rounds a coverage's values (`floor(v + 0.5)`), by
 /// truncation where it fits an integer: `floor` is a library call on baseline x86-64,
 /// and a coverage rounds every one of its cells.
@@ -290,28 +157,6 @@ fn half_up(value: f64) -> f64 {
 /// to GDAL), so that the grid is GDAL's to the last bit.
 fn as_gdal_reads(value: f64) -> f64 {
     format!("{value:.14e}").parse().unwrap_or(value)
-}
-
-/// Whether the database holds every one of the (optional) tables `names`.
-pub(super) fn has_tables(db: &Connection, names: &[&str]) -> std::result::Result<bool, String> {
-    for name in names {
-        let count: i64 = db
-            .query_row(
-                "SELECT COUNT(*) FROM sqlite_master WHERE type = 'table' AND name = ?1",
-                [name],
-                |r| r.get(0),
-            )
-            .map_err(|e| format!("its schema cannot be read: {e}"))?;
-        if count == 0 {
-            return Ok(false);
-        }
-    }
-    Ok(true)
-}
-
-/// A table name quoted for SQL.
-pub(super) fn quoted(name: &str) -> String {
-    format!("\"{}\"", name.replace('"', "\"\""))
 }
 
 /// The one raster table `gpkg_contents` lists, with its tile matrix set.
@@ -590,15 +435,6 @@ fn gdal_metadata(db: &Connection, name: &str) -> std::result::Result<GdalMetadat
     Ok(found)
 }
 
-/// One stored tile.
-#[derive(Debug, Clone)]
-struct Tile {
-    id: i64,
-    column: i64,
-    row: i64,
-    data: Vec<u8>,
-}
-
 /// The stored tiles of the matrix that hold the window's cells.
 fn tiles(
     db: &Connection,
@@ -630,195 +466,7 @@ fn tiles(
         .map_err(unreadable)
 }
 
-/// A tile decoded: an imagery tile as its grey or colour channels with or without
-/// alpha, a coverage's tile as its one band of stored values.
-fn decode_tile(
-    tile: &Tile,
-    coverage: bool,
-    matrix: &TileMatrix,
-) -> std::result::Result<Picture, String> {
-    let bytes = &tile.data;
-    let at = || {
-        format!(
-            "its tile at zoom level {}, column {}, row {}",
-            matrix.zoom, tile.column, tile.row
-        )
-    };
-    let decoded = if bytes.starts_with(PNG_SIGNATURE) {
-        let transformations = if coverage {
-            ::png::Transformations::IDENTITY
-        } else {
-            ::png::Transformations::EXPAND
-        };
-        decode_png(bytes, transformations).map_err(|e| format!("not a readable PNG: {e}"))
-    } else if bytes.starts_with(&[0xff, 0xd8]) && !coverage {
-        decode_jpeg(bytes).map_err(|e| format!("not a readable JPEG: {e}"))
-    } else if bytes.starts_with(b"RIFF") && bytes.get(8..12) == Some(b"WEBP") && !coverage {
-        decode_webp(bytes).map_err(|e| format!("not a readable WebP image: {e}"))
-    } else if (bytes.starts_with(b"II*\0") || bytes.starts_with(b"MM\0*")) && coverage {
-        decode_tiff(bytes).map_err(|e| format!("not a readable TIFF: {e}"))
-    } else {
-        Err(if coverage {
-            "neither a PNG nor a TIFF, which a gridded coverage's tiles are".into()
-        } else {
-            "neither a PNG, a JPEG nor a WebP image, which imagery tiles are".into()
-        })
-    }
-    .map_err(|e| format!("{}: {e}", at()))?;
-    let [tw, th] = matrix.tile;
-    if (i64::from(decoded.width), i64::from(decoded.height)) != (tw, th) {
-        return Err(format!(
-            "{}: it is {} × {} cells, its tile matrix's tiles {tw} × {th}",
-            at(),
-            decoded.width,
-            decoded.height
-        ));
-    }
-    if coverage && decoded.bands != 1 {
-        return Err(format!(
-            "{}: it holds {} bands; a gridded coverage's tiles hold one",
-            at(),
-            decoded.bands
-        ));
-    }
-    Ok(decoded)
-}
-
-/// A WebP tile's RGB or RGBA samples.
-fn decode_webp(bytes: &[u8]) -> std::result::Result<Picture, String> {
-    let mut image = image_webp::WebPDecoder::new(Cursor::new(bytes)).map_err(|e| e.to_string())?;
-    let (width, height) = image.dimensions();
-    let bands = if image.has_alpha() { 4 } else { 3 };
-    let size = image
-        .output_buffer_size()
-        .filter(|&n| n == width as usize * height as usize * bands)
-        .ok_or("its decoded size overflows")?;
-    let mut pixels = vec![0u8; size];
-    image.read_image(&mut pixels).map_err(|e| e.to_string())?;
-    Ok(Picture {
-        width,
-        height,
-        bands,
-        samples: pixels.iter().map(|&b| f32::from(b)).collect(),
-        masks: FileMasks {
-            alpha: (bands == 4).then_some(3),
-            ..FileMasks::default()
-        },
-    })
-}
-
-/// A gridded coverage's TIFF tile: one band of 32-bit floats (or any numeric samples).
-fn decode_tiff(bytes: &[u8]) -> std::result::Result<Picture, String> {
-    use tiff::decoder::{Decoder, DecodingResult};
-    let decoded = catch_decoder_panic(|| -> tiff::TiffResult<_> {
-        let mut decoder = Decoder::new(Cursor::new(bytes))?;
-        let (width, height) = decoder.dimensions()?;
-        let bands = usize::from(decoder.colortype()?.num_samples());
-        Ok((width, height, bands, decoder.read_image()?))
-    })
-    .map_err(|cause| format!("the decoder failed ({cause})"))?
-    .map_err(|e| e.to_string())?;
-    let (width, height, bands, image) = decoded;
-    let samples: Vec<f32> = match image {
-        DecodingResult::U8(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::U16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::U32(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::U64(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::I8(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::I16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::I32(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::I64(v) => v.into_iter().map(|x| x as f32).collect(),
-        DecodingResult::F16(v) => v.into_iter().map(f32::from).collect(),
-        DecodingResult::F32(v) => v,
-        DecodingResult::F64(v) => v.into_iter().map(|x| x as f32).collect(),
-    };
-    if samples.len() != width as usize * height as usize * bands {
-        return Err(format!(
-            "it holds {} samples for {width} × {height} cells",
-            samples.len()
-        ));
-    }
-    Ok(Picture {
-        width,
-        height,
-        bands,
-        samples,
-        masks: FileMasks::default(),
-    })
-}
-
-/// The window's cells, band-interleaved; NaN where no tile holds them or alpha clears
-/// them, and where a coverage holds its null value.
-struct Raster {
-    bands: usize,
-    values: Vec<f32>,
-}
-
-/// The bands GDAL shows of imagery tiles.
-#[derive(Debug, Clone, Copy, PartialEq)]
-struct Bands {
-    /// Colour (3 bands) or grey (1); `None` where GDAL recorded no band count: colour
-    /// where any tile is.
-    colour: Option<bool>,
-    /// Whether an alpha band is among them (GDAL's RGBA where no count is recorded):
-    /// then alpha 0 and missing tiles are nodata; without, GDAL skipped writing tiles
-    /// of zeros, and missing tiles read as zeros.
-    alpha: bool,
-}
-
-impl Bands {
-    fn of(band_count: Option<u32>) -> Self {
-        Bands {
-            colour: band_count.map(|n| n >= 3),
-            alpha: band_count.is_none_or(|n| n == 2 || n == 4),
-        }
-    }
-}
-
 impl Raster {
-    /// Imagery: grey or colour as GDAL recorded, else grey where every tile is grey; a
-    /// grey tile's one value in each band of a colour raster, a colour tile's first
-    /// channel in a grey one.
-    fn of_imagery(
-        tiles: Vec<Tile>,
-        decode: impl Fn(&Tile) -> std::result::Result<Picture, String> + Sync,
-        bands: Bands,
-        matrix: &TileMatrix,
-        window: &Window,
-    ) -> std::result::Result<Self, String> {
-        let missing = if bands.alpha { f32::NAN } else { 0.0 };
-        let any_colour = AtomicBool::new(false);
-        let decode = |tile: &Tile| {
-            let picture = decode(tile)?;
-            if picture.bands >= 3 {
-                any_colour.store(true, Ordering::Relaxed);
-            }
-            Ok(picture)
-        };
-        let write = |_: &Tile, picture: &Picture, pixel: usize, out: &mut [f32]| {
-            let alpha = picture.masks.alpha;
-            let colours = picture.bands - usize::from(alpha.is_some());
-            let at = pixel * picture.bands;
-            let clear = alpha.is_some_and(|a| picture.samples[at + a] == 0.0);
-            if clear && bands.alpha {
-                return;
-            }
-            // GDAL reads a colour tile of a grey raster as its first channel.
-            for (band, value) in out.iter_mut().enumerate() {
-                *value = picture.samples[at + band.min(colours - 1)];
-            }
-        };
-        // Where GDAL recorded no band count, read as colour, then keep one band if no
-        // tile held colour.
-        let count = if bands.colour == Some(false) { 1 } else { 3 };
-        let mut raster = Raster::read(tiles, count, missing, matrix, window, decode, write)?;
-        if bands.colour.is_none() && !any_colour.into_inner() {
-            raster.values = raster.values.iter().step_by(3).copied().collect();
-            raster.bands = 1;
-        }
-        Ok(raster)
-    }
-
     /// A gridded coverage: a 16-bit PNG tile's stored values scaled by its tile's and
     /// the coverage's scale and offset (rounded to whole units where the precision is
     /// 1), a float TIFF tile's as they are (the spec fixes their scales at 1 and
@@ -866,177 +514,20 @@ impl Raster {
         };
         Raster::read(tiles, 1, missing, matrix, window, decode, write)
     }
-
-    /// The window's `bands` (holding `missing` where no tile is) from `tiles`, a row of
-    /// tiles at a time in parallel, each tile decoded by `decode` and its pixels in the
-    /// window given to `write` with the cell's band values: no tile is held decoded
-    /// longer than its copy takes.
-    fn read(
-        tiles: Vec<Tile>,
-        bands: usize,
-        missing: f32,
-        matrix: &TileMatrix,
-        window: &Window,
-        decode: impl Fn(&Tile) -> std::result::Result<Picture, String> + Sync,
-        write: impl Fn(&Tile, &Picture, usize, &mut [f32]) + Sync,
-    ) -> std::result::Result<Self, String> {
-        let [tw, th] = matrix.tile;
-        let [_, _, first_row, last_row] = window.tiles(matrix);
-        let height = window.height as i64;
-        let row_length = window.width * bands;
-        let mut values = vec![missing; row_length * window.height];
-        // The window's rows each row of tiles covers (from `top`), and its tiles; rows
-        // beyond the tile matrix stay as they are.
-        let mut rows: Vec<(i64, &mut [f32], Vec<Tile>)> = Vec::new();
-        let (mut rest, mut reached) = (values.as_mut_slice(), 0);
-        for r in first_row..=last_row {
-            let top = (r * th - window.shift[1]).clamp(reached, height);
-            let bottom = ((r + 1) * th - window.shift[1]).clamp(top, height);
-            let (_, after) =
-                std::mem::take(&mut rest).split_at_mut((top - reached) as usize * row_length);
-            let (these, others) = after.split_at_mut((bottom - top) as usize * row_length);
-            rest = others;
-            reached = bottom;
-            rows.push((top, these, Vec::new()));
-        }
-        for tile in tiles {
-            if let Some(row) = usize::try_from(tile.row - first_row)
-                .ok()
-                .and_then(|i| rows.get_mut(i))
-            {
-                row.2.push(tile);
-            }
-        }
-        let results: Vec<std::result::Result<(), String>> = rows
-            .into_par_iter()
-            .map(|(top, out, row_tiles)| {
-                for tile in &row_tiles {
-                    let picture = decode(tile)?;
-                    debug_assert_eq!(picture.samples.len() as i64, tw * th * picture.bands as i64);
-                    for y in 0..th {
-                        let row = tile.row * th + y - window.shift[1];
-                        if row < top || row >= window.height as i64 {
-                            continue;
-                        }
-                        let line = (row - top) as usize * window.width;
-                        for x in 0..tw {
-                            let column = tile.column * tw + x - window.shift[0];
-                            if column < 0 || column >= window.width as i64 {
-                                continue;
-                            }
-                            let cell = line + column as usize;
-                            write(
-                                tile,
-                                &picture,
-                                (y * tw + x) as usize,
-                                &mut out[cell * bands..(cell + 1) * bands],
-                            );
-                        }
-                    }
-                }
-                Ok(())
-            })
-            .collect();
-        first_error_in_order(results)?;
-        Ok(Raster { bands, values })
-    }
 }
 
 #[cfg(test)]
 mod tests {
+    use super::super::sqlite_tiles::fixtures::{decoded, grey_tile, matrix};
     use super::*;
-
-    fn table(extent: [f64; 4], origin: [f64; 2]) -> RasterTable {
-        RasterTable {
-            name: "t".into(),
-            coverage: false,
-            srs_id: 0,
-            extent,
-            origin,
-        }
-    }
-
-    /// `tiles` read as the reader reads them, each decoded to its picture.
-    fn imagery(tiles: &[(Tile, Picture)], bands: Bands, m: &TileMatrix, w: &Window) -> Raster {
-        let (stored, decode) = decoded(tiles);
-        Raster::of_imagery(stored, decode, bands, m, w).unwrap()
-    }
 
     fn covered(tiles: &[(Tile, Picture)], c: &Coverage, m: &TileMatrix, w: &Window) -> Raster {
         let (stored, decode) = decoded(tiles);
         Raster::of_coverage(stored, decode, c, m, w).unwrap()
     }
 
-    type Decode = Box<dyn Fn(&Tile) -> std::result::Result<Picture, String> + Sync>;
-
-    fn decoded(tiles: &[(Tile, Picture)]) -> (Vec<Tile>, Decode) {
-        let pictures: HashMap<i64, Picture> =
-            tiles.iter().map(|(t, p)| (t.id, p.clone())).collect();
-        let stored = tiles.iter().map(|(t, _)| t.clone()).collect();
-        (
-            stored,
-            Box::new(move |tile: &Tile| Ok(pictures[&tile.id].clone())),
-        )
-    }
-
-    /// A grey 2 × 2 tile, stored as PNG (its signature is all the reading looks at).
-    fn grey_tile(id: i64, column: i64, row: i64, values: [f32; 4]) -> (Tile, Picture) {
-        (
-            Tile {
-                id,
-                column,
-                row,
-                data: PNG_SIGNATURE.to_vec(),
-            },
-            Picture {
-                width: 2,
-                height: 2,
-                bands: 1,
-                samples: values.to_vec(),
-                masks: FileMasks::default(),
-            },
-        )
-    }
-
-    fn matrix() -> TileMatrix {
-        TileMatrix {
-            zoom: 3,
-            columns: 2,
-            rows: 2,
-            tile: [256, 256],
-            pixel: [30.0, 30.0],
-        }
-    }
-
     #[test]
-    fn the_window_is_the_contents_extent_snapped_to_the_tile_grid() {
-        // GDAL's layout: the tile grid starts at the matrix set's north-west corner,
-        // the raster at its contents' bounds.
-        let t = table(
-            [500_000.0, 4_191_000.0, 512_510.0, 4_200_000.0],
-            [500_000.0, 4_200_000.0],
-        );
-        let w = Window::of(&t, &matrix()).unwrap();
-        assert_eq!((w.width, w.height, w.shift), (417, 300, [0, 0]));
-        assert_eq!(w.tiles(&matrix()), [0, 1, 0, 1]);
-        // A raster a tile and a bit in from the grid's corner.
-        let t = table(
-            [507_690.0, 4_180_000.0, 508_590.0, 4_192_290.0],
-            [500_000.0, 4_200_000.0],
-        );
-        let w = Window::of(&t, &matrix()).unwrap();
-        assert_eq!((w.width, w.height, w.shift), (30, 410, [256, 257]));
-        assert_eq!(w.tiles(&matrix()), [1, 1, 1, 1]);
-        let empty = table([0.0, 0.0, 10.0, 10.0], [0.0, 10.0]);
-        assert!(
-            Window::of(&empty, &matrix())
-                .unwrap_err()
-                .contains("no cell")
-        );
-    }
-
-    #[test]
-    fn tiles_land_in_their_cells_and_missing_cells_hold_no_data() {
+    fn coverage_tiles_are_scaled_by_their_tile_and_the_coverage() {
         let m = TileMatrix {
             tile: [2, 2],
             columns: 2,
@@ -1053,17 +544,6 @@ mod tests {
             grey(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
             grey(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
         ];
-        let raster = imagery(&tiles, Bands::of(None), &m, &w);
-        assert_eq!(raster.bands, 1);
-        // Column 0 of the window is the tile grid's column 1.
-        let held: Vec<bool> = raster.values.iter().map(|v| !v.is_nan()).collect();
-        assert_eq!(
-            held,
-            [true, false, false, true, false, false, false, true, true]
-        );
-        assert_eq!((raster.values[0], raster.values[3]), (2.0, 4.0));
-        assert_eq!(raster.values[7..9], [5.0, 6.0]);
-
         let coverage = Coverage {
             scale: 2.0,
             offset: -1.0,
@@ -1094,92 +574,6 @@ mod tests {
     }
 
     #[test]
-    fn a_window_reaching_past_the_tile_grid_keeps_its_rows_in_place() {
-        let m = TileMatrix {
-            tile: [2, 2],
-            columns: 1,
-            rows: 2,
-            ..matrix()
-        };
-        // One column, from a row above the grid to a row below it.
-        let w = Window {
-            width: 1,
-            height: 6,
-            shift: [0, -1],
-        };
-        let tiles = [
-            grey_tile(1, 0, 0, [1.0, 9.0, 2.0, 9.0]),
-            grey_tile(2, 0, 1, [3.0, 9.0, 4.0, 9.0]),
-        ];
-        assert_eq!(w.tiles(&m), [0, 0, 0, 1]);
-        let raster = imagery(&tiles, Bands::of(Some(1)), &m, &w);
-        assert_eq!(raster.values, [0.0, 1.0, 2.0, 3.0, 4.0, 0.0]);
-    }
-
-    #[test]
-    fn a_grey_tile_fills_every_band_of_a_colour_raster_and_alpha_clears() {
-        let m = TileMatrix {
-            tile: [1, 1],
-            columns: 2,
-            rows: 1,
-            ..matrix()
-        };
-        let w = Window {
-            width: 2,
-            height: 1,
-            shift: [0, 0],
-        };
-        let tile = |column| Tile {
-            id: column,
-            column,
-            row: 0,
-            data: Vec::new(),
-        };
-        let tiles = [
-            (
-                tile(0),
-                Picture {
-                    width: 1,
-                    height: 1,
-                    bands: 2,
-                    samples: vec![7.0, 255.0],
-                    masks: FileMasks {
-                        alpha: Some(1),
-                        ..FileMasks::default()
-                    },
-                },
-            ),
-            (
-                tile(1),
-                Picture {
-                    width: 1,
-                    height: 1,
-                    bands: 4,
-                    samples: vec![1.0, 2.0, 3.0, 0.0],
-                    masks: FileMasks {
-                        alpha: Some(3),
-                        ..FileMasks::default()
-                    },
-                },
-            ),
-        ];
-        let raster = imagery(&tiles, Bands::of(None), &m, &w);
-        assert_eq!(raster.bands, 3);
-        assert_eq!(raster.values[..3], [7.0, 7.0, 7.0]);
-        assert!(raster.values[3..].iter().all(|v| v.is_nan()));
-        // Recorded without alpha, missing tiles and clear cells read as GDAL reads them.
-        let grey = imagery(&tiles[..1], Bands::of(Some(1)), &m, &w);
-        assert_eq!(grey.values, [7.0, 0.0]);
-        let rgb = imagery(&tiles[1..], Bands::of(Some(3)), &m, &w);
-        assert_eq!(rgb.values, [0.0, 0.0, 0.0, 1.0, 2.0, 3.0]);
-        // Recorded as grey, a colour tile reads as its first channel.
-        let mut opaque = tiles;
-        opaque[1].1.samples[3] = 255.0;
-        let raster = imagery(&opaque, Bands::of(Some(2)), &m, &w);
-        assert_eq!(raster.values, [7.0, 1.0]);
-    }
-
-    #[test]
     fn values_round_half_up_as_floor_does() {
         for v in [
             -2.5, -2.4999, -0.5, -0.2, 0.0, 0.49999, 0.5, 2.5, 1965.4999, 1e17, -1e17,
@@ -1194,20 +588,5 @@ mod tests {
         assert_eq!(as_gdal_reads(19.10925707129406), 19.1092570712941);
         assert_eq!(as_gdal_reads(30.0), 30.0);
         assert_eq!(as_gdal_reads(-20037508.34278924), -20037508.3427892);
-    }
-
-    #[test]
-    fn paths_become_uris_sqlite_reads_as_the_file() {
-        assert_eq!(quoted("a\"b"), "\"a\"\"b\"");
-        let dir = tempfile::tempdir().unwrap();
-        let path = dir.path().join("odd ?#% name.gpkg");
-        let db = Connection::open(&path).unwrap();
-        db.execute_batch("CREATE TABLE t (x); INSERT INTO t VALUES (5);")
-            .unwrap();
-        drop(db);
-        let db = open_immutable(&path).unwrap();
-        let x: i64 = db.query_row("SELECT x FROM t", [], |r| r.get(0)).unwrap();
-        assert_eq!(x, 5);
-        assert!(db.execute("INSERT INTO t VALUES (6)", []).is_err());
     }
 }

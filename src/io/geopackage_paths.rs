@@ -16,7 +16,7 @@ use rusqlite::Connection;
 use rusqlite::types::ValueRef;
 
 use super::geojson::{DrawnFeature, DrawnPaths, warn_of_passed_over};
-use super::geopackage::{has_tables, open_geopackage, quoted};
+use super::sqlite_tiles::{has_tables, open_sqlite, quoted};
 use crate::error::{Error, Result};
 use crate::grid::Demonstration;
 
@@ -32,7 +32,7 @@ struct Layer {
 /// else `default_map`.
 pub fn read_geopackage_paths(path: &Path, default_map: Option<&str>) -> Result<Vec<DrawnPaths>> {
     let problem = |message: String| Error::input(path, message);
-    let db = open_geopackage(path)?;
+    let db = open_sqlite(path, "GeoPackage")?;
     let layers = feature_layers(&db).map_err(&problem)?;
     let mut read = Vec::new();
     let mut passed_over = 0;

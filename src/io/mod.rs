@@ -25,6 +25,7 @@ pub mod parquet_check;
 pub mod picture;
 pub mod png;
 mod sidecar_bands;
+mod sqlite_tiles;
 pub mod surfer;
 pub mod tables;
 pub mod vrt;
