@@ -1663,6 +1663,36 @@ fn read_twins(pair: &serde_json::Value) -> (String, imitate::grid::Map, imitate:
     (file.to_string(), gdal, ours)
 }
 
+/// Holds our reading of `file` to GDAL's: the same values, or for lossy tiles
+/// (`peer`: the largest and mean difference of libjpeg-turbo's or libwebp's decoding
+/// from GDAL's, over every band) as close to GDAL's as that other decoder is, within a
+/// quarter, give or take a level.
+fn assert_decoded_as_gdal_or_peer(
+    file: &str,
+    gdal: &imitate::grid::Map,
+    ours: &imitate::grid::Map,
+    peer: Option<&serde_json::Value>,
+) {
+    let differences: Vec<(f32, f32)> = gdal
+        .layers
+        .iter()
+        .zip(&ours.layers)
+        .map(|(a, b)| differences_from_gdal(file, a, b))
+        .collect();
+    let worst = differences.iter().map(|d| d.0).fold(0.0, f32::max);
+    let Some(peer) = peer else {
+        assert_eq!(worst, 0.0, "{file}: {differences:?}");
+        return;
+    };
+    let mean = differences.iter().map(|d| d.1).sum::<f32>() / differences.len() as f32;
+    let peer_worst = peer[0].as_f64().unwrap() as f32;
+    let peer_mean = peer[1].as_f64().unwrap() as f32;
+    assert!(
+        worst <= peer_worst.max(1.0) * 1.25 + 1.0 && mean <= peer_mean * 1.25 + 0.05,
+        "{file}: off by {worst}, {mean} on average; the peer by {peer_worst}, {peer_mean}"
+    );
+}
+
 /// The strings of a JSON array the Python writers print.
 fn strings(list: &serde_json::Value) -> Vec<&str> {
     list.as_array()
@@ -1896,24 +1926,7 @@ fn geopackage_rasters_read_as_gdal_reads_them() {
     assert!(pairs.len() >= 17 && lossy.len() >= 3, "{pairs:?} {lossy:?}");
     for pair in pairs {
         let (gpkg, gdal, ours) = read_twins(pair);
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let (worst, mean) = differences_from_gdal(&gpkg, a, b);
-            match lossy.get(&gpkg) {
-                // As close to GDAL's decoding as libjpeg-turbo's or libwebp's is, give
-                // or take a level.
-                Some(peer) => {
-                    let peer_worst = peer[0].as_f64().unwrap() as f32;
-                    let peer_mean = peer[1].as_f64().unwrap() as f32;
-                    assert!(
-                        worst <= peer_worst.max(1.0) + 1.0 && mean <= peer_mean * 1.25 + 0.05,
-                        "{gpkg} {}: off by {worst}, {mean} on average; the peer by \
-                         {peer_worst}, {peer_mean}",
-                        b.name
-                    );
-                }
-                None => assert_eq!(worst, 0.0, "{gpkg} {}", b.name),
-            }
-        }
+        assert_decoded_as_gdal_or_peer(&gpkg, &gdal, &ours, lossy.get(&gpkg));
     }
     let refusals = [
         (
@@ -1941,6 +1954,57 @@ fn geopackage_rasters_read_as_gdal_reads_them() {
         .collect();
     assert!(damage_files(&files, &dir.path().join("damaged.gpkg"), 40) >= 200);
     // Read, never written: SQLite left nothing beside the files.
+    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with("-journal") || n.ends_with("-wal") || n.ends_with("-shm"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
+/// MBTiles as GDAL writes them (its MBTiles driver, warping a UTM source to Web
+/// Mercator): PNG (the default), JPEG, palette PNG and (lossy) WebP tiles, grey,
+/// overviews; and as tools leave them: no bounds, bounds rounded off a cell edge, a
+/// deduplicated `tiles` view over `map` and `images`. Each reads to the grid, CRS,
+/// colour bands, values and nodata GDAL reads it to (lossy tiles as close to GDAL's
+/// decoding as libjpeg-turbo's or libwebp's is). Vector tiles, a GeoPackage and a text
+/// file named .mbtiles are refused by name; damaged, each is read or refused naming the
+/// file, never a panic; nothing is written beside them.
+#[test]
+fn mbtiles_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("mbtiles_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let lossy = info["lossy"].as_object().unwrap();
+    let pairs = info["pairs"].as_array().unwrap();
+    assert!(pairs.len() >= 9 && lossy.len() >= 2, "{pairs:?} {lossy:?}");
+    for pair in pairs {
+        let (mbtiles, gdal, ours) = read_twins(pair);
+        assert_eq!(ours.geo.frame, "EPSG:3857", "{mbtiles}");
+        assert_decoded_as_gdal_or_peer(&mbtiles, &gdal, &ours, lossy.get(&mbtiles));
+    }
+    let refusals = [
+        ("vector", &["roads.mbtiles", "vector tiles"][..]),
+        ("geopackage", &["geopackage.mbtiles", "not an MBTiles file"]),
+        ("text", &["text.mbtiles", "not an MBTiles file"]),
+    ];
+    for (key, needles) in refusals {
+        let file = Path::new(info["refused"][key].as_str().unwrap());
+        let name = file.file_name().unwrap().to_str().unwrap();
+        let out = imitate(
+            dir.path(),
+            &["bench", "terrain", name, "--method", "uniform"],
+        );
+        assert_input_error(&out, needles);
+    }
+    let files: Vec<PathBuf> = pairs
+        .iter()
+        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
+        .collect();
+    assert!(damage_files(&files, &dir.path().join("damaged.mbtiles"), 40) >= 100);
     let leftovers: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
         .filter_map(|e| e.ok())

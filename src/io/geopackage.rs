@@ -69,7 +69,7 @@ struct Coverage {
 /// north (always: tiles run from the north-west).
 pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let problem = |message: String| Error::input(path, message);
-    let db = open_sqlite(path, "GeoPackage")?;
+    let db = open_sqlite(path, "a GeoPackage")?;
     let table = raster_table(&db).map_err(&problem)?;
     let matrix = tile_matrix(&db, &table).map_err(&problem)?;
     let window = Window::of(table.extent, table.origin, &matrix).map_err(&problem)?;
@@ -459,6 +459,7 @@ fn tiles(
                 id: r.get(0)?,
                 column: r.get(1)?,
                 row: r.get(2)?,
+                stored_row: r.get(2)?,
                 data: r.get(3)?,
             })
         })

@@ -32,7 +32,7 @@ struct Layer {
 /// else `default_map`.
 pub fn read_geopackage_paths(path: &Path, default_map: Option<&str>) -> Result<Vec<DrawnPaths>> {
     let problem = |message: String| Error::input(path, message);
-    let db = open_sqlite(path, "GeoPackage")?;
+    let db = open_sqlite(path, "a GeoPackage")?;
     let layers = feature_layers(&db).map_err(&problem)?;
     let mut read = Vec::new();
     let mut passed_over = 0;

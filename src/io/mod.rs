@@ -15,6 +15,7 @@ pub mod hfa;
 pub mod hgt;
 pub mod jp2;
 pub mod leftovers;
+pub mod mbtiles;
 pub mod mcap;
 pub mod mdp_tables;
 pub mod movingai;
@@ -46,9 +47,9 @@ use crate::grid::Map;
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
 /// rasters (`.gpkg`).
-pub const RASTER_EXTENSIONS: [&str; 25] = [
+pub const RASTER_EXTENSIONS: [&str; 26] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg", "mbtiles",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -100,6 +101,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
         "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
         "gpkg" => geopackage::read_geopackage_rows(path, name),
+        "mbtiles" => mbtiles::read_mbtiles_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -109,7 +111,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
-                 grids (.grd) or GeoPackage rasters (.gpkg), not '.{other}'"
+                 grids (.grd), GeoPackage rasters (.gpkg) or MBTiles (.mbtiles), not '.{other}'"
             ),
         )),
     }

@@ -37,9 +37,14 @@ pub(crate) fn geokeys(crs: Named, datum: &str) -> Option<Vec<u16>> {
             _ => return None,
         },
     };
+    Some(epsg_geokeys(code, projected))
+}
+
+/// The GeoKeys of EPSG CRS `code`, projected or geographic, as GDAL writes them.
+pub(crate) fn epsg_geokeys(code: u16, projected: bool) -> Vec<u16> {
     let mut keys = vec![1, 1, 0, 2, 1024, 0, 1, if projected { 1 } else { 2 }];
     keys.extend([if projected { 3072 } else { 2048 }, 0, 1, code]);
-    Some(keys)
+    keys
 }
 
 #[cfg(test)]

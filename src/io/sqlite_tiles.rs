@@ -127,15 +127,15 @@ impl Window {
     }
 }
 
-/// The SQLite file at `path` (a `format` file: "GeoPackage", "MBTiles"), opened
-/// read-only; an input error where it is not an SQLite database.
-pub(super) fn open_sqlite(path: &Path, format: &str) -> Result<Connection> {
+/// The SQLite file at `path`, which should be `what` ("a GeoPackage", "an MBTiles
+/// file"), opened read-only; an input error where it is not an SQLite database.
+pub(super) fn open_sqlite(path: &Path, what: &str) -> Result<Connection> {
     let mut magic = [0u8; 16];
     let read = std::io::Read::read_exact(&mut open_input(path)?, &mut magic);
     if read.is_err() || &magic != SQLITE_MAGIC {
         return Err(Error::input(
             path,
-            format!("it is not a {format} (not an SQLite database)"),
+            format!("it is not {what} (not an SQLite database)"),
         ));
     }
     open_immutable(path).map_err(|message| Error::input(path, message))
@@ -185,7 +185,10 @@ pub(super) fn quoted(name: &str) -> String {
 pub(super) struct Tile {
     pub(super) id: i64,
     pub(super) column: i64,
+    /// The tile's row from the tile grid's north edge.
     pub(super) row: i64,
+    /// Its row as the file numbers it (from the south in MBTiles).
+    pub(super) stored_row: i64,
     pub(super) data: Vec<u8>,
 }
 
@@ -196,14 +199,36 @@ pub(super) fn decode_tile(
     coverage: bool,
     matrix: &TileMatrix,
 ) -> std::result::Result<Picture, String> {
-    let bytes = &tile.data;
     let at = || {
         format!(
             "its tile at zoom level {}, column {}, row {}",
-            matrix.zoom, tile.column, tile.row
+            matrix.zoom, tile.column, tile.stored_row
         )
     };
-    let decoded = if bytes.starts_with(PNG_SIGNATURE) {
+    let decoded = decode_image(&tile.data, coverage).map_err(|e| format!("{}: {e}", at()))?;
+    let [tw, th] = matrix.tile;
+    if (i64::from(decoded.width), i64::from(decoded.height)) != (tw, th) {
+        return Err(format!(
+            "{}: it is {} × {} cells, its tile matrix's tiles {tw} × {th}",
+            at(),
+            decoded.width,
+            decoded.height
+        ));
+    }
+    if coverage && decoded.bands != 1 {
+        return Err(format!(
+            "{}: it holds {} bands; a gridded coverage's tiles hold one",
+            at(),
+            decoded.bands
+        ));
+    }
+    Ok(decoded)
+}
+
+/// A tile's image as it is stored: PNG (palette and low bit depths expanded, unless it
+/// holds a coverage's values), JPEG, WebP, or a coverage's TIFF.
+pub(super) fn decode_image(bytes: &[u8], coverage: bool) -> std::result::Result<Picture, String> {
+    if bytes.starts_with(PNG_SIGNATURE) {
         let transformations = if coverage {
             ::png::Transformations::IDENTITY
         } else {
@@ -223,24 +248,6 @@ pub(super) fn decode_tile(
             "neither a PNG, a JPEG nor a WebP image, which imagery tiles are".into()
         })
     }
-    .map_err(|e| format!("{}: {e}", at()))?;
-    let [tw, th] = matrix.tile;
-    if (i64::from(decoded.width), i64::from(decoded.height)) != (tw, th) {
-        return Err(format!(
-            "{}: it is {} × {} cells, its tile matrix's tiles {tw} × {th}",
-            at(),
-            decoded.width,
-            decoded.height
-        ));
-    }
-    if coverage && decoded.bands != 1 {
-        return Err(format!(
-            "{}: it holds {} bands; a gridded coverage's tiles hold one",
-            at(),
-            decoded.bands
-        ));
-    }
-    Ok(decoded)
 }
 
 /// A WebP tile's RGB or RGBA samples.
@@ -477,6 +484,7 @@ pub(super) mod fixtures {
                 id,
                 column,
                 row,
+                stored_row: row,
                 data: PNG_SIGNATURE.to_vec(),
             },
             Picture {
@@ -606,6 +614,7 @@ mod tests {
             id: column,
             column,
             row: 0,
+            stored_row: 0,
             data: Vec::new(),
         };
         let tiles = [

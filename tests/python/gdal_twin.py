@@ -22,3 +22,18 @@ def twin(path):
             dst.scales = src.scales
             dst.offsets = src.offsets
     return [path + ".tif", path]
+
+
+def imagery_twin(path, bands):
+    """Writes `path`.tif, GDAL's reading of imagery shown with an alpha band (GeoPackage,
+    MBTiles): its first `bands` colour bands, NaN where GDAL's mask (alpha) is 0;
+    returns [twin, path]."""
+    with rasterio.open(path) as src:
+        colours = src.read(list(range(1, bands + 1))).astype("float32")
+        colours[:, src.dataset_mask() == 0] = np.nan
+        with rasterio.open(path + ".tif", "w", driver="GTiff", width=src.width,
+                           height=src.height, count=bands, dtype="float32",
+                           crs=src.crs, transform=src.transform,
+                           nodata=float("nan")) as dst:
+            dst.write(colours)
+    return [path + ".tif", path]

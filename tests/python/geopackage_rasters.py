@@ -24,7 +24,7 @@ import rasterio.shutil
 from rasterio.enums import Resampling
 from rasterio.transform import from_origin
 
-from gdal_twin import twin
+from gdal_twin import imagery_twin, twin
 
 out = sys.argv[1]
 rng = np.random.default_rng(5)
@@ -48,20 +48,6 @@ def gpkg(name, source, **options):
     path = os.path.join(out, name + ".gpkg")
     rasterio.shutil.copy(source, path, driver="GPKG", **options)
     return path
-
-
-def imagery_twin(path, bands):
-    """The twin of GDAL's reading (as many bands as the source had, recorded by GDAL in
-    the file, else RGBA): the first `bands` bands, NaN where GDAL's mask (alpha) is 0."""
-    with rasterio.open(path) as src:
-        colours = src.read(list(range(1, bands + 1))).astype("float32")
-        colours[:, src.dataset_mask() == 0] = np.nan
-        with rasterio.open(path + ".tif", "w", driver="GTiff", width=src.width,
-                           height=src.height, count=bands, dtype="float32",
-                           crs=src.crs, transform=src.transform,
-                           nodata=float("nan")) as dst:
-            dst.write(colours)
-    return [path + ".tif", path]
 
 
 def peer_difference(path):

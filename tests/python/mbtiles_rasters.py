@@ -1,0 +1,188 @@
+"""MBTiles rasters as GDAL writes them (its MBTiles driver, through rasterio; the source,
+in UTM, is warped to Web Mercator on the way) and as tile tools lay them out, each beside
+a GeoTIFF twin of what GDAL reads it to: imagery in PNG tiles (GDAL's default), JPEG,
+8-bit palette PNG and (lossy) WebP tiles; grey; overviews, which leave the full
+resolution the highest zoom level; no `bounds` in the metadata (the extent is then the
+tiles'); `bounds` rounded to four decimals by hand, which no longer fall on a cell edge
+(GDAL shifts the tiles' cells to the nearest); and a deduplicated file whose `tiles` is a
+view over `map` and `images` (mbutil's and MapTiler's layout), written here from the tiles
+of another. GDAL shows MBTiles as RGBA: the twin keeps the colour bands (one where the
+source was grey) and NaN where GDAL's mask is 0. Also files to refuse: vector tiles
+(format pbf), a GeoPackage named .mbtiles, a text file named .mbtiles. Prints one JSON
+line: the pairs (twin, MBTiles), the lossy ones with how far libjpeg-turbo's or
+libwebp's decoding of their tiles is from GDAL's, and the refusals."""
+
+import json
+import math
+import os
+import shutil
+import sqlite3
+import sys
+
+import imagecodecs
+import numpy as np
+import rasterio
+import rasterio.shutil
+from rasterio.enums import Resampling
+from rasterio.transform import from_origin
+
+from gdal_twin import imagery_twin
+
+out = sys.argv[1]
+rng = np.random.default_rng(11)
+field = rng.normal(size=(3, 240, 320)).cumsum(1).cumsum(2)
+image = (field - field.min()) / (field.max() - field.min())
+rgb = (image * 254 + 1).astype("uint8")
+HALF_WORLD = 6378137.0 * math.pi
+
+
+def geotiff(name, values):
+    path = os.path.join(out, name + ".tif")
+    with rasterio.open(path, "w", driver="GTiff", width=values.shape[2],
+                       height=values.shape[1], count=values.shape[0], dtype=values.dtype,
+                       crs="EPSG:32633", transform=from_origin(500000, 5200000, 10, 10)) as dst:
+        dst.write(values)
+    return path
+
+
+def mbtiles(name, source, **options):
+    path = os.path.join(out, name + ".mbtiles")
+    rasterio.shutil.copy(source, path, driver="MBTiles", **options)
+    return path
+
+
+def peer_difference(path):
+    """How far libjpeg-turbo's and libwebp's decoding (imagecodecs) of the full
+    resolution's lossy tiles is from GDAL's reading: the largest and mean difference,
+    the yardstick for another decoder's."""
+    with rasterio.open(path) as src:
+        gdal = src.read(list(range(1, 4))).astype(float).transpose(1, 2, 0)
+        valid = src.dataset_mask() > 0
+        cell = src.transform.a
+        shift_x = math.floor((src.transform.c + HALF_WORLD) / cell + 0.5)
+        shift_y = math.floor((HALF_WORLD - src.transform.f) / cell + 0.5)
+    db = sqlite3.connect(path)
+    (zoom,) = db.execute("SELECT MAX(zoom_level) FROM tiles").fetchone()
+    differences = []
+    for column, stored_row, data in db.execute(
+            "SELECT tile_column, tile_row, tile_data FROM tiles WHERE zoom_level = ?", (zoom,)):
+        if data[:2] == b"\xff\xd8":
+            tile = imagecodecs.jpeg8_decode(data)
+        elif data[:4] == b"RIFF":
+            tile = imagecodecs.webp_decode(data)
+        else:
+            continue
+        tile = tile.astype(float)
+        if tile.ndim == 2:
+            tile = np.repeat(tile[:, :, None], 3, axis=2)
+        side = tile.shape[0]
+        row = (1 << zoom) - 1 - stored_row
+        top, left = row * side - shift_y, column * side - shift_x
+        ys = slice(max(top, 0), max(min(top + side, gdal.shape[0]), 0))
+        xs = slice(max(left, 0), max(min(left + side, gdal.shape[1]), 0))
+        theirs = gdal[ys, xs]
+        mine = tile[ys.start - top:ys.stop - top, xs.start - left:xs.stop - left, :3]
+        differences.append(np.abs(mine - theirs)[valid[ys, xs]].ravel())
+    db.close()
+    difference = np.concatenate(differences)
+    assert difference.size, f"{path} holds no lossy tile"
+    return [float(difference.max()), float(difference.mean())]
+
+
+def without_bounds(name, source):
+    """A copy of `source` whose metadata gives no bounds."""
+    path = os.path.join(out, name + ".mbtiles")
+    shutil.copy(source, path)
+    db = sqlite3.connect(path)
+    db.execute("DELETE FROM metadata WHERE name = 'bounds'")
+    db.commit()
+    db.close()
+    return path
+
+
+def rounded_bounds(name, source):
+    """A copy of `source` whose bounds are rounded to four decimals, as a hand or a
+    tool that writes them for display leaves them."""
+    path = os.path.join(out, name + ".mbtiles")
+    shutil.copy(source, path)
+    db = sqlite3.connect(path)
+    (bounds,) = db.execute("SELECT value FROM metadata WHERE name = 'bounds'").fetchone()
+    west, south, east, north = (float(v) for v in bounds.split(","))
+    rounded = f"{west:.4f},{south:.4f},{east:.4f},{north:.4f}"
+    db.execute("UPDATE metadata SET value = ? WHERE name = 'bounds'", (rounded,))
+    db.commit()
+    db.close()
+    return path
+
+
+def deduplicated(name, source):
+    """`source`'s tiles laid out as mbutil and MapTiler write them: each distinct image
+    once in `images`, `map` placing it, `tiles` a view joining the two."""
+    path = os.path.join(out, name + ".mbtiles")
+    src = sqlite3.connect(source)
+    db = sqlite3.connect(path)
+    db.executescript("""
+        CREATE TABLE metadata (name TEXT, value TEXT);
+        CREATE TABLE map (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
+                          tile_id TEXT);
+        CREATE TABLE images (tile_data BLOB, tile_id TEXT);
+        CREATE VIEW tiles AS SELECT map.zoom_level AS zoom_level,
+            map.tile_column AS tile_column, map.tile_row AS tile_row,
+            images.tile_data AS tile_data
+            FROM map JOIN images ON images.tile_id = map.tile_id;
+    """)
+    db.executemany("INSERT INTO metadata VALUES (?, ?)",
+                   src.execute("SELECT name, value FROM metadata"))
+    ids = {}
+    for zoom, column, row, data in src.execute(
+            "SELECT zoom_level, tile_column, tile_row, tile_data FROM tiles"):
+        if bytes(data) not in ids:
+            ids[bytes(data)] = str(len(ids))
+            db.execute("INSERT INTO images VALUES (?, ?)", (data, ids[bytes(data)]))
+        key = ids[bytes(data)]
+        db.execute("INSERT INTO map VALUES (?, ?, ?, ?)", (zoom, column, row, key))
+    db.commit()
+    db.close()
+    src.close()
+    return path
+
+
+pairs, lossy = [], []
+rgb_tif = geotiff("rgb", rgb)
+png = mbtiles("rgb_png", rgb_tif)
+pairs.append(imagery_twin(png, 3))
+jpeg = mbtiles("rgb_jpeg", rgb_tif, TILE_FORMAT="JPEG")
+pairs.append(imagery_twin(jpeg, 3))
+lossy.append(jpeg)
+pairs.append(imagery_twin(mbtiles("rgb_png8", rgb_tif, TILE_FORMAT="PNG8"), 3))
+webp = mbtiles("rgb_webp", rgb_tif, TILE_FORMAT="WEBP")
+pairs.append(imagery_twin(webp, 3))
+lossy.append(webp)
+grey = mbtiles("grey", geotiff("grey", rgb[:1]))
+pairs.append(imagery_twin(grey, 1))
+overviews = mbtiles("overviews", rgb_tif)
+with rasterio.open(overviews, "r+") as dst:
+    dst.build_overviews([2, 4], Resampling.average)
+pairs.append(imagery_twin(overviews, 3))
+pairs.append(imagery_twin(without_bounds("no_bounds", png), 3))
+pairs.append(imagery_twin(rounded_bounds("rounded_bounds", png), 3))
+pairs.append(imagery_twin(deduplicated("deduplicated", png), 3))
+
+# Refusals.
+vector = os.path.join(out, "roads.mbtiles")
+db = sqlite3.connect(vector)
+db.executescript("""
+    CREATE TABLE metadata (name TEXT, value TEXT);
+    CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
+                        tile_data BLOB);
+    INSERT INTO metadata VALUES ('format', 'pbf'), ('minzoom', '0'), ('maxzoom', '0');
+    INSERT INTO tiles VALUES (0, 0, 0, x'1f8b');
+""")
+db.close()
+geopackage = os.path.join(out, "geopackage.mbtiles")
+rasterio.shutil.copy(rgb_tif, geopackage, driver="GPKG")
+text = os.path.join(out, "text.mbtiles")
+with open(text, "w") as f:
+    f.write("not a database\n")
+print(json.dumps({"pairs": pairs, "lossy": {path: peer_difference(path) for path in lossy},
+                  "refused": {"vector": vector, "geopackage": geopackage, "text": text}}))
