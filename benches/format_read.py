@@ -3,7 +3,8 @@ GDAL: ERDAS Imagine (its HFA driver) with an int16 DEM in raw blocks, a 9-class 
 cover in raw blocks and the same cover run-length compressed; netCDF (its netCDF
 driver) with the DEM in classic netCDF and in netCDF-4 with Deflate; GeoPackage (its
 GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both in
-256² PNG tiles; each beside an
+256² PNG tiles; MBTiles (its MBTiles driver) with the cover in PNG tiles, on zoom level
+16's Web Mercator grid (so that GDAL writes its cells as they are); each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
 the raster as costs and plans two cells apart: the read is the time; wall and user CPU
 seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
@@ -11,12 +12,15 @@ seconds, the VM's page faults making the wall time noisy) and, in this process, 
 first.
 
     PYTHONPATH=target/python-deps python3 benches/format_read.py \\
-        target/release/imitate target/format_read
+        target/release/imitate target/format_read [LABEL PART]
+
+(a third argument runs only the files whose label holds it: `MBTiles`, say).
 
 Prints a Markdown table: file, bytes, imitate on the file, imitate on the GeoTIFF twin,
 GDAL's read of the file, and the ratio of imitate's file to its GeoTIFF.
 """
 
+import math
 import os
 import resource
 import subprocess
@@ -33,18 +37,27 @@ SIZE = 8192
 REPEATS = 3
 
 
-def write(path, values, driver, **options):
+#: Web Mercator cells of zoom level 16 (256-cell tiles), and a tile corner near
+#: Chicago: an MBTiles package of a raster on this grid holds its cells unresampled.
+ZOOM_16_CELL = 2 * 6378137.0 * math.pi / 256 / 2**16
+ZOOM_16_CORNER = (-6378137.0 * math.pi + 16800 * 256 * ZOOM_16_CELL,
+                  6378137.0 * math.pi - 24300 * 256 * ZOOM_16_CELL)
+
+
+def write(path, values, driver, mercator=False, **options):
     """`values` written to `path` by GDAL's `driver` (a create-copy driver from a
-    GeoTIFF)."""
-    if driver in ("netCDF", "GPKG"):
-        source = write(path + ".source.tif", values, "GTiff")
+    GeoTIFF): in UTM, 30 m cells, or (`mercator`) on zoom level 16's Web Mercator grid."""
+    if driver in ("netCDF", "GPKG", "MBTiles"):
+        source = write(path + ".source.tif", values, "GTiff", mercator)
         rasterio.shutil.copy(source, path, driver=driver, **options)
         os.remove(source)
         return path
+    crs, transform = "EPSG:32616", from_origin(440000, 4640000, 30, 30)
+    if mercator:
+        crs, transform = "EPSG:3857", from_origin(*ZOOM_16_CORNER, ZOOM_16_CELL, ZOOM_16_CELL)
     with rasterio.open(path, "w", driver=driver, width=values.shape[1],
                        height=values.shape[0], count=1, dtype=values.dtype,
-                       crs="EPSG:32616", transform=from_origin(440000, 4640000, 30, 30),
-                       **options) as dst:
+                       crs=crs, transform=transform, **options) as dst:
         dst.write(values, 1)
     return path
 
@@ -71,6 +84,7 @@ def timed_gdal(raster, values):
 
 def main():
     binary, out = sys.argv[1], sys.argv[2]
+    only = sys.argv[3] if len(sys.argv) > 3 else ""
     os.makedirs(out, exist_ok=True)
     rng = np.random.default_rng(1)
     field = rng.normal(size=(SIZE, SIZE)).cumsum(0).cumsum(1)
@@ -86,13 +100,17 @@ def main():
               {"FORMAT": "NC4", "COMPRESS": "DEFLATE"}),
              ("GeoPackage: DEM, coverage in PNG tiles", "dem.gpkg", dem, "GPKG", {}),
              ("GeoPackage: cover, PNG tiles", "cover.gpkg", cover, "GPKG",
-              {"TILE_FORMAT": "PNG"})]
+              {"TILE_FORMAT": "PNG"}),
+             ("MBTiles: cover, PNG tiles", "cover.mbtiles", cover, "MBTiles", {})]
     print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
           "GDAL, the file | the file to GeoTIFF, user CPU |")
     print("|---|---|---|---|---|---|")
     for label, name, values, driver, options in cases:
-        path = write(os.path.join(out, name), values, driver, **options)
-        tif = write(os.path.join(out, name + ".tif"), values, "GTiff")
+        if only not in label:
+            continue
+        mercator = driver == "MBTiles"
+        path = write(os.path.join(out, name), values, driver, mercator, **options)
+        tif = write(os.path.join(out, name + ".tif"), values, "GTiff", mercator)
         os.sync()
         ours = min(timed_plan(binary, path) for _ in range(REPEATS))
         twin = min(timed_plan(binary, tif) for _ in range(REPEATS))

@@ -5,7 +5,6 @@
 
 use std::io::Cursor;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, Ordering};
 
 use rayon::prelude::*;
 use rusqlite::{Connection, OpenFlags};
@@ -250,6 +249,30 @@ pub(super) fn decode_image(bytes: &[u8], coverage: bool) -> std::result::Result<
     }
 }
 
+/// Whether an imagery tile holds colour, by its header alone: a PNG of RGB, RGBA or a
+/// palette (which GDAL expands to RGB), a JPEG of three components, any WebP; grey
+/// otherwise. A header too damaged to tell says colour (decoding will name the fault).
+fn holds_colour(bytes: &[u8]) -> bool {
+    if bytes.starts_with(PNG_SIGNATURE) {
+        // IHDR is the first chunk: its colour type follows width, height and depth.
+        return bytes.get(25).is_none_or(|&kind| matches!(kind, 2 | 3 | 6));
+    }
+    if !bytes.starts_with(&[0xff, 0xd8]) {
+        return true;
+    }
+    // Walk the JPEG's marker segments to its frame header (SOF0 to SOF15 but DHT, JPG
+    // and DAC), whose byte 9 counts the components.
+    let mut at = 2;
+    while let Some(&[0xff, marker, high, low]) = bytes.get(at..at + 4) {
+        let frame = (0xc0..=0xcf).contains(&marker) && !matches!(marker, 0xc4 | 0xc8 | 0xcc);
+        if frame {
+            return bytes.get(at + 9).is_none_or(|&components| components >= 3);
+        }
+        at += 2 + usize::from(u16::from_be_bytes([high, low]));
+    }
+    true
+}
+
 /// A WebP tile's RGB or RGBA samples.
 fn decode_webp(bytes: &[u8]) -> std::result::Result<Picture, String> {
     let mut image = image_webp::WebPDecoder::new(Cursor::new(bytes)).map_err(|e| e.to_string())?;
@@ -353,14 +376,6 @@ impl Raster {
         window: &Window,
     ) -> std::result::Result<Self, String> {
         let missing = if bands.alpha { f32::NAN } else { 0.0 };
-        let any_colour = AtomicBool::new(false);
-        let decode = |tile: &Tile| {
-            let picture = decode(tile)?;
-            if picture.bands >= 3 {
-                any_colour.store(true, Ordering::Relaxed);
-            }
-            Ok(picture)
-        };
         let write = |_: &Tile, picture: &Picture, pixel: usize, out: &mut [f32]| {
             let alpha = picture.masks.alpha;
             let colours = picture.bands - usize::from(alpha.is_some());
@@ -374,16 +389,14 @@ impl Raster {
                 *value = picture.samples[at + band.min(colours - 1)];
             }
         };
-        // Where GDAL recorded no band count, read as colour, then keep one band if no
-        // tile held colour.
-        let count = if bands.colour == Some(false) { 1 } else { 3 };
-        let mut raster = Raster::read(tiles, count, missing, matrix, window, decode, write)?;
-        if bands.colour.is_none() && !any_colour.into_inner() {
-            raster.values = raster.values.iter().step_by(3).copied().collect();
-            raster.bands = 1;
-        }
-        Ok(raster)
+        // Where GDAL recorded no band count, colour if any tile's header says colour.
+        let colour = bands
+            .colour
+            .unwrap_or_else(|| tiles.par_iter().any(|tile| holds_colour(&tile.data)));
+        let count = if colour { 3 } else { 1 };
+        Raster::read(tiles, count, missing, matrix, window, decode, write)
     }
+
     /// The window's `bands` (holding `missing` where no tile is) from `tiles`, a row of
     /// tiles at a time in parallel, each tile decoded by `decode` and its pixels in the
     /// window given to `write` with the cell's band values: no tile is held decoded
@@ -477,7 +490,16 @@ pub(super) mod fixtures {
         )
     }
 
-    /// A grey 2 × 2 tile, stored as PNG (its signature is all the reading looks at).
+    /// The first bytes of a grey 2 × 2 PNG: its signature and header chunk.
+    pub(crate) fn grey_png_header() -> Vec<u8> {
+        let mut bytes = PNG_SIGNATURE.to_vec();
+        bytes.extend([0, 0, 0, 13]);
+        bytes.extend(b"IHDR");
+        bytes.extend([0, 0, 0, 2, 0, 0, 0, 2, 8, 0, 0, 0, 0]);
+        bytes
+    }
+
+    /// A grey 2 × 2 tile, stored as PNG (its header is all the reading looks at).
     pub(crate) fn grey_tile(id: i64, column: i64, row: i64, values: [f32; 4]) -> (Tile, Picture) {
         (
             Tile {
@@ -485,7 +507,7 @@ pub(super) mod fixtures {
                 column,
                 row,
                 stored_row: row,
-                data: PNG_SIGNATURE.to_vec(),
+                data: grey_png_header(),
             },
             Picture {
                 width: 2,
@@ -659,6 +681,26 @@ mod tests {
         opaque[1].1.samples[3] = 255.0;
         let raster = imagery(&opaque, Bands::of(Some(2)), &m, &w);
         assert_eq!(raster.values, [7.0, 1.0]);
+    }
+
+    #[test]
+    fn colour_is_told_from_a_tiles_header() {
+        let mut png = grey_png_header();
+        assert!(!holds_colour(&png));
+        for (kind, colour) in [(2, true), (3, true), (4, false), (6, true)] {
+            png[25] = kind;
+            assert_eq!(holds_colour(&png), colour, "colour type {kind}");
+        }
+        // SOI, an APP0 segment, then a baseline frame header of 1 or 3 components.
+        let jpeg = |components: u8| {
+            let mut bytes = vec![0xff, 0xd8, 0xff, 0xe0, 0, 4, 0, 0];
+            bytes.extend([0xff, 0xc0, 0, 11, 8, 0, 16, 0, 16, components, 1, 0x11, 0]);
+            bytes
+        };
+        assert!(!holds_colour(&jpeg(1)));
+        assert!(holds_colour(&jpeg(3)));
+        assert!(holds_colour(b"RIFF....WEBP"));
+        assert!(holds_colour(&[0xff, 0xd8, 0xff]));
     }
 
     #[test]
