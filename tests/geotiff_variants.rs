@@ -2014,6 +2014,49 @@ fn mbtiles_read_as_gdal_reads_them() {
     assert!(leftovers.is_empty(), "{leftovers:?}");
 }
 
+/// PMTiles archives as Protomaps' library converts GDAL's MBTiles packages (PNG, JPEG,
+/// palette PNG, lossless WebP tiles; a grey world whose equal tiles are stored once, as
+/// a run), and each laid out again with its entries in leaf directories: each reads to
+/// what GDAL reads the package to once the package's bounds are the archive's (lossy
+/// tiles as close to GDAL's decoding as libjpeg-turbo's is). Vector tiles, a version 2
+/// archive and a text file are refused by name; damaged, each is read or refused naming
+/// the file, never a panic.
+#[test]
+fn pmtiles_read_as_gdal_reads_their_mbtiles() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("pmtiles_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let lossy = info["lossy"].as_object().unwrap();
+    let pairs = info["pairs"].as_array().unwrap();
+    assert!(pairs.len() >= 7 && !lossy.is_empty(), "{pairs:?} {lossy:?}");
+    for pair in pairs {
+        let (pmtiles, gdal, ours) = read_twins(pair);
+        assert_eq!(ours.geo.frame, "EPSG:3857", "{pmtiles}");
+        assert_decoded_as_gdal_or_peer(&pmtiles, &gdal, &ours, lossy.get(&pmtiles));
+    }
+    let refusals = [
+        ("vector", &["roads.pmtiles", "vector tiles"][..]),
+        ("old", &["old.pmtiles", "version 2"]),
+        ("text", &["text.pmtiles", "not a PMTiles archive"]),
+    ];
+    for (key, needles) in refusals {
+        let file = Path::new(info["refused"][key].as_str().unwrap());
+        let name = file.file_name().unwrap().to_str().unwrap();
+        let out = imitate(
+            dir.path(),
+            &["bench", "terrain", name, "--method", "uniform"],
+        );
+        assert_input_error(&out, needles);
+    }
+    let files: Vec<PathBuf> = pairs
+        .iter()
+        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
+        .collect();
+    assert!(damage_files(&files, &dir.path().join("damaged.pmtiles"), 40) >= 100);
+}
+
 /// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length
 /// compressed blocks, edge blocks, blocks of 32, 1-, 4- and 8-bit to 64-bit samples,
 /// nodata, band names, a CRS from the PE string or from ERDAS's projection parameters

@@ -33,10 +33,10 @@ use crate::grid::Map;
 /// The sphere Web Mercator projects (metres), and half the world's width on it: the
 /// tile grid runs from -`HALF_WORLD` to `HALF_WORLD` each way.
 const SPHERE_RADIUS: f64 = 6_378_137.0;
-const HALF_WORLD: f64 = SPHERE_RADIUS * std::f64::consts::PI;
+pub(super) const HALF_WORLD: f64 = SPHERE_RADIUS * std::f64::consts::PI;
 
 /// The deepest zoom level GDAL reads (cells of 4 cm at 256-cell tiles).
-const MAX_ZOOM: i64 = 22;
+pub(super) const MAX_ZOOM: i64 = 22;
 
 /// The MBTiles raster at `path` as map `name`, with whether its rows ran from the north
 /// (always: the grid runs from the north-west).
@@ -60,6 +60,21 @@ pub fn read_mbtiles_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     };
     let matrix = tile_matrix(&db, zoom, extent).map_err(&problem)?;
     let window = Window::of(extent, [-HALF_WORLD, HALF_WORLD], &matrix).map_err(&problem)?;
+    let tiles = tiles(&db, &matrix, &window).map_err(&problem)?;
+    tiles_map(path, name, extent, &matrix, &window, tiles)
+}
+
+/// The map of Web Mercator imagery `tiles` (of `matrix`) over `extent`, in `window`, as
+/// GDAL reads an MBTiles package: RGBA, so alpha and missing tiles are nodata.
+pub(super) fn tiles_map(
+    path: &Path,
+    name: &str,
+    extent: [f64; 4],
+    matrix: &TileMatrix,
+    window: &Window,
+    tiles: Vec<Tile>,
+) -> Result<(Map, bool)> {
+    let problem = |message: String| Error::input(path, message);
     let keys = epsg_geokeys(3857, true);
     let transform = [
         matrix.pixel[0],
@@ -76,18 +91,14 @@ pub fn read_mbtiles_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         height as u32,
         Georeferencing::of_grid(transform, &keys, String::new()),
     )?;
-    let tiles = tiles(&db, &matrix, &window).map_err(&problem)?;
-    window
-        .check_filled(tiles.len(), &matrix)
-        .map_err(&problem)?;
-    let decode = |tile: &Tile| decode_tile(tile, false, &matrix);
-    // GDAL reads every MBTiles raster as RGBA: alpha and missing tiles are nodata.
+    window.check_filled(tiles.len(), matrix).map_err(&problem)?;
+    let decode = |tile: &Tile| decode_tile(tile, false, matrix);
     let bands = Bands {
         colour: None,
         alpha: true,
     };
     let Raster { bands, values } =
-        Raster::of_imagery(tiles, decode, bands, &matrix, &window).map_err(&problem)?;
+        Raster::of_imagery(tiles, decode, bands, matrix, window).map_err(&problem)?;
     let samples = Samples {
         width: width as u32,
         height: height as u32,
@@ -166,8 +177,7 @@ fn web_mercator(longitude: f64, latitude: f64) -> [f64; 2] {
 }
 
 /// The metadata's `bounds` (west, south, east, north in degrees) in Web Mercator, where
-/// they are four numbers GDAL accepts (longitudes within ±180, latitudes within ±89.99,
-/// west of east and south of north); `None` otherwise, as GDAL then ignores them.
+/// they are four numbers GDAL accepts; `None` otherwise, as GDAL then ignores them.
 fn bounds(metadata: &HashMap<String, String>) -> Option<[f64; 4]> {
     let numbers: Vec<f64> = metadata
         .get("bounds")?
@@ -175,9 +185,13 @@ fn bounds(metadata: &HashMap<String, String>) -> Option<[f64; 4]> {
         .map(|token| token.trim().parse::<f64>())
         .collect::<std::result::Result<_, _>>()
         .ok()?;
-    let [west, south, east, north] = numbers[..] else {
-        return None;
-    };
+    degrees_to_extent(numbers.try_into().ok()?)
+}
+
+/// Bounds in degrees (west, south, east, north) in Web Mercator metres, where GDAL
+/// accepts them: longitudes within ±180, latitudes within ±89.99, west of east and
+/// south of north.
+pub(super) fn degrees_to_extent([west, south, east, north]: [f64; 4]) -> Option<[f64; 4]> {
     let longitude_ok = |x: f64| x.abs() <= 180.0;
     let latitude_ok = |y: f64| y.abs() < 89.99;
     let valid = longitude_ok(west)
@@ -209,15 +223,22 @@ fn tiles_extent(db: &Connection, zoom: i64) -> std::result::Result<[f64; 4], Str
             },
         )
         .map_err(|e| format!("its table tiles cannot be read: {e}"))?;
-    let [first_column, last_column, first_row, last_row] =
-        range.ok_or_else(|| format!("it holds no tile at zoom level {zoom}"))?;
+    let range = range.ok_or_else(|| format!("it holds no tile at zoom level {zoom}"))?;
+    Ok(tile_range_extent(zoom, range))
+}
+
+/// The extent (Web Mercator metres) of tiles `first_column` to `last_column` and
+/// `first_row` to `last_row`, rows counted from the south, at zoom level `zoom`, as
+/// GDAL computes it.
+pub(super) fn tile_range_extent(zoom: i64, range: [i64; 4]) -> [f64; 4] {
+    let [first_column, last_column, first_row, last_row] = range;
     let world = |tile: i64| -HALF_WORLD + 2.0 * HALF_WORLD * (tile as f64 / (1u64 << zoom) as f64);
-    Ok([
+    [
         world(first_column),
         world(first_row),
         world(last_column + 1),
         world(last_row + 1),
-    ])
+    ]
 }
 
 /// The tile matrix of zoom level `zoom`: tiles as wide as the one GDAL samples (the
@@ -254,14 +275,24 @@ fn tile_matrix(
     };
     let picture =
         decode_image(&data, false).map_err(|e| format!("its tile at zoom level {zoom}: {e}"))?;
-    let side = i64::from(picture.width);
-    if side != i64::from(picture.height) || !(1..=MAX_TILE_SIDE).contains(&side) {
+    web_mercator_matrix(zoom, picture.width, picture.height)
+}
+
+/// Zoom level `zoom`'s tile matrix on the Web Mercator grid, for tiles of `width` ×
+/// `height` cells (which must be square).
+pub(super) fn web_mercator_matrix(
+    zoom: i64,
+    width: u32,
+    height: u32,
+) -> std::result::Result<TileMatrix, String> {
+    let side = i64::from(width);
+    if side != i64::from(height) || !(1..=MAX_TILE_SIDE).contains(&side) {
         return Err(format!(
-            "its tiles at zoom level {zoom} are {} × {} cells: MBTiles tiles are square, at \
-             most {MAX_TILE_SIDE} a side",
-            picture.width, picture.height
+            "its tiles at zoom level {zoom} are {width} × {height} cells: Web Mercator tiles \
+             are square, at most {MAX_TILE_SIDE} a side"
         ));
     }
+    let tiles_across = 1i64 << zoom;
     let cell = 2.0 * HALF_WORLD / side as f64 / tiles_across as f64;
     Ok(TileMatrix {
         zoom,

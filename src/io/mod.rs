@@ -24,6 +24,7 @@ pub mod nav2;
 pub mod netcdf;
 pub mod parquet_check;
 pub mod picture;
+pub mod pmtiles;
 pub mod png;
 mod sidecar_bands;
 mod sqlite_tiles;
@@ -47,9 +48,10 @@ use crate::grid::Map;
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
 /// rasters (`.gpkg`).
-pub const RASTER_EXTENSIONS: [&str; 26] = [
+pub const RASTER_EXTENSIONS: [&str; 27] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg", "mbtiles",
+    "pmtiles",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -102,6 +104,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
         "gpkg" => geopackage::read_geopackage_rows(path, name),
         "mbtiles" => mbtiles::read_mbtiles_rows(path, name),
+        "pmtiles" => pmtiles::read_pmtiles_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -111,7 +114,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
-                 grids (.grd), GeoPackage rasters (.gpkg) or MBTiles (.mbtiles), not '.{other}'"
+                 grids (.grd), GeoPackage rasters (.gpkg), MBTiles (.mbtiles) or PMTiles (.pmtiles), not '.{other}'"
             ),
         )),
     }

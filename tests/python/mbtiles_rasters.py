@@ -28,15 +28,17 @@ from rasterio.transform import from_origin
 
 from gdal_twin import imagery_twin
 
-out = sys.argv[1]
-rng = np.random.default_rng(11)
-field = rng.normal(size=(3, 240, 320)).cumsum(1).cumsum(2)
-image = (field - field.min()) / (field.max() - field.min())
-rgb = (image * 254 + 1).astype("uint8")
 HALF_WORLD = 6378137.0 * math.pi
 
 
-def geotiff(name, values):
+def imagery():
+    """A seeded 3 × 240 × 320 image of smooth random colours, 1 to 255."""
+    field = np.random.default_rng(11).normal(size=(3, 240, 320)).cumsum(1).cumsum(2)
+    image = (field - field.min()) / (field.max() - field.min())
+    return (image * 254 + 1).astype("uint8")
+
+
+def geotiff(out, name, values):
     path = os.path.join(out, name + ".tif")
     with rasterio.open(path, "w", driver="GTiff", width=values.shape[2],
                        height=values.shape[1], count=values.shape[0], dtype=values.dtype,
@@ -45,7 +47,7 @@ def geotiff(name, values):
     return path
 
 
-def mbtiles(name, source, **options):
+def mbtiles(out, name, source, **options):
     path = os.path.join(out, name + ".mbtiles")
     rasterio.shutil.copy(source, path, driver="MBTiles", **options)
     return path
@@ -89,7 +91,7 @@ def peer_difference(path):
     return [float(difference.max()), float(difference.mean())]
 
 
-def without_bounds(name, source):
+def without_bounds(out, name, source):
     """A copy of `source` whose metadata gives no bounds."""
     path = os.path.join(out, name + ".mbtiles")
     shutil.copy(source, path)
@@ -100,7 +102,7 @@ def without_bounds(name, source):
     return path
 
 
-def rounded_bounds(name, source):
+def rounded_bounds(out, name, source):
     """A copy of `source` whose bounds are rounded to four decimals, as a hand or a
     tool that writes them for display leaves them."""
     path = os.path.join(out, name + ".mbtiles")
@@ -115,7 +117,7 @@ def rounded_bounds(name, source):
     return path
 
 
-def deduplicated(name, source):
+def deduplicated(out, name, source):
     """`source`'s tiles laid out as mbutil and MapTiler write them: each distinct image
     once in `images`, `map` placing it, `tiles` a view joining the two."""
     path = os.path.join(out, name + ".mbtiles")
@@ -147,42 +149,49 @@ def deduplicated(name, source):
     return path
 
 
-pairs, lossy = [], []
-rgb_tif = geotiff("rgb", rgb)
-png = mbtiles("rgb_png", rgb_tif)
-pairs.append(imagery_twin(png, 3))
-jpeg = mbtiles("rgb_jpeg", rgb_tif, TILE_FORMAT="JPEG")
-pairs.append(imagery_twin(jpeg, 3))
-lossy.append(jpeg)
-pairs.append(imagery_twin(mbtiles("rgb_png8", rgb_tif, TILE_FORMAT="PNG8"), 3))
-webp = mbtiles("rgb_webp", rgb_tif, TILE_FORMAT="WEBP")
-pairs.append(imagery_twin(webp, 3))
-lossy.append(webp)
-grey = mbtiles("grey", geotiff("grey", rgb[:1]))
-pairs.append(imagery_twin(grey, 1))
-overviews = mbtiles("overviews", rgb_tif)
-with rasterio.open(overviews, "r+") as dst:
-    dst.build_overviews([2, 4], Resampling.average)
-pairs.append(imagery_twin(overviews, 3))
-pairs.append(imagery_twin(without_bounds("no_bounds", png), 3))
-pairs.append(imagery_twin(rounded_bounds("rounded_bounds", png), 3))
-pairs.append(imagery_twin(deduplicated("deduplicated", png), 3))
+def main():
+    out = sys.argv[1]
+    rgb = imagery()
+    pairs, lossy = [], []
+    rgb_tif = geotiff(out, "rgb", rgb)
+    png = mbtiles(out, "rgb_png", rgb_tif)
+    pairs.append(imagery_twin(png, 3))
+    jpeg = mbtiles(out, "rgb_jpeg", rgb_tif, TILE_FORMAT="JPEG")
+    pairs.append(imagery_twin(jpeg, 3))
+    lossy.append(jpeg)
+    pairs.append(imagery_twin(mbtiles(out, "rgb_png8", rgb_tif, TILE_FORMAT="PNG8"), 3))
+    webp = mbtiles(out, "rgb_webp", rgb_tif, TILE_FORMAT="WEBP")
+    pairs.append(imagery_twin(webp, 3))
+    lossy.append(webp)
+    grey = mbtiles(out, "grey", geotiff(out, "grey", rgb[:1]))
+    pairs.append(imagery_twin(grey, 1))
+    overviews = mbtiles(out, "overviews", rgb_tif)
+    with rasterio.open(overviews, "r+") as dst:
+        dst.build_overviews([2, 4], Resampling.average)
+    pairs.append(imagery_twin(overviews, 3))
+    pairs.append(imagery_twin(without_bounds(out, "no_bounds", png), 3))
+    pairs.append(imagery_twin(rounded_bounds(out, "rounded_bounds", png), 3))
+    pairs.append(imagery_twin(deduplicated(out, "deduplicated", png), 3))
 
-# Refusals.
-vector = os.path.join(out, "roads.mbtiles")
-db = sqlite3.connect(vector)
-db.executescript("""
-    CREATE TABLE metadata (name TEXT, value TEXT);
-    CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
-                        tile_data BLOB);
-    INSERT INTO metadata VALUES ('format', 'pbf'), ('minzoom', '0'), ('maxzoom', '0');
-    INSERT INTO tiles VALUES (0, 0, 0, x'1f8b');
-""")
-db.close()
-geopackage = os.path.join(out, "geopackage.mbtiles")
-rasterio.shutil.copy(rgb_tif, geopackage, driver="GPKG")
-text = os.path.join(out, "text.mbtiles")
-with open(text, "w") as f:
-    f.write("not a database\n")
-print(json.dumps({"pairs": pairs, "lossy": {path: peer_difference(path) for path in lossy},
-                  "refused": {"vector": vector, "geopackage": geopackage, "text": text}}))
+    # Refusals.
+    vector = os.path.join(out, "roads.mbtiles")
+    db = sqlite3.connect(vector)
+    db.executescript("""
+        CREATE TABLE metadata (name TEXT, value TEXT);
+        CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
+                            tile_data BLOB);
+        INSERT INTO metadata VALUES ('format', 'pbf'), ('minzoom', '0'), ('maxzoom', '0');
+        INSERT INTO tiles VALUES (0, 0, 0, x'1f8b');
+    """)
+    db.close()
+    geopackage = os.path.join(out, "geopackage.mbtiles")
+    rasterio.shutil.copy(rgb_tif, geopackage, driver="GPKG")
+    text = os.path.join(out, "text.mbtiles")
+    with open(text, "w") as f:
+        f.write("not a database\n")
+    print(json.dumps({"pairs": pairs, "lossy": {path: peer_difference(path) for path in lossy},
+                      "refused": {"vector": vector, "geopackage": geopackage, "text": text}}))
+
+
+if __name__ == "__main__":
+    main()
