@@ -4,7 +4,9 @@ cover in raw blocks and the same cover run-length compressed; netCDF (its netCDF
 driver) with the DEM in classic netCDF and in netCDF-4 with Deflate; GeoPackage (its
 GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both in
 256² PNG tiles; MBTiles (its MBTiles driver) with the cover in PNG tiles, on zoom level
-16's Web Mercator grid (so that GDAL writes its cells as they are); each beside an
+16's Web Mercator grid (so that GDAL writes its cells as they are), and that package as
+a PMTiles archive (Protomaps' converter; GDAL, which reads no raster PMTiles, is timed
+on the package); each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
 the raster as costs and plans two cells apart: the read is the time; wall and user CPU
 seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
@@ -30,6 +32,7 @@ import time
 import numpy as np
 import rasterio
 import rasterio.shutil
+from pmtiles.convert import mbtiles_to_pmtiles
 from rasterio.transform import from_origin
 
 SIZE = 8192
@@ -47,6 +50,10 @@ ZOOM_16_CORNER = (-6378137.0 * math.pi + 16800 * 256 * ZOOM_16_CELL,
 def write(path, values, driver, mercator=False, **options):
     """`values` written to `path` by GDAL's `driver` (a create-copy driver from a
     GeoTIFF): in UTM, 30 m cells, or (`mercator`) on zoom level 16's Web Mercator grid."""
+    if driver == "PMTiles":
+        source = write(path + ".mbtiles", values, "MBTiles", mercator, **options)
+        mbtiles_to_pmtiles(source, path, None)
+        return path
     if driver in ("netCDF", "GPKG", "MBTiles"):
         source = write(path + ".source.tif", values, "GTiff", mercator)
         rasterio.shutil.copy(source, path, driver=driver, **options)
@@ -101,20 +108,23 @@ def main():
              ("GeoPackage: DEM, coverage in PNG tiles", "dem.gpkg", dem, "GPKG", {}),
              ("GeoPackage: cover, PNG tiles", "cover.gpkg", cover, "GPKG",
               {"TILE_FORMAT": "PNG"}),
-             ("MBTiles: cover, PNG tiles", "cover.mbtiles", cover, "MBTiles", {})]
+             ("MBTiles: cover, PNG tiles", "cover.mbtiles", cover, "MBTiles", {}),
+             ("PMTiles: cover, PNG tiles", "cover.pmtiles", cover, "PMTiles", {})]
     print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
           "GDAL, the file | the file to GeoTIFF, user CPU |")
     print("|---|---|---|---|---|---|")
     for label, name, values, driver, options in cases:
         if only not in label:
             continue
-        mercator = driver == "MBTiles"
+        mercator = driver in ("MBTiles", "PMTiles")
         path = write(os.path.join(out, name), values, driver, mercator, **options)
         tif = write(os.path.join(out, name + ".tif"), values, "GTiff", mercator)
         os.sync()
         ours = min(timed_plan(binary, path) for _ in range(REPEATS))
         twin = min(timed_plan(binary, tif) for _ in range(REPEATS))
-        gdal = min(timed_gdal(path, values) for _ in range(REPEATS))
+        # GDAL reads no raster PMTiles: it reads the MBTiles the archive was made from.
+        gdal_reads = path + ".mbtiles" if driver == "PMTiles" else path
+        gdal = min(timed_gdal(gdal_reads, values) for _ in range(REPEATS))
         print(f"| {label} | {os.path.getsize(path):,} | {ours[0]:.2f} s / {ours[1]:.2f} s | "
               f"{twin[0]:.2f} s / {twin[1]:.2f} s | {gdal:.2f} s | {ours[1] / twin[1]:.2f} |",
               flush=True)

@@ -4,7 +4,8 @@ nearest their cells, PNG or JPEG tiles), each run through the hidden-teacher pro
 beside a GeoTIFF twin of what GDAL reads the package to (its colour bands, one where the
 source is grey; NaN where its alpha is 0). A package with PNG tiles must give its twin's figures to the last digit; one
 with JPEG tiles is decoded by another decoder than GDAL's, so its figures may differ in
-near-equal plans.
+near-equal plans. Each PNG package is also converted to a PMTiles archive (Protomaps'
+converter) and run beside the package.
 
     PYTHONPATH=target/python-deps python3 benches/terrain_mbtiles.py \
         target/release/imitate target/mbtiles [--teacher T ...] [--seed 7]
@@ -21,6 +22,7 @@ import sys
 
 import rasterio
 import rasterio.shutil
+from pmtiles.convert import mbtiles_to_pmtiles
 
 from terrain_formats import run
 
@@ -74,6 +76,14 @@ def main():
             show = lambda f: f"{f[0]:.4f} / {f[1]} of {f[2]} / {f[3]:.1f}%"
             print(f"| {name} | {tiles} | {zoom} | {cells:,} | {show(ours)} | {show(gdal)} | "
                   f"{'yes' if our_pairs == gdal_pairs else 'no'} |", flush=True)
+            if tiles == "PNG":
+                # The package as a PMTiles archive (its bounds kept to 7 decimals).
+                archive = os.path.splitext(path)[0] + ".pmtiles"
+                mbtiles_to_pmtiles(path, archive, None)
+                theirs, their_pairs = figures(args.binary, archive, teachers, args.seed)
+                print(f"| {name} | PNG, as PMTiles | {zoom} | {cells:,} | {show(theirs)} | "
+                      f"{show(ours)} (the MBTiles) | "
+                      f"{'yes' if their_pairs == our_pairs else 'no'} |", flush=True)
 
 
 if __name__ == "__main__":
