@@ -1693,6 +1693,22 @@ fn assert_decoded_as_gdal_or_peer(
     );
 }
 
+/// Plans across `file` (a one-band raster read as costs) from cell `start` to `goal`, as
+/// a user would, and checks the plan joins them at a finite cost.
+fn plans_across(dir: &Path, file: &str, start: &str, goal: &str) {
+    let out = imitate(
+        dir,
+        &["plan", file, "--cells", "--start", start, "--goal", goal],
+    );
+    assert!(out.status.success(), "{file}: {}", stderr(&out));
+    let plan: serde_json::Value = serde_json::from_str(&stdout(&out)).unwrap();
+    let cells = plan["cells"].as_array().unwrap();
+    let joined = |cell: &serde_json::Value| format!("{},{}", cell[0], cell[1]);
+    assert_eq!(joined(&cells[0]), start, "{file}");
+    assert_eq!(joined(cells.last().unwrap()), goal, "{file}");
+    assert!(plan["cost"].as_f64().unwrap().is_finite(), "{plan}");
+}
+
 /// The strings of a JSON array the Python writers print.
 fn strings(list: &serde_json::Value) -> Vec<&str> {
     list.as_array()
@@ -1986,6 +2002,7 @@ fn mbtiles_read_as_gdal_reads_them() {
         assert_eq!(ours.geo.frame, "EPSG:3857", "{mbtiles}");
         assert_decoded_as_gdal_or_peer(&mbtiles, &gdal, &ours, lossy.get(&mbtiles));
     }
+    plans_across(dir.path(), "grey.mbtiles", "60,60", "180,120");
     let refusals = [
         ("vector", &["roads.mbtiles", "vector tiles"][..]),
         ("geopackage", &["geopackage.mbtiles", "not an MBTiles file"]),
@@ -2036,6 +2053,7 @@ fn pmtiles_read_as_gdal_reads_their_mbtiles() {
         assert_eq!(ours.geo.frame, "EPSG:3857", "{pmtiles}");
         assert_decoded_as_gdal_or_peer(&pmtiles, &gdal, &ours, lossy.get(&pmtiles));
     }
+    plans_across(dir.path(), "world.pmtiles", "10,10", "100,100");
     let refusals = [
         ("vector", &["roads.pmtiles", "vector tiles"][..]),
         ("old", &["old.pmtiles", "version 2"]),
