@@ -85,15 +85,21 @@ def run(binary, path, teachers, seed):
     return [r for r in results if r["method"] == "learch-alternate"]
 
 
-def main():
+def arguments():
+    """The binary, the output folder (made), the teachers (threshold and texture unless
+    named) and the seed, from the command line."""
     parser = argparse.ArgumentParser()
     parser.add_argument("binary")
     parser.add_argument("out")
     parser.add_argument("--teacher", action="append", default=[])
     parser.add_argument("--seed", type=int, default=7)
     args = parser.parse_args()
-    teachers = args.teacher or ["threshold", "texture"]
     os.makedirs(args.out, exist_ok=True)
+    return args, args.teacher or ["threshold", "texture"]
+
+
+def main():
+    args, teachers = arguments()
     print("| raster | format | bytes | mean ratio | pairs ≤ 1.03 | within 2 cells | "
           "same figures as the GeoTIFF |")
     print("|---|---|---|---|---|---|---|")

@@ -15,7 +15,6 @@ cost ratio, pairs within 1.03 and share within 2 cells, the twin's, and whether 
 the same.
 """
 
-import argparse
 import os
 import sqlite3
 import sys
@@ -24,7 +23,7 @@ import rasterio
 import rasterio.shutil
 from pmtiles.convert import mbtiles_to_pmtiles
 
-from terrain_formats import run
+from terrain_formats import arguments, run
 
 sys.path.insert(0, os.path.join(os.path.dirname(__file__), "..", "tests", "python"))
 from gdal_twin import imagery_twin  # noqa: E402
@@ -45,14 +44,7 @@ def figures(binary, path, teachers, seed):
 
 
 def main():
-    parser = argparse.ArgumentParser()
-    parser.add_argument("binary")
-    parser.add_argument("out")
-    parser.add_argument("--teacher", action="append", default=[])
-    parser.add_argument("--seed", type=int, default=7)
-    args = parser.parse_args()
-    teachers = args.teacher or ["threshold", "texture"]
-    os.makedirs(args.out, exist_ok=True)
+    args, teachers = arguments()
     print("| raster | tiles | zoom | cells | MBTiles ratio / ≤ 1.03 / within 2 | "
           "GDAL's reading as GeoTIFF | same |")
     print("|---|---|---|---|---|---|---|")

@@ -1709,6 +1709,37 @@ fn plans_across(dir: &Path, file: &str, start: &str, goal: &str) {
     assert!(plan["cost"].as_f64().unwrap().is_finite(), "{plan}");
 }
 
+/// Runs `imitate bench terrain` on each file `refused` names by key, as a user would,
+/// and checks each ends as an input error naming its needles.
+fn assert_refused(dir: &Path, refused: &serde_json::Value, refusals: &[(&str, &[&str])]) {
+    for (key, needles) in refusals {
+        let file = Path::new(refused[key].as_str().unwrap());
+        let name = file.file_name().unwrap().to_str().unwrap();
+        let out = imitate(dir, &["bench", "terrain", name, "--method", "uniform"]);
+        assert_input_error(&out, needles);
+    }
+}
+
+/// `damage_files` on the second file of each pair the Python writers print.
+fn damage_pairs(pairs: &[serde_json::Value], damaged: &Path, per_file: usize) -> usize {
+    let files: Vec<PathBuf> = pairs
+        .iter()
+        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
+        .collect();
+    damage_files(&files, damaged, per_file)
+}
+
+/// Read, never written: SQLite left no journal, write-ahead log or lock file in `dir`.
+fn assert_nothing_beside(dir: &Path) {
+    let leftovers: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with("-journal") || n.ends_with("-wal") || n.ends_with("-shm"))
+        .collect();
+    assert!(leftovers.is_empty(), "{leftovers:?}");
+}
+
 /// The strings of a JSON array the Python writers print.
 fn strings(list: &serde_json::Value) -> Vec<&str> {
     list.as_array()
@@ -1955,28 +1986,9 @@ fn geopackage_rasters_read_as_gdal_reads_them() {
         ),
         ("text", &["text.gpkg", "not a GeoPackage"]),
     ];
-    for (key, needles) in refusals {
-        let file = Path::new(info["refused"][key].as_str().unwrap());
-        let name = file.file_name().unwrap().to_str().unwrap();
-        let out = imitate(
-            dir.path(),
-            &["bench", "terrain", name, "--method", "uniform"],
-        );
-        assert_input_error(&out, needles);
-    }
-    let files: Vec<PathBuf> = pairs
-        .iter()
-        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
-        .collect();
-    assert!(damage_files(&files, &dir.path().join("damaged.gpkg"), 40) >= 200);
-    // Read, never written: SQLite left nothing beside the files.
-    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with("-journal") || n.ends_with("-wal") || n.ends_with("-shm"))
-        .collect();
-    assert!(leftovers.is_empty(), "{leftovers:?}");
+    assert_refused(dir.path(), &info["refused"], &refusals);
+    assert!(damage_pairs(pairs, &dir.path().join("damaged.gpkg"), 40) >= 200);
+    assert_nothing_beside(dir.path());
 }
 
 /// MBTiles as GDAL writes them (its MBTiles driver, warping a UTM source to Web
@@ -2008,27 +2020,9 @@ fn mbtiles_read_as_gdal_reads_them() {
         ("geopackage", &["geopackage.mbtiles", "not an MBTiles file"]),
         ("text", &["text.mbtiles", "not an MBTiles file"]),
     ];
-    for (key, needles) in refusals {
-        let file = Path::new(info["refused"][key].as_str().unwrap());
-        let name = file.file_name().unwrap().to_str().unwrap();
-        let out = imitate(
-            dir.path(),
-            &["bench", "terrain", name, "--method", "uniform"],
-        );
-        assert_input_error(&out, needles);
-    }
-    let files: Vec<PathBuf> = pairs
-        .iter()
-        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
-        .collect();
-    assert!(damage_files(&files, &dir.path().join("damaged.mbtiles"), 40) >= 100);
-    let leftovers: Vec<_> = std::fs::read_dir(dir.path())
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .filter(|n| n.ends_with("-journal") || n.ends_with("-wal") || n.ends_with("-shm"))
-        .collect();
-    assert!(leftovers.is_empty(), "{leftovers:?}");
+    assert_refused(dir.path(), &info["refused"], &refusals);
+    assert!(damage_pairs(pairs, &dir.path().join("damaged.mbtiles"), 40) >= 100);
+    assert_nothing_beside(dir.path());
 }
 
 /// PMTiles archives as Protomaps' library converts GDAL's MBTiles packages (PNG, JPEG,
@@ -2059,20 +2053,8 @@ fn pmtiles_read_as_gdal_reads_their_mbtiles() {
         ("old", &["old.pmtiles", "version 2"]),
         ("text", &["text.pmtiles", "not a PMTiles archive"]),
     ];
-    for (key, needles) in refusals {
-        let file = Path::new(info["refused"][key].as_str().unwrap());
-        let name = file.file_name().unwrap().to_str().unwrap();
-        let out = imitate(
-            dir.path(),
-            &["bench", "terrain", name, "--method", "uniform"],
-        );
-        assert_input_error(&out, needles);
-    }
-    let files: Vec<PathBuf> = pairs
-        .iter()
-        .map(|pair| PathBuf::from(pair[1].as_str().unwrap()))
-        .collect();
-    assert!(damage_files(&files, &dir.path().join("damaged.pmtiles"), 40) >= 100);
+    assert_refused(dir.path(), &info["refused"], &refusals);
+    assert!(damage_pairs(pairs, &dir.path().join("damaged.pmtiles"), 40) >= 100);
 }
 
 /// ERDAS Imagine files as GDAL writes them (its HFA driver): raw and run-length

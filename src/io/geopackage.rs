@@ -519,7 +519,7 @@ impl Raster {
 
 #[cfg(test)]
 mod tests {
-    use super::super::sqlite_tiles::fixtures::{decoded, grey_tile, matrix};
+    use super::super::sqlite_tiles::fixtures::{decoded, grey_tile, two_grey_tiles};
     use super::*;
 
     fn covered(tiles: &[(Tile, Picture)], c: &Coverage, m: &TileMatrix, w: &Window) -> Raster {
@@ -529,22 +529,7 @@ mod tests {
 
     #[test]
     fn coverage_tiles_are_scaled_by_their_tile_and_the_coverage() {
-        let m = TileMatrix {
-            tile: [2, 2],
-            columns: 2,
-            rows: 2,
-            ..matrix()
-        };
-        let w = Window {
-            width: 3,
-            height: 3,
-            shift: [1, 0],
-        };
-        let grey = grey_tile;
-        let tiles = [
-            grey(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
-            grey(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
-        ];
+        let (m, w, tiles) = two_grey_tiles();
         let coverage = Coverage {
             scale: 2.0,
             offset: -1.0,
@@ -558,7 +543,7 @@ mod tests {
         assert_eq!(raster.values[0], 3.0);
         // (5 × 0.5 + 10) × 2 − 1
         assert_eq!(raster.values[7], 24.0);
-        let nulls = [grey(2, 1, 1, [8.0, 6.0, 7.0, 8.0])];
+        let nulls = [grey_tile(2, 1, 1, [8.0, 6.0, 7.0, 8.0])];
         let raster = covered(&nulls, &coverage, &m, &w);
         assert!(raster.values[7].is_nan() && !raster.values[8].is_nan());
         // At a precision of 1, (5 × 0.25 + 10) × 2 − 1 = 21.5 rounds half up, as GDAL.

@@ -499,6 +499,27 @@ pub(super) mod fixtures {
         bytes
     }
 
+    /// Two grey 2 × 2 tiles of a 2 × 2 tile matrix, (0, 0) and (1, 1), and a 3 × 3
+    /// window whose column 0 is the grid's column 1.
+    pub(crate) fn two_grey_tiles() -> (TileMatrix, Window, [(Tile, Picture); 2]) {
+        let m = TileMatrix {
+            tile: [2, 2],
+            columns: 2,
+            rows: 2,
+            ..matrix()
+        };
+        let w = Window {
+            width: 3,
+            height: 3,
+            shift: [1, 0],
+        };
+        let tiles = [
+            grey_tile(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
+            grey_tile(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
+        ];
+        (m, w, tiles)
+    }
+
     /// A grey 2 × 2 tile, stored as PNG (its header is all the reading looks at).
     pub(crate) fn grey_tile(id: i64, column: i64, row: i64, values: [f32; 4]) -> (Tile, Picture) {
         (
@@ -568,22 +589,7 @@ mod tests {
 
     #[test]
     fn tiles_land_in_their_cells_and_missing_cells_hold_no_data() {
-        let m = TileMatrix {
-            tile: [2, 2],
-            columns: 2,
-            rows: 2,
-            ..matrix()
-        };
-        let w = Window {
-            width: 3,
-            height: 3,
-            shift: [1, 0],
-        };
-        let grey = grey_tile;
-        let tiles = [
-            grey(1, 0, 0, [1.0, 2.0, 3.0, 4.0]),
-            grey(2, 1, 1, [5.0, 6.0, 7.0, 8.0]),
-        ];
+        let (m, w, tiles) = two_grey_tiles();
         let raster = imagery(&tiles, Bands::of(None), &m, &w);
         assert_eq!(raster.bands, 1);
         // Column 0 of the window is the tile grid's column 1.

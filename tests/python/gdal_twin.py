@@ -2,6 +2,7 @@
 readers to GDAL's: float32 bands, NaN where GDAL's mask says no data, the grid, CRS,
 band descriptions, units, scales and offsets carried over."""
 
+import imagecodecs
 import numpy as np
 import rasterio
 
@@ -37,3 +38,33 @@ def imagery_twin(path, bands):
                            nodata=float("nan")) as dst:
             dst.write(colours)
     return [path + ".tif", path]
+
+
+def lossy_tiles_difference(path, placed):
+    """How far libjpeg-turbo's and libwebp's decoding (imagecodecs) of a tiled raster's
+    lossy tiles is from GDAL's reading of `path`: the largest and mean difference over
+    the colour bands, the yardstick for another decoder's. `placed` gives each tile's
+    top row and left column in GDAL's grid (either may be negative) and its bytes."""
+    with rasterio.open(path) as src:
+        gdal = src.read().astype(float).transpose(1, 2, 0)
+        valid = src.dataset_mask() > 0
+    differences = []
+    for top, left, data in placed:
+        if data[:2] == b"\xff\xd8":
+            tile = imagecodecs.jpeg8_decode(data)
+        elif data[:4] == b"RIFF":
+            tile = imagecodecs.webp_decode(data)
+        else:
+            continue
+        tile = tile.astype(float)
+        if tile.ndim == 2:
+            tile = tile[:, :, None]
+        bands = min(tile.shape[2], gdal.shape[2], 3)
+        ys = slice(max(top, 0), max(min(top + tile.shape[0], gdal.shape[0]), 0))
+        xs = slice(max(left, 0), max(min(left + tile.shape[1], gdal.shape[1]), 0))
+        theirs = gdal[ys, xs, :bands]
+        mine = tile[ys.start - top:ys.stop - top, xs.start - left:xs.stop - left, :bands]
+        differences.append(np.abs(mine - theirs)[valid[ys, xs]].ravel())
+    difference = np.concatenate(differences) if differences else np.zeros(0)
+    assert difference.size, f"{path} holds no lossy tile"
+    return [float(difference.max()), float(difference.mean())]

@@ -17,14 +17,13 @@ import os
 import sqlite3
 import sys
 
-import imagecodecs
 import numpy as np
 import rasterio
 import rasterio.shutil
 from rasterio.enums import Resampling
 from rasterio.transform import from_origin
 
-from gdal_twin import imagery_twin, twin
+from gdal_twin import imagery_twin, lossy_tiles_difference, twin
 
 out = sys.argv[1]
 rng = np.random.default_rng(5)
@@ -51,37 +50,18 @@ def gpkg(name, source, **options):
 
 
 def peer_difference(path):
-    """How far libjpeg-turbo's and libwebp's decoding (imagecodecs) of the full
-    resolution's lossy tiles is from GDAL's reading: the largest and mean difference,
-    the yardstick for another decoder's."""
-    with rasterio.open(path) as src:
-        gdal = src.read().astype(float).transpose(1, 2, 0)
-        valid = src.dataset_mask() > 0
+    """`lossy_tiles_difference` of the GeoPackage's full resolution, its tiles placed
+    from the tile matrix's north-west corner (where GDAL's raster starts here)."""
     db = sqlite3.connect(path)
     (table,) = db.execute("SELECT table_name FROM gpkg_contents").fetchone()
     (zoom,) = db.execute(f'SELECT MAX(zoom_level) FROM "{table}"').fetchone()
     tw, th = db.execute("SELECT tile_width, tile_height FROM gpkg_tile_matrix WHERE "
                         "table_name = ? AND zoom_level = ?", (table, zoom)).fetchone()
-    differences = []
-    for column, row, data in db.execute(f'SELECT tile_column, tile_row, tile_data FROM '
-                                        f'"{table}" WHERE zoom_level = ?', (zoom,)):
-        if data[:2] == b"\xff\xd8":
-            tile = imagecodecs.jpeg8_decode(data)
-        elif data[:4] == b"RIFF":
-            tile = imagecodecs.webp_decode(data)
-        else:
-            continue
-        tile = tile.astype(float)
-        if tile.ndim == 2:
-            tile = tile[:, :, None]
-        window = (slice(row * th, (row + 1) * th), slice(column * tw, (column + 1) * tw))
-        theirs = gdal[window]
-        h, w, bands = theirs.shape
-        differences.append(np.abs(tile[:h, :w, :bands] - theirs)[valid[window]].ravel())
+    placed = [(row * th, column * tw, data) for column, row, data in db.execute(
+        f'SELECT tile_column, tile_row, tile_data FROM "{table}" WHERE zoom_level = ?',
+        (zoom,))]
     db.close()
-    assert differences, f"{path} holds no lossy tile"
-    difference = np.concatenate(differences)
-    return [float(difference.max()), float(difference.mean())]
+    return lossy_tiles_difference(path, placed)
 
 
 pairs, lossy = [], []

@@ -19,14 +19,13 @@ import shutil
 import sqlite3
 import sys
 
-import imagecodecs
 import numpy as np
 import rasterio
 import rasterio.shutil
 from rasterio.enums import Resampling
 from rasterio.transform import from_origin
 
-from gdal_twin import imagery_twin
+from gdal_twin import imagery_twin, lossy_tiles_difference
 
 HALF_WORLD = 6378137.0 * math.pi
 
@@ -54,41 +53,37 @@ def mbtiles(out, name, source, **options):
 
 
 def peer_difference(path):
-    """How far libjpeg-turbo's and libwebp's decoding (imagecodecs) of the full
-    resolution's lossy tiles is from GDAL's reading: the largest and mean difference,
-    the yardstick for another decoder's."""
+    """`lossy_tiles_difference` of the package's full resolution, its tiles placed as
+    GDAL places them: rows from the south, shifted to the nearest cell of the grid."""
     with rasterio.open(path) as src:
-        gdal = src.read(list(range(1, 4))).astype(float).transpose(1, 2, 0)
-        valid = src.dataset_mask() > 0
         cell = src.transform.a
         shift_x = math.floor((src.transform.c + HALF_WORLD) / cell + 0.5)
         shift_y = math.floor((HALF_WORLD - src.transform.f) / cell + 0.5)
+        side = src.block_shapes[0][0]
     db = sqlite3.connect(path)
     (zoom,) = db.execute("SELECT MAX(zoom_level) FROM tiles").fetchone()
-    differences = []
-    for column, stored_row, data in db.execute(
-            "SELECT tile_column, tile_row, tile_data FROM tiles WHERE zoom_level = ?", (zoom,)):
-        if data[:2] == b"\xff\xd8":
-            tile = imagecodecs.jpeg8_decode(data)
-        elif data[:4] == b"RIFF":
-            tile = imagecodecs.webp_decode(data)
-        else:
-            continue
-        tile = tile.astype(float)
-        if tile.ndim == 2:
-            tile = np.repeat(tile[:, :, None], 3, axis=2)
-        side = tile.shape[0]
-        row = (1 << zoom) - 1 - stored_row
-        top, left = row * side - shift_y, column * side - shift_x
-        ys = slice(max(top, 0), max(min(top + side, gdal.shape[0]), 0))
-        xs = slice(max(left, 0), max(min(left + side, gdal.shape[1]), 0))
-        theirs = gdal[ys, xs]
-        mine = tile[ys.start - top:ys.stop - top, xs.start - left:xs.stop - left, :3]
-        differences.append(np.abs(mine - theirs)[valid[ys, xs]].ravel())
+    rows = db.execute("SELECT tile_column, tile_row, tile_data FROM tiles "
+                      "WHERE zoom_level = ?", (zoom,)).fetchall()
     db.close()
-    difference = np.concatenate(differences)
-    assert difference.size, f"{path} holds no lossy tile"
-    return [float(difference.max()), float(difference.mean())]
+    placed = [(((1 << zoom) - 1 - row) * side - shift_y, column * side - shift_x, data)
+              for column, row, data in rows]
+    return lossy_tiles_difference(path, placed)
+
+
+def tile_package(path, metadata, tiles):
+    """An MBTiles package written by hand: `metadata` (name, value) pairs and `tiles`
+    (zoom level, column, row from the south, bytes)."""
+    db = sqlite3.connect(path)
+    db.executescript("""
+        CREATE TABLE metadata (name TEXT, value TEXT);
+        CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
+                            tile_data BLOB);
+    """)
+    db.executemany("INSERT INTO metadata VALUES (?, ?)", metadata)
+    db.executemany("INSERT INTO tiles VALUES (?, ?, ?, ?)", tiles)
+    db.commit()
+    db.close()
+    return path
 
 
 def without_bounds(out, name, source):
@@ -174,16 +169,9 @@ def main():
     pairs.append(imagery_twin(deduplicated(out, "deduplicated", png), 3))
 
     # Refusals.
-    vector = os.path.join(out, "roads.mbtiles")
-    db = sqlite3.connect(vector)
-    db.executescript("""
-        CREATE TABLE metadata (name TEXT, value TEXT);
-        CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
-                            tile_data BLOB);
-        INSERT INTO metadata VALUES ('format', 'pbf'), ('minzoom', '0'), ('maxzoom', '0');
-        INSERT INTO tiles VALUES (0, 0, 0, x'1f8b');
-    """)
-    db.close()
+    vector = tile_package(os.path.join(out, "roads.mbtiles"),
+                          [("format", "pbf"), ("minzoom", "0"), ("maxzoom", "0")],
+                          [(0, 0, 0, b"\x1f\x8b")])
     geopackage = os.path.join(out, "geopackage.mbtiles")
     rasterio.shutil.copy(rgb_tif, geopackage, driver="GPKG")
     text = os.path.join(out, "text.mbtiles")

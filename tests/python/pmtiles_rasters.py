@@ -24,7 +24,7 @@ from pmtiles.tile import (Compression, Entry, TileType, deserialize_directory,
                           deserialize_header, serialize_directory, serialize_header)
 
 from gdal_twin import imagery_twin
-from mbtiles_rasters import geotiff, imagery, mbtiles, peer_difference
+from mbtiles_rasters import geotiff, imagery, mbtiles, peer_difference, tile_package
 
 
 def archive(mbtiles_path):
@@ -81,24 +81,14 @@ def in_leaves(pmtiles_path):
 def grey_world(out):
     """An MBTiles package of the whole world at zoom level 1 (and 0) in grey 64-cell PNG
     tiles: three of the four the same, which the PMTiles writer stores as runs."""
-    path = os.path.join(out, "world.mbtiles")
-    db = sqlite3.connect(path)
-    db.executescript("""
-        CREATE TABLE metadata (name TEXT, value TEXT);
-        CREATE TABLE tiles (zoom_level INTEGER, tile_column INTEGER, tile_row INTEGER,
-                            tile_data BLOB);
-    """)
-    db.executemany("INSERT INTO metadata VALUES (?, ?)", [
-        ("name", "world"), ("format", "png"), ("minzoom", "0"), ("maxzoom", "1"),
-        ("bounds", "-180,-85.0511287798066,180,85.0511287798066")])
     plain = imagecodecs.png_encode(np.full((64, 64), 90, "uint8"))
     ramp = imagecodecs.png_encode(np.tile(np.arange(64, dtype="uint8") * 4, (64, 1)))
-    tiles = [(0, 0, 0, plain), (1, 0, 0, plain), (1, 0, 1, plain), (1, 1, 1, plain),
-             (1, 1, 0, ramp)]
-    db.executemany("INSERT INTO tiles VALUES (?, ?, ?, ?)", tiles)
-    db.commit()
-    db.close()
-    return path
+    return tile_package(
+        os.path.join(out, "world.mbtiles"),
+        [("name", "world"), ("format", "png"), ("minzoom", "0"), ("maxzoom", "1"),
+         ("bounds", "-180,-85.0511287798066,180,85.0511287798066")],
+        [(0, 0, 0, plain), (1, 0, 0, plain), (1, 0, 1, plain), (1, 1, 1, plain),
+         (1, 1, 0, ramp)])
 
 
 def refused(out):
