@@ -1829,6 +1829,50 @@ fn envi_rasters_read_as_gdal_reads_them() {
     assert_input_error(&out, &["complex.img", "complex.hdr", "data type 6"]);
 }
 
+/// SAGA grids as GDAL writes them (every sample type it writes, named by the `.sdat` or
+/// the `.sgrd`), as SAGA 7 writes a header, and as SAGA's compressed `.sg-grd-z`: each
+/// reads to the grid, CRS, values and nodata GDAL reads it to. Where GDAL departs from
+/// SAGA (rows from the top, a z factor and offset, a nodata range, a data file offset),
+/// each reads to the values SAGA reads. Bits, text samples, a missing header and samples
+/// cut short are refused, naming the file and the problem; damaged archives are read or
+/// refused, never a panic.
+#[test]
+fn saga_grids_read_as_gdal_and_saga_read_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("saga_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let pairs = info["pairs"].as_array().unwrap();
+    for pair in pairs.iter().chain(info["saga_pairs"].as_array().unwrap()) {
+        let (grid, gdal, ours) = read_twins(pair);
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(&grid, a, b);
+            assert_eq!(worst, 0.0, "{grid} {}", b.name);
+        }
+    }
+    plans_across(dir.path(), "dem.sgrd", "5,5", "60,80");
+    assert_refused(
+        dir.path(),
+        &info["refused"],
+        &[
+            ("bits", &["bits.sdat", "bits.sgrd", "DATAFORMAT BIT"][..]),
+            ("text", &["text.sdat", "DATAFORMAT ASCII"]),
+            (
+                "headless",
+                &["headless.sdat", "headless.sgrd", "cannot be read"],
+            ),
+            ("short", &["short.sdat", "holds 1000 bytes"]),
+        ],
+    );
+    let zipped: Vec<_> = pairs
+        .iter()
+        .filter(|pair| pair[1].as_str().unwrap().ends_with(".sg-grd-z"))
+        .cloned()
+        .collect();
+    assert!(damage_pairs(&zipped, &dir.path().join("damaged.sg-grd-z"), 200) >= 20);
+}
+
 /// netCDF rasters as GDAL, netCDF4-python and xarray write them (classic and netCDF-4,
 /// Deflate, latitudes either way, time steps, packed integers with fill and missing
 /// values, `_Unsigned` bytes, a `spatial_ref` WKT, heights in kilometres): each reads to

@@ -53,21 +53,44 @@ impl Sample {
 
     /// The sample in `raw` (its bytes, little-endian first where `little`).
     fn read(self, raw: &[u8], little: bool) -> f32 {
-        let mut word = [0u8; 8];
-        let n = self.bytes();
-        word[..n].copy_from_slice(&raw[..n]);
-        if !little {
-            word[..n].reverse();
+        /// The `$n` bytes of `raw` as a `$t` in the file's byte order.
+        macro_rules! word {
+            ($t:ty, $n:literal) => {{
+                let bytes: [u8; $n] = raw[..$n].try_into().expect("a sample's bytes");
+                if little {
+                    <$t>::from_le_bytes(bytes)
+                } else {
+                    <$t>::from_be_bytes(bytes)
+                }
+            }};
         }
-        let bits = u64::from_le_bytes(word);
         match self {
-            Sample::Unsigned(_) => bits as f32,
-            Sample::Signed(n) => {
-                let shift = 64 - 8 * n as u32;
-                (((bits << shift) as i64) >> shift) as f32
+            Sample::Unsigned(1) => f32::from(raw[0]),
+            Sample::Signed(1) => f32::from(raw[0] as i8),
+            Sample::Unsigned(2) => f32::from(word!(u16, 2)),
+            Sample::Signed(2) => f32::from(word!(i16, 2)),
+            Sample::Unsigned(4) => word!(u32, 4) as f32,
+            Sample::Signed(4) => word!(i32, 4) as f32,
+            Sample::Unsigned(8) => word!(u64, 8) as f32,
+            Sample::Signed(8) => word!(i64, 8) as f32,
+            Sample::Float(4) => word!(f32, 4),
+            Sample::Float(_) => word!(f64, 8) as f32,
+            Sample::Unsigned(n) | Sample::Signed(n) => {
+                // Other widths (3 bytes): assembled, then sign-extended where signed.
+                let mut word = [0u8; 8];
+                word[..n].copy_from_slice(&raw[..n]);
+                if !little {
+                    word[..n].reverse();
+                }
+                let bits = u64::from_le_bytes(word);
+                match self {
+                    Sample::Signed(_) => {
+                        let shift = 64 - 8 * n as u32;
+                        (((bits << shift) as i64) >> shift) as f32
+                    }
+                    _ => bits as f32,
+                }
             }
-            Sample::Float(4) => f32::from_bits(bits as u32),
-            Sample::Float(_) => f64::from_bits(bits) as f32,
         }
     }
 }
@@ -136,23 +159,33 @@ impl Layout {
 
     /// Where band `band`'s sample of cell `cell` (row by row from the top) starts.
     fn offset(&self, band: usize, cell: usize) -> usize {
-        let (row, col) = (cell / self.columns, cell % self.columns);
         let size = self.sample.bytes();
+        // Rows without gaps (as most files are): no division into row and column.
+        let gapless = self.band_row_bytes == self.columns * size;
         match self.interleave {
-            Interleave::Line => {
-                self.skip + row * self.row_bytes + band * self.band_row_bytes + col * size
+            Interleave::Band if gapless => self.skip + band * self.band_bytes + cell * size,
+            Interleave::Pixel if self.row_bytes == self.columns * self.bands * size => {
+                self.skip + (cell * self.bands + band) * size
             }
-            Interleave::Pixel => {
-                self.skip + row * self.row_bytes + (col * self.bands + band) * size
-            }
-            Interleave::Band => {
-                self.skip + band * self.band_bytes + row * self.band_row_bytes + col * size
+            _ => {
+                let (row, col) = (cell / self.columns, cell % self.columns);
+                match self.interleave {
+                    Interleave::Line => {
+                        self.skip + row * self.row_bytes + band * self.band_row_bytes + col * size
+                    }
+                    Interleave::Pixel => {
+                        self.skip + row * self.row_bytes + (col * self.bands + band) * size
+                    }
+                    Interleave::Band => {
+                        self.skip + band * self.band_bytes + row * self.band_row_bytes + col * size
+                    }
+                }
             }
         }
     }
 
     /// The bytes the file must hold: up to the end of the last band's last sample.
-    fn extent(&self) -> Option<usize> {
+    pub(super) fn extent(&self) -> Option<usize> {
         let last = self.columns.checked_mul(self.rows)?.checked_sub(1)?;
         let end = |band: usize| -> Option<usize> {
             let (row, col) = (last / self.columns, last % self.columns);
@@ -204,6 +237,7 @@ pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         crs,
         descriptions: Vec::new(),
         grid_keys: "ULXMAP/ULYMAP or xllcorner/yllcorner",
+        values: RawValues::default(),
     };
     read_raw(path, name, &header, raster)
 }
@@ -218,6 +252,46 @@ pub(super) struct RawRaster {
     pub descriptions: Vec<Option<String>>,
     /// The header keys that would have given a grid, for the error where none does.
     pub grid_keys: &'static str,
+    /// How stored samples become values beyond the layout's nodata.
+    pub values: RawValues,
+}
+
+/// How a format turns stored samples into values, beyond one nodata value: SAGA's
+/// nodata range and its z factor and offset.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct RawValues {
+    /// Stored samples within this range (both ends in) are nodata.
+    pub nodata_range: Option<[f32; 2]>,
+    /// A value is `offset + factor · sample`.
+    pub factor: f64,
+    pub offset: f64,
+}
+
+impl Default for RawValues {
+    fn default() -> Self {
+        RawValues {
+            nodata_range: None,
+            factor: 1.0,
+            offset: 0.0,
+        }
+    }
+}
+
+impl RawValues {
+    /// The value of stored `sample`; NaN where it is nodata or infinite (a ratio's
+    /// division by zero is no measurement).
+    pub(super) fn value(&self, sample: f32) -> f32 {
+        let in_range = self
+            .nodata_range
+            .is_some_and(|[low, high]| (low..=high).contains(&sample));
+        if sample.is_infinite() || in_range {
+            f32::NAN
+        } else if self.factor == 1.0 && self.offset == 0.0 {
+            sample
+        } else {
+            (self.offset + self.factor * f64::from(sample)) as f32
+        }
+    }
 }
 
 /// The raw raster at `path` as `header` describes it, as map `name`, with whether its
@@ -228,25 +302,46 @@ pub(super) fn read_raw(
     header: &Path,
     raster: RawRaster,
 ) -> Result<(Map, bool)> {
-    let problem = |message: String| Error::input(path, message);
-    let RawRaster {
-        layout,
-        crs: (keys, ascii),
-        descriptions,
-        grid_keys,
-    } = raster;
+    let bytes = read_input(path)?;
+    read_raw_bytes(path, &bytes, name, header, raster)
+}
+
+/// An error where `layout` declares more cells than a map may hold.
+pub(super) fn check_cells(path: &Path, header: &Path, layout: &Layout) -> Result<()> {
     let cells = layout
         .columns
         .saturating_mul(layout.rows)
         .saturating_mul(layout.bands);
     if cells > MAX_MAP_CELLS {
-        return Err(problem(format!(
-            "its header {} declares {cells} cells in all, more than the {MAX_MAP_CELLS} a \
-             map may hold: clip it to the site first (gdal_translate -projwin)",
-            header.display()
-        )));
+        return Err(Error::input(
+            path,
+            format!(
+                "its header {} declares {cells} cells in all, more than the {MAX_MAP_CELLS} \
+                 a map may hold: clip it to the site first (gdal_translate -projwin)",
+                header.display()
+            ),
+        ));
     }
-    let bytes = read_input(path)?;
+    Ok(())
+}
+
+/// [`read_raw`] of the file's `bytes`, read already (or unzipped).
+pub(super) fn read_raw_bytes(
+    path: &Path,
+    bytes: &[u8],
+    name: &str,
+    header: &Path,
+    raster: RawRaster,
+) -> Result<(Map, bool)> {
+    let problem = |message: String| Error::input(path, message);
+    check_cells(path, header, &raster.layout)?;
+    let RawRaster {
+        layout,
+        crs: (keys, ascii),
+        descriptions,
+        grid_keys,
+        values,
+    } = raster;
     let needed = layout
         .extent()
         .ok_or_else(|| problem("its header's layout overflows memory".into()))?;
@@ -289,11 +384,11 @@ pub(super) fn read_raw(
         heights,
         sample: |band: usize, cell: usize| {
             let at = layout.offset(band, cell);
-            let value = layout
-                .sample
-                .read(&bytes[at..at + layout.sample.bytes()], layout.little_endian);
-            // Infinities (a ratio's division by zero) are no measurement: nodata.
-            if value.is_infinite() { f32::NAN } else { value }
+            values.value(
+                layout
+                    .sample
+                    .read(&bytes[at..at + layout.sample.bytes()], layout.little_endian),
+            )
         },
     };
     let masks = FileMasks {

@@ -14,7 +14,7 @@ use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use super::ascii_grid::crs_keys;
-use super::ehdr::{Interleave, Layout, RawRaster, Sample, read_raw};
+use super::ehdr::{Interleave, Layout, RawRaster, RawValues, Sample, read_raw};
 use super::geotiff::{sidecar, wkt_geokeys};
 use super::named_crs::{self, Named};
 use crate::error::{Error, Result};
@@ -265,6 +265,7 @@ fn raster(text: &str, path: &Path) -> std::result::Result<RawRaster, String> {
         crs,
         descriptions,
         grid_keys: "map info",
+        values: RawValues::default(),
     })
 }
 

@@ -26,6 +26,7 @@ pub mod parquet_check;
 pub mod picture;
 pub mod pmtiles;
 pub mod png;
+pub mod saga;
 mod sidecar_bands;
 mod sqlite_tiles;
 pub mod surfer;
@@ -47,11 +48,11 @@ use crate::grid::Map;
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
-/// rasters (`.gpkg`).
-pub const RASTER_EXTENSIONS: [&str; 27] = [
+/// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`).
+pub const RASTER_EXTENSIONS: [&str; 30] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg", "mbtiles",
-    "pmtiles",
+    "pmtiles", "sdat", "sgrd", "sg-grd-z",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -105,6 +106,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "gpkg" => geopackage::read_geopackage_rows(path, name),
         "mbtiles" => mbtiles::read_mbtiles_rows(path, name),
         "pmtiles" => pmtiles::read_pmtiles_rows(path, name),
+        "sdat" | "sgrd" => saga::read_saga_rows(path, name),
+        "sg-grd-z" => saga::read_saga_zip_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -114,7 +117,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
-                 grids (.grd), GeoPackage rasters (.gpkg), MBTiles (.mbtiles) or PMTiles (.pmtiles), not '.{other}'"
+                 grids (.grd), GeoPackage rasters (.gpkg), MBTiles (.mbtiles), PMTiles \
+                 (.pmtiles) or SAGA grids (.sdat, .sgrd, .sg-grd-z), not '.{other}'"
             ),
         )),
     }
@@ -132,6 +136,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         }
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
+        "sdat" | "sgrd" => saga::saga_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.
         "nc" | "nc4" | "grd" => ascii_grid::ascii_grid_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),

@@ -112,12 +112,10 @@ where
         .as_ref()
         .map(|values| values.iter().map(|&v| v as f32).collect())
         .or_else(|| file.nodata_values.clone());
-    let is_masked = |band: usize, cell: usize| match (&file.mask, nodata[band]) {
+    // Whether band `band`'s cell `cell`, of sample `v`, holds no data.
+    let is_masked = |band: usize, cell: usize, v: f32| match (&file.mask, nodata[band]) {
         (Some(mask), _) => !mask[cell],
-        (None, Some(n)) => {
-            let v = sample(band, cell);
-            v == n || (n.is_nan() && v.is_nan())
-        }
+        (None, Some(n)) => v == n || (n.is_nan() && v.is_nan()),
         (None, None) => match &nodata_values {
             Some(values) => (0..bands).all(|b| sample(b, cell) == values[b]),
             None => file
@@ -134,17 +132,25 @@ where
                 .as_deref()
                 .and_then(metres_per_unit)
                 .unwrap_or(heights);
-            let physical =
-                |v: f32| ((f64::from(v) * metadata.scale + metadata.offset) * heights) as f32;
+            let identity = metadata.scale == 1.0 && metadata.offset == 0.0 && heights == 1.0;
+            let physical = |v: f32| {
+                if identity {
+                    // As the sum below gives it: -0 as +0.
+                    v + 0.0
+                } else {
+                    ((f64::from(v) * metadata.scale + metadata.offset) * heights) as f32
+                }
+            };
             let mut values = vec![0f32; row * height as usize];
             values.par_chunks_mut(row).enumerate().for_each(|(r, out)| {
                 let source_row = if north_up { height as usize - 1 - r } else { r };
                 for (c, value) in out.iter_mut().enumerate() {
                     let cell = source_row * row + c;
-                    *value = if is_masked(band, cell) {
+                    let v = sample(band, cell);
+                    *value = if is_masked(band, cell, v) {
                         f32::NAN
                     } else {
-                        physical(sample(band, cell))
+                        physical(v)
                     };
                 }
             });

@@ -63,7 +63,8 @@ pub struct IngestParams {
     /// netCDF grid (.nc, .nc4, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
     /// gridded variable and time step), a Surfer grid (.grd), a GeoPackage raster
     /// (.gpkg: imagery tiles or a gridded coverage), an MBTiles package or PMTiles archive
-    /// (.mbtiles, .pmtiles: Web Mercator imagery tiles) or a MovingAI .map (layer
+    /// (.mbtiles, .pmtiles: Web Mercator imagery tiles), a SAGA grid (.sdat or .sgrd,
+    /// compressed .sg-grd-z: SAGA's and QGIS's terrain tools) or a MovingAI .map (layer
     /// `blocked`);
     /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
@@ -202,7 +203,8 @@ fn load_map(path: &Path) -> Result<Map> {
                  (georeferenced image), .bil/.bip/.bsq/.flt (raw raster with an ESRI .hdr), \
                  .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
                  .dat (ENVI), .nc/.nc4/.grd (netCDF, Surfer), .gpkg (GeoPackage raster), \
-                 .mbtiles (MBTiles), .pmtiles (PMTiles), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
+                 .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
+                 .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),
         )),
     }
