@@ -6,7 +6,8 @@ GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both i
 256² PNG tiles; MBTiles (its MBTiles driver) with the cover in PNG tiles, on zoom level
 16's Web Mercator grid (so that GDAL writes its cells as they are), and that package as
 a PMTiles archive (Protomaps' converter; GDAL, which reads no raster PMTiles, is timed
-on the package); each beside an
+on the package); SAGA (its SAGA driver) with the DEM as a grid, and zipped as SAGA's
+compressed grid (`.sg-grd-z`, Deflate); each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
 the raster as costs and plans two cells apart: the read is the time; wall and user CPU
 seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
@@ -28,6 +29,7 @@ import resource
 import subprocess
 import sys
 import time
+import zipfile
 
 import numpy as np
 import rasterio
@@ -53,6 +55,13 @@ def write(path, values, driver, mercator=False, **options):
     if driver == "PMTiles":
         source = write(path + ".mbtiles", values, "MBTiles", mercator, **options)
         mbtiles_to_pmtiles(source, path, None)
+        return path
+    if driver == "SAGA compressed":
+        stem = os.path.splitext(path)[0]
+        write(stem + ".sdat", values, "SAGA", mercator, **options)
+        with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED) as archive:
+            for extension in ("sgrd", "sdat", "prj"):
+                archive.write(stem + "." + extension, os.path.basename(stem) + "." + extension)
         return path
     if driver in ("netCDF", "GPKG", "MBTiles"):
         source = write(path + ".source.tif", values, "GTiff", mercator)
@@ -109,7 +118,10 @@ def main():
              ("GeoPackage: cover, PNG tiles", "cover.gpkg", cover, "GPKG",
               {"TILE_FORMAT": "PNG"}),
              ("MBTiles: cover, PNG tiles", "cover.mbtiles", cover, "MBTiles", {}),
-             ("PMTiles: cover, PNG tiles", "cover.pmtiles", cover, "PMTiles", {})]
+             ("PMTiles: cover, PNG tiles", "cover.pmtiles", cover, "PMTiles", {}),
+             ("SAGA: DEM", "dem.sdat", dem, "SAGA", {}),
+             ("SAGA: DEM, compressed (.sg-grd-z)", "dem_zipped.sg-grd-z", dem,
+              "SAGA compressed", {})]
     print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
           "GDAL, the file | the file to GeoTIFF, user CPU |")
     print("|---|---|---|---|---|---|")

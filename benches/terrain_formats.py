@@ -5,13 +5,15 @@ formats a user may be handed instead of a GeoTIFF: a PNG (georeferenced by GDAL'
 (ESRI .hdr and .prj), a gridded XYZ (one band; its .prj written beside it), a lossless
 JPEG 2000, an ERDAS Imagine file (run-length compressed), an ENVI raster (`.dat`, by
 pixel), a netCDF-4 file with Deflate (a variable per band), a GeoPackage (PNG tiles, or a
-gridded coverage for one band of 16 or 32 bits). Every copy runs `imitate bench terrain` with the same seed and teachers as the
+gridded coverage for one band of 16 or 32 bits), a SAGA grid (one band; also zipped as
+SAGA's `.sg-grd-z`). Every copy runs `imitate bench terrain` with the same seed and teachers as the
 GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit. A lossy copy
 is another terrain (its teacher is drawn from the compressed image too), and an RGBA
 image written as BIL (or any format keeping no alpha) is read unmasked, as GDAL reads it.
 
     PYTHONPATH=target/python-deps python3 benches/terrain_formats.py \
-        target/release/imitate target/formats [--teacher T ...] [--seed 7]
+        target/release/imitate target/formats [--teacher T ...] [--seed 7] \
+        [--raster PATH ...] [--format LABEL ...]
 
 Prints a Markdown table: raster, format, file size, held-out mean cost ratio, pairs within
 1.03, within 2 cells, and whether the figures equal the GeoTIFF's.
@@ -23,6 +25,7 @@ import os
 import shutil
 import subprocess
 import warnings
+import zipfile
 
 import rasterio
 import rasterio.errors
@@ -35,43 +38,51 @@ DATA = os.path.join(os.path.dirname(__file__), "..", "..", "shared", "data", "ra
 RASTERS = ["osgeo_spot_chicago_utm.tif", "rasterio_RGBA.uint16.tif", "rasterio_world.byte.tif"]
 
 
-def copies(source, out):
-    """`source` written again in every format its bands allow: (format, path, lossless)."""
+def copies(source, out, wanted=lambda label: True):
+    """`source` written again in every format its bands allow that `wanted` names:
+    (format, path, lossless)."""
     stem = os.path.join(out, os.path.splitext(os.path.basename(source))[0])
     with rasterio.open(source) as src:
         count, dtype, crs = src.count, src.dtypes[0], src.crs
     made = [("GeoTIFF", source, True)]
+
+    def copy(label, path, driver, lossless=True, **options):
+        if wanted(label):
+            rasterio.shutil.copy(source, path, driver=driver, **options)
+            made.append((label, path, lossless))
+
     if dtype in ("uint8", "uint16") and count in (1, 2, 3, 4):
-        rasterio.shutil.copy(source, stem + ".png", driver="PNG")
-        made.append(("PNG", stem + ".png", True))
+        copy("PNG", stem + ".png", "PNG")
     if dtype == "uint8" and count in (1, 3):
-        rasterio.shutil.copy(source, stem + ".jpg", driver="JPEG", QUALITY=75, WORLDFILE="YES")
-        made.append(("JPEG q75", stem + ".jpg", False))
-    rasterio.shutil.copy(source, stem + ".bil", driver="EHdr")
-    made.append(("BIL", stem + ".bil", True))
+        copy("JPEG q75", stem + ".jpg", "JPEG", False, QUALITY=75, WORLDFILE="YES")
+    copy("BIL", stem + ".bil", "EHdr")
     if count == 1:
-        rasterio.shutil.copy(source, stem + ".xyz", driver="XYZ")
-        with open(stem + ".prj", "w") as f:
-            f.write(crs.to_wkt(version=WktVersion.WKT1_ESRI))
-        made.append(("XYZ", stem + ".xyz", True))
-        rasterio.shutil.copy(source, stem + ".grd", driver="GS7BG")
-        made.append(("Surfer 7", stem + ".grd", True))
-    rasterio.shutil.copy(source, stem + ".jp2", driver="JP2OpenJPEG", QUALITY=100,
-                         REVERSIBLE="YES")
-    made.append(("JPEG 2000", stem + ".jp2", True))
-    rasterio.shutil.copy(source, stem + ".img", driver="HFA", COMPRESSED="YES")
-    made.append(("ERDAS Imagine", stem + ".img", True))
+        if wanted("XYZ"):
+            with open(stem + ".prj", "w") as f:
+                f.write(crs.to_wkt(version=WktVersion.WKT1_ESRI))
+        copy("XYZ", stem + ".xyz", "XYZ")
+        copy("Surfer 7", stem + ".grd", "GS7BG")
+        # SAGA: one band a grid, and its three files zipped as SAGA compresses them.
+        copy("SAGA", stem + ".sdat", "SAGA")
+        if wanted("SAGA compressed"):
+            zipped = stem + "_zipped.sg-grd-z"
+            rasterio.shutil.copy(source, stem + "_zipped.sdat", driver="SAGA")
+            with zipfile.ZipFile(zipped, "w", zipfile.ZIP_DEFLATED) as archive:
+                for extension in ("sgrd", "sdat", "prj"):
+                    archive.write(stem + "_zipped." + extension,
+                                  os.path.basename(stem) + "_zipped." + extension)
+            made.append(("SAGA compressed", zipped, True))
+    if dtype in ("uint8", "int16", "uint16", "int32", "uint32"):
+        copy("JPEG 2000", stem + ".jp2", "JP2OpenJPEG", QUALITY=100, REVERSIBLE="YES")
+    copy("ERDAS Imagine", stem + ".img", "HFA", COMPRESSED="YES")
     # Its own name: an ENVI header is x.hdr, as the BIL's is.
-    rasterio.shutil.copy(source, stem + "_envi.dat", driver="ENVI", INTERLEAVE="BIP")
-    made.append(("ENVI", stem + "_envi.dat", True))
-    rasterio.shutil.copy(source, stem + ".nc", driver="netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
-    made.append(("netCDF-4", stem + ".nc", True))
+    copy("ENVI", stem + "_envi.dat", "ENVI", INTERLEAVE="BIP")
+    copy("netCDF-4", stem + ".nc", "netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
     # GeoPackage: 8-bit imagery in PNG tiles (a fourth band is its alpha), one band of
     # any other type as a gridded coverage (float in TIFF tiles).
     if dtype == "uint8" or (count == 1 and dtype in ("int16", "uint16", "float32")):
         tiles = "TIFF" if dtype == "float32" else "PNG"
-        rasterio.shutil.copy(source, stem + ".gpkg", driver="GPKG", TILE_FORMAT=tiles)
-        made.append(("GeoPackage", stem + ".gpkg", True))
+        copy("GeoPackage", stem + ".gpkg", "GPKG", TILE_FORMAT=tiles)
     return made
 
 
@@ -87,12 +98,15 @@ def run(binary, path, teachers, seed):
 
 def arguments():
     """The binary, the output folder (made), the teachers (threshold and texture unless
-    named) and the seed, from the command line."""
+    named), the seed, the rasters (those of ../shared/data/raster unless named) and the
+    formats (every one unless named; the GeoTIFF always), from the command line."""
     parser = argparse.ArgumentParser()
     parser.add_argument("binary")
     parser.add_argument("out")
     parser.add_argument("--teacher", action="append", default=[])
     parser.add_argument("--seed", type=int, default=7)
+    parser.add_argument("--raster", action="append", default=[])
+    parser.add_argument("--format", action="append", default=[])
     args = parser.parse_args()
     os.makedirs(args.out, exist_ok=True)
     return args, args.teacher or ["threshold", "texture"]
@@ -103,11 +117,13 @@ def main():
     print("| raster | format | bytes | mean ratio | pairs ≤ 1.03 | within 2 cells | "
           "same figures as the GeoTIFF |")
     print("|---|---|---|---|---|---|---|")
-    for name in RASTERS:
+    for raster in args.raster or [os.path.join(DATA, name) for name in RASTERS]:
+        name = os.path.basename(raster)
         source = os.path.join(args.out, name)
-        shutil.copy(os.path.join(DATA, name), source)
+        shutil.copy(raster, source)
         reference = None
-        for label, path, _lossless in copies(source, args.out):
+        wanted = (lambda label: label in args.format) if args.format else (lambda label: True)
+        for label, path, _lossless in copies(source, args.out, wanted):
             results = run(args.binary, path, teachers, args.seed)
             figures = [(r["mean_cost_ratio"], r["within_radius"], r["max_cost_ratio"])
                        for r in results]
