@@ -1663,6 +1663,18 @@ fn read_twins(pair: &serde_json::Value) -> (String, imitate::grid::Map, imitate:
     (file.to_string(), gdal, ours)
 }
 
+/// Holds each pair's file to its twin: the grid and CRS ([`read_twins`]), and every
+/// band's name, values and nodata cells exactly.
+fn assert_read_exactly_as_twins(pairs: &[serde_json::Value]) {
+    for pair in pairs {
+        let (file, gdal, ours) = read_twins(pair);
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(&file, a, b);
+            assert_eq!(worst, 0.0, "{file} {}", b.name);
+        }
+    }
+}
+
 /// Holds our reading of `file` to GDAL's: the same values, or for lossy tiles
 /// (`peer`: the largest and mean difference of libjpeg-turbo's or libwebp's decoding
 /// from GDAL's, over every band) as close to GDAL's as that other decoder is, within a
@@ -1787,14 +1799,7 @@ fn raw_rasters_with_an_esri_header_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    for pair in info["pairs"].as_array().unwrap() {
-        let (raw, gdal, ours) = read_twins(pair);
-        let raw = raw.as_str();
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let (worst, _) = differences_from_gdal(raw, a, b);
-            assert_eq!(worst, 0.0, "{raw} {}", b.name);
-        }
-    }
+    assert_read_exactly_as_twins(info["pairs"].as_array().unwrap());
     let out = imitate(
         dir.path(),
         &["bench", "terrain", "headless.bil", "--method", "uniform"],
@@ -1815,18 +1820,40 @@ fn envi_rasters_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    for pair in info["pairs"].as_array().unwrap() {
-        let (raster, gdal, ours) = read_twins(pair);
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let (worst, _) = differences_from_gdal(&raster, a, b);
-            assert_eq!(worst, 0.0, "{raster} {}", b.name);
-        }
-    }
+    assert_read_exactly_as_twins(info["pairs"].as_array().unwrap());
     let out = imitate(
         dir.path(),
         &["bench", "terrain", "complex.img", "--method", "uniform"],
     );
     assert_input_error(&out, &["complex.img", "complex.hdr", "data type 6"]);
+}
+
+/// R raster grids as GDAL writes them (every sample type, by line, band and pixel, band
+/// names and nodata) and as R's `raster` package writes them (big-endian, a PROJ string
+/// and no WKT): each reads to the grid, CRS, names, values and nodata GDAL reads it to,
+/// beside Surfer and netCDF grids of the same extension. A grid without its samples, an
+/// INT8S one and one whose PROJ string needs its WKT are refused, naming the problem.
+#[test]
+fn r_raster_grids_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("rraster_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    assert_read_exactly_as_twins(info["pairs"].as_array().unwrap());
+    plans_across(dir.path(), "r_dem.grd", "2,2", "50,70");
+    assert_refused(
+        dir.path(),
+        &info["refused"],
+        &[
+            (
+                "headless",
+                &["no_samples.grd", "no_samples.gri", "missing"][..],
+            ),
+            ("int8", &["int8.grd", "INT8S"]),
+            ("proj", &["laea.grd", "+proj=laea", ".prj"]),
+        ],
+    );
 }
 
 /// SAGA grids as GDAL writes them (every sample type it writes, named by the `.sdat` or
@@ -1844,13 +1871,8 @@ fn saga_grids_read_as_gdal_and_saga_read_them() {
     };
     let info = &written[0];
     let pairs = info["pairs"].as_array().unwrap();
-    for pair in pairs.iter().chain(info["saga_pairs"].as_array().unwrap()) {
-        let (grid, gdal, ours) = read_twins(pair);
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let (worst, _) = differences_from_gdal(&grid, a, b);
-            assert_eq!(worst, 0.0, "{grid} {}", b.name);
-        }
-    }
+    assert_read_exactly_as_twins(pairs);
+    assert_read_exactly_as_twins(info["saga_pairs"].as_array().unwrap());
     plans_across(dir.path(), "dem.sgrd", "5,5", "60,80");
     assert_refused(
         dir.path(),

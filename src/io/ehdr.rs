@@ -256,6 +256,30 @@ pub(super) struct RawRaster {
     pub values: RawValues,
 }
 
+/// A text header's `key = value` lines (SAGA's `.sgrd`, R's `.grd`), keys in any case.
+pub(super) struct KeyValues<'a>(Vec<(String, &'a str)>);
+
+impl<'a> KeyValues<'a> {
+    pub(super) fn parse(text: &'a str) -> Self {
+        KeyValues(
+            text.lines()
+                .filter_map(|line| line.split_once('='))
+                .map(|(key, value)| (key.trim().to_ascii_lowercase(), value.trim()))
+                .collect(),
+        )
+    }
+
+    /// The value of `key` (in any case) where a line gives it one.
+    pub(super) fn get(&self, key: &str) -> Option<&'a str> {
+        let key = key.to_ascii_lowercase();
+        self.0
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, v)| *v)
+            .filter(|v| !v.is_empty())
+    }
+}
+
 /// How a format turns stored samples into values, beyond one nodata value: SAGA's
 /// nodata range and its z factor and offset.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -26,6 +26,7 @@ pub mod parquet_check;
 pub mod picture;
 pub mod pmtiles;
 pub mod png;
+pub mod rraster;
 pub mod saga;
 mod sidecar_bands;
 mod sqlite_tiles;
@@ -48,7 +49,8 @@ use crate::grid::Map;
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
-/// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`).
+/// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
+/// R's raster grids (`.grd` beside `.gri`).
 pub const RASTER_EXTENSIONS: [&str; 30] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg", "mbtiles",
@@ -102,6 +104,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "img" => hfa::read_hfa_rows(path, name),
         "dat" => envi::read_envi_rows(path, name),
         "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
+        "grd" if rraster::is_rraster(path) => rraster::read_rraster_rows(path, name),
         "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
         "gpkg" => geopackage::read_geopackage_rows(path, name),
         "mbtiles" => mbtiles::read_mbtiles_rows(path, name),
@@ -117,8 +120,9 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
-                 grids (.grd), GeoPackage rasters (.gpkg), MBTiles (.mbtiles), PMTiles \
-                 (.pmtiles) or SAGA grids (.sdat, .sgrd, .sg-grd-z), not '.{other}'"
+                 grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
+                 MBTiles (.mbtiles), PMTiles (.pmtiles) or SAGA grids (.sdat, .sgrd, \
+                 .sg-grd-z), not '.{other}'"
             ),
         )),
     }
@@ -137,6 +141,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
         "sdat" | "sgrd" => saga::saga_sidecars(path),
+        "grd" if rraster::is_rraster(path) => rraster::rraster_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.
         "nc" | "nc4" | "grd" => ascii_grid::ascii_grid_sidecars(path),
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),

@@ -19,7 +19,8 @@ use std::path::{Path, PathBuf};
 
 use super::ascii_grid::crs_keys;
 use super::ehdr::{
-    Interleave, Layout, RawRaster, RawValues, Sample, check_cells, read_raw, read_raw_bytes,
+    Interleave, KeyValues, Layout, RawRaster, RawValues, Sample, check_cells, read_raw,
+    read_raw_bytes,
 };
 use super::geotiff::{sidecar, wkt_geokeys};
 use crate::error::{Error, Result, open_input};
@@ -250,18 +251,8 @@ fn sample(format: &str) -> std::result::Result<Sample, String> {
 /// The layout, grid, values and data file a header gives: `KEY = VALUE` lines, keys in
 /// any case.
 fn read_header(text: &str) -> std::result::Result<Header, String> {
-    let fields: Vec<(String, &str)> = text
-        .lines()
-        .filter_map(|line| line.split_once('='))
-        .map(|(key, value)| (key.trim().to_ascii_uppercase(), value.trim()))
-        .collect();
-    let text_of = |key: &str| {
-        fields
-            .iter()
-            .find(|(k, _)| k == key)
-            .map(|(_, v)| *v)
-            .filter(|v| !v.is_empty())
-    };
+    let fields = KeyValues::parse(text);
+    let text_of = |key: &str| fields.get(key);
     let number_in = |key: &str, v: &str| -> std::result::Result<f64, String> {
         v.trim()
             .parse::<f64>()

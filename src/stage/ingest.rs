@@ -61,7 +61,8 @@ pub struct IngestParams {
     /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD), an ENVI raster
     /// (.img, .dat, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes), a
     /// netCDF grid (.nc, .nc4, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
-    /// gridded variable and time step), a Surfer grid (.grd), a GeoPackage raster
+    /// gridded variable and time step), a Surfer grid (.grd), an R raster (.grd beside
+    /// its .gri: R's `raster` package), a GeoPackage raster
     /// (.gpkg: imagery tiles or a gridded coverage), an MBTiles package or PMTiles archive
     /// (.mbtiles, .pmtiles: Web Mercator imagery tiles), a SAGA grid (.sdat or .sgrd,
     /// compressed .sg-grd-z: SAGA's and QGIS's terrain tools) or a MovingAI .map (layer
@@ -202,7 +203,7 @@ fn load_map(path: &Path) -> Result<Map> {
                  (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .png/.jpg \
                  (georeferenced image), .bil/.bip/.bsq/.flt (raw raster with an ESRI .hdr), \
                  .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
-                 .dat (ENVI), .nc/.nc4/.grd (netCDF, Surfer), .gpkg (GeoPackage raster), \
+                 .dat (ENVI), .nc/.nc4/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
                  .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
                  .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),
