@@ -6,7 +6,7 @@ formats a user may be handed instead of a GeoTIFF: a PNG (georeferenced by GDAL'
 JPEG 2000, an ERDAS Imagine file (run-length compressed), an ENVI raster (`.dat`, by
 pixel), a netCDF-4 file with Deflate (a variable per band), a GeoPackage (PNG tiles, or a
 gridded coverage for one band of 16 or 32 bits), a SAGA grid (one band; also zipped as
-SAGA's `.sg-grd-z`). Every copy runs `imitate bench terrain` with the same seed and teachers as the
+SAGA's `.sg-grd-z`), an R raster grid (`.grd` beside `.gri`). Every copy runs `imitate bench terrain` with the same seed and teachers as the
 GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit. A lossy copy
 is another terrain (its teacher is drawn from the compressed image too), and an RGBA
 image written as BIL (or any format keeping no alpha) is read unmasked, as GDAL reads it.
@@ -75,6 +75,8 @@ def copies(source, out, wanted=lambda label: True):
     if dtype in ("uint8", "int16", "uint16", "int32", "uint32"):
         copy("JPEG 2000", stem + ".jp2", "JP2OpenJPEG", QUALITY=100, REVERSIBLE="YES")
     copy("ERDAS Imagine", stem + ".img", "HFA", COMPRESSED="YES")
+    # Its own name: the Surfer copy is x.grd.
+    copy("R raster", stem + "_r.grd", "RRASTER")
     # Its own name: an ENVI header is x.hdr, as the BIL's is.
     copy("ENVI", stem + "_envi.dat", "ENVI", INTERLEAVE="BIP")
     copy("netCDF-4", stem + ".nc", "netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
