@@ -896,6 +896,52 @@ fn damage_each(dir: &Path, files: &[serde_json::Value]) -> usize {
 /// counts set to 0 or 0xFFFFFFFF. Each must read, or fail naming the file, never panic.
 /// Returns how many damaged files were read.
 fn damage_files(files: &[PathBuf], damaged: &Path, per_file: usize) -> usize {
+    let damaged_name = damaged.file_name().unwrap().to_str().unwrap();
+    damage_with(files, per_file, |bytes| {
+        std::fs::write(damaged, bytes).unwrap();
+        (damaged.to_path_buf(), damaged_name.to_string())
+    })
+}
+
+/// As [`damage_files`], each file of the Zarr store (or other folder) `store` damaged
+/// where it lies and the whole store read, the file restored after: errors must name
+/// the store.
+fn damage_store(store: &Path, per_file: usize) -> usize {
+    let mut files = Vec::new();
+    let mut folders = vec![store.to_path_buf()];
+    while let Some(folder) = folders.pop() {
+        for entry in std::fs::read_dir(folder)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+        {
+            if entry.is_dir() {
+                folders.push(entry);
+            } else {
+                files.push(entry);
+            }
+        }
+    }
+    files.sort();
+    let store_name = store.file_name().unwrap().to_str().unwrap().to_string();
+    let mut reads = 0;
+    for file in &files {
+        let original = std::fs::read(file).unwrap();
+        reads += damage_with(std::slice::from_ref(file), per_file, |bytes| {
+            std::fs::write(file, bytes).unwrap();
+            (store.to_path_buf(), store_name.clone())
+        });
+        std::fs::write(file, original).unwrap();
+    }
+    reads
+}
+
+/// The damages of [`damage_files`]: `place` puts each damaged copy where it is read
+/// and says what to read and the name its errors must hold.
+fn damage_with(
+    files: &[PathBuf],
+    per_file: usize,
+    mut place: impl FnMut(&[u8]) -> (PathBuf, String),
+) -> usize {
     let per_file = std::env::var("IMITATE_DAMAGES")
         .ok()
         .and_then(|n| n.parse().ok())
@@ -907,12 +953,11 @@ fn damage_files(files: &[PathBuf], damaged: &Path, per_file: usize) -> usize {
         state ^= state << 17;
         state
     };
-    let damaged_name = damaged.file_name().unwrap().to_str().unwrap();
     let mut reads = 0;
     for file in files {
         let name = file.display();
         let original = std::fs::read(file).unwrap();
-        if original.len() > 400_000 {
+        if original.len() > 400_000 || original.is_empty() {
             continue;
         }
         let n = original.len() as u64;
@@ -930,17 +975,18 @@ fn damage_files(files: &[PathBuf], damaged: &Path, per_file: usize) -> usize {
                     }
                 }
                 2 => bytes.truncate((next() % n) as usize),
-                _ => {
-                    let at = (next() % n.min(2048).saturating_sub(4)) as usize;
+                _ if n >= 4 => {
+                    let at = (next() % n.min(2048).saturating_sub(4).max(1)) as usize;
                     let field = [[0xFF; 4], [0; 4]][(next() % 2) as usize];
                     bytes[at..at + 4].copy_from_slice(&field);
                 }
+                _ => bytes.clear(),
             }
-            std::fs::write(damaged, &bytes).unwrap();
-            let read = std::panic::catch_unwind(|| imitate::io::read_raster(damaged, "m"));
+            let (read_path, needle) = place(&bytes);
+            let read = std::panic::catch_unwind(|| imitate::io::read_raster(&read_path, "m"));
             match read {
                 Ok(Ok(_)) => {}
-                Ok(Err(e)) => assert!(e.to_string().contains(damaged_name), "{name}: {e}"),
+                Ok(Err(e)) => assert!(e.to_string().contains(&needle), "{name}: {e}"),
                 Err(_) => panic!("{name}, damage {kind}: the reader panicked"),
             }
             reads += 1;
@@ -1663,6 +1709,44 @@ fn read_twins(pair: &serde_json::Value) -> (String, imitate::grid::Map, imitate:
     (file.to_string(), gdal, ours)
 }
 
+/// As [`read_twins`], for grids whose transform a reader computes from coordinate
+/// arrays (netCDF, Zarr): the same size, CRS and degrees, the cell size, origin and
+/// ground scale within GDAL's own float noise.
+fn read_twins_nearly(pair: &serde_json::Value) -> (String, imitate::grid::Map, imitate::grid::Map) {
+    let (tif, file) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
+    let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
+    let ours =
+        imitate::io::read_raster(Path::new(file), "a").unwrap_or_else(|e| panic!("{file}: {e}"));
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
+    let (g, o) = (&gdal.geo, &ours.geo);
+    assert_eq!(
+        (g.width, g.height, &g.frame, g.degrees),
+        (o.width, o.height, &o.frame, o.degrees),
+        "{file}"
+    );
+    assert!(near(g.resolution, o.resolution), "{file}: {g:?} {o:?}");
+    assert!(
+        near(
+            g.resolution_y.unwrap_or(g.resolution),
+            o.resolution_y.unwrap_or(o.resolution)
+        ),
+        "{file}: {g:?} {o:?}"
+    );
+    assert!(
+        near(g.origin[0], o.origin[0]) && near(g.origin[1], o.origin[1]),
+        "{file}: {g:?} {o:?}"
+    );
+    let scales = |geo: &imitate::grid::GeoRef| geo.ground_scale.map(|s| s.per_axis());
+    match (scales(g), scales(o)) {
+        (Some(a), Some(b)) => assert!(
+            (0..2).all(|i| (a[i] - b[i]).abs() <= 1e-6 * a[i]),
+            "{file}: {a:?} {b:?}"
+        ),
+        (a, b) => assert_eq!(a, b, "{file}"),
+    }
+    (file.to_string(), gdal, ours)
+}
+
 /// Holds each pair's file to its twin: the grid and CRS ([`read_twins`]), and every
 /// band's name, values and nodata cells exactly.
 fn assert_read_exactly_as_twins(pairs: &[serde_json::Value]) {
@@ -1856,6 +1940,42 @@ fn r_raster_grids_read_as_gdal_reads_them() {
     );
 }
 
+/// Zarr stores as xarray writes them: version 2 (zarr's default Blosc with LZ4 and byte
+/// shuffle, Blosc's Zstandard and zlib, Zstandard, zlib and gzip alone, uncompressed,
+/// `/` between chunk indices) read as GDAL reads them, and version 3 (Zstandard, gzip
+/// with a checksum, Blosc; degrees with latitudes from the south; bands first beside a
+/// second variable) read as xarray reads them: partial edge chunks, a chunk never
+/// written, `_FillValue` voids and rioxarray's grid mapping. Sharded chunks and a store
+/// without coordinates are refused, naming the problem.
+#[test]
+fn zarr_stores_read_as_gdal_and_xarray_read_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("zarr_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (store, gdal, ours) = read_twins_nearly(pair);
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{store}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(&store, a, b);
+            assert_eq!(worst, 0.0, "{store} {}", b.name);
+        }
+    }
+    plans_across(dir.path(), "v2_default.zarr", "30,2", "2,60");
+    assert_refused(
+        dir.path(),
+        &info["refused"],
+        &[
+            ("sharded", &["zarr.json", "sharding_indexed"][..]),
+            ("bare", &["bare.zarr", "no gridded array"]),
+        ],
+    );
+    for store in ["v2_default.zarr", "v3_gzip.zarr"] {
+        assert!(damage_store(&dir.path().join(store), 8) >= 100);
+    }
+}
+
 /// SAGA grids as GDAL writes them (every sample type it writes, named by the `.sdat` or
 /// the `.sgrd`), as SAGA 7 writes a header, and as SAGA's compressed `.sg-grd-z`: each
 /// reads to the grid, CRS, values and nodata GDAL reads it to. Where GDAL departs from
@@ -1915,36 +2035,8 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
     // GDAL's transform from coordinate variables carries its own float noise.
     let near = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(1.0);
     for pair in info["pairs"].as_array().unwrap() {
-        let (tif, file) = (pair[0].as_str().unwrap(), pair[1].as_str().unwrap());
-        let gdal = imitate::io::read_raster(Path::new(tif), "a").unwrap();
-        let ours = imitate::io::read_raster(Path::new(file), "a")
-            .unwrap_or_else(|e| panic!("{file}: {e}"));
-        let (g, o) = (&gdal.geo, &ours.geo);
-        assert_eq!(
-            (g.width, g.height, &g.frame, g.degrees),
-            (o.width, o.height, &o.frame, o.degrees),
-            "{file}"
-        );
-        assert!(near(g.resolution, o.resolution), "{file}: {g:?} {o:?}");
-        assert!(
-            near(
-                g.resolution_y.unwrap_or(g.resolution),
-                o.resolution_y.unwrap_or(o.resolution)
-            ),
-            "{file}: {g:?} {o:?}"
-        );
-        assert!(
-            near(g.origin[0], o.origin[0]) && near(g.origin[1], o.origin[1]),
-            "{file}: {g:?} {o:?}"
-        );
-        let scales = |geo: &imitate::grid::GeoRef| geo.ground_scale.map(|s| s.per_axis());
-        match (scales(g), scales(o)) {
-            (Some(a), Some(b)) => assert!(
-                (0..2).all(|i| (a[i] - b[i]).abs() <= 1e-6 * a[i]),
-                "{file}: {a:?} {b:?}"
-            ),
-            (a, b) => assert_eq!(a, b, "{file}"),
-        }
+        let (file, gdal, ours) = read_twins_nearly(pair);
+        let file = file.as_str();
         assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
         for (a, b) in gdal.layers.iter().zip(&ours.layers) {
             let (worst, _) = differences_from_gdal(file, a, b);

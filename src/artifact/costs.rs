@@ -1,5 +1,5 @@
 //! The costmap a command or stage plans on: one map of a costmap artifact folder, a
-//! costmap table, a cost raster (GeoTIFF, Esri ASCII grid) or a MovingAI grid; and the reference costs
+//! costmap table, a cost raster (GeoTIFF, Esri ASCII grid, Zarr store...) or a MovingAI grid; and the reference costs
 //! that plans are scored against.
 
 use std::path::{Path, PathBuf};
@@ -16,7 +16,8 @@ use crate::io::{RASTER_EXTENSIONS, map_name, read_raster};
 /// `map` picks a band when it has several) or a MovingAI `.map` grid (passable cells
 /// cost 1).
 pub fn load_costs(path: &Path, map: Option<&str>) -> Result<(String, Grid<f32>)> {
-    if !path.is_dir() {
+    // A Zarr store is a raster in a folder, not an artifact.
+    if !path.is_dir() || crate::io::zarr::is_zarr(path) {
         let extension = path.extension().and_then(|e| e.to_str()).unwrap_or("");
         return match extension.to_ascii_lowercase().as_str() {
             raster if RASTER_EXTENSIONS.contains(&raster) => raster_costs(path, map),

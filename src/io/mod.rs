@@ -1,6 +1,7 @@
 //! Reading and writing files: Parquet tables, PNG images, atomic writes.
 
 pub mod ascii_grid;
+mod blosc;
 pub mod demo_tables;
 pub mod dted;
 pub mod ehdr;
@@ -34,6 +35,7 @@ pub mod surfer;
 pub mod tables;
 pub mod vrt;
 pub mod xyz;
+pub mod zarr;
 
 use std::path::Path;
 
@@ -50,11 +52,11 @@ use crate::grid::Map;
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
 /// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
-/// R's raster grids (`.grd` beside `.gri`).
-pub const RASTER_EXTENSIONS: [&str; 30] = [
+/// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders).
+pub const RASTER_EXTENSIONS: [&str; 31] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg", "mbtiles",
-    "pmtiles", "sdat", "sgrd", "sg-grd-z",
+    "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -111,6 +113,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "pmtiles" => pmtiles::read_pmtiles_rows(path, name),
         "sdat" | "sgrd" => saga::read_saga_rows(path, name),
         "sg-grd-z" => saga::read_saga_zip_rows(path, name),
+        "zarr" => zarr::read_zarr_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -121,8 +124,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
                  grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
-                 MBTiles (.mbtiles), PMTiles (.pmtiles) or SAGA grids (.sdat, .sgrd, \
-                 .sg-grd-z), not '.{other}'"
+                 MBTiles (.mbtiles), PMTiles (.pmtiles), SAGA grids (.sdat, .sgrd, \
+                 .sg-grd-z) or Zarr stores (.zarr), not '.{other}'"
             ),
         )),
     }
@@ -144,7 +147,8 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "grd" if rraster::is_rraster(path) => rraster::rraster_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.
         "nc" | "nc4" | "grd" => ascii_grid::ascii_grid_sidecars(path),
-        "hgt" | "zip" | "dt0" | "dt1" | "dt2" => Vec::new(),
+        // A Zarr store is a folder: digested whole as an input.
+        "hgt" | "zip" | "dt0" | "dt1" | "dt2" | "zarr" => Vec::new(),
         _ => geotiff::sidecars(path),
     }
 }

@@ -125,14 +125,18 @@ fn gridded(group: &NcGroup) -> Vec<&NcVariable> {
 /// One axis of the grid: where its first cell's centre lies and the step between
 /// centres (negative where x runs west or y south).
 #[derive(Debug, Clone, Copy, PartialEq)]
-struct Spacing {
-    first: f64,
-    step: f64,
+pub(super) struct Spacing {
+    pub first: f64,
+    pub step: f64,
 }
 
 /// The even spacing of coordinate values `values` (cell centres); an error says which
 /// value breaks it. Single-precision coordinates may stray by their rounding.
-fn spacing(values: &[f64], single: bool, dimension: &str) -> std::result::Result<Spacing, String> {
+pub(super) fn spacing(
+    values: &[f64],
+    single: bool,
+    dimension: &str,
+) -> std::result::Result<Spacing, String> {
     let n = values.len();
     if n < 2 {
         return Err(format!(

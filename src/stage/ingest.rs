@@ -65,7 +65,8 @@ pub struct IngestParams {
     /// its .gri: R's `raster` package), a GeoPackage raster
     /// (.gpkg: imagery tiles or a gridded coverage), an MBTiles package or PMTiles archive
     /// (.mbtiles, .pmtiles: Web Mercator imagery tiles), a SAGA grid (.sdat or .sgrd,
-    /// compressed .sg-grd-z: SAGA's and QGIS's terrain tools) or a MovingAI .map (layer
+    /// compressed .sg-grd-z: SAGA's and QGIS's terrain tools), a Zarr store (a .zarr
+    /// folder, version 2 or 3, as xarray writes it) or a MovingAI .map (layer
     /// `blocked`);
     /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
@@ -205,7 +206,7 @@ fn load_map(path: &Path) -> Result<Map> {
                  .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
                  .dat (ENVI), .nc/.nc4/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
                  .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
-                 .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
+                 .zarr (Zarr store), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),
         )),
     }

@@ -1,0 +1,259 @@
+//! Blosc (version 1 frames): the compressor Zarr version 2 stores chunks with by
+//! default (numcodecs' `Blosc`, LZ4 and byte shuffle). A frame is a 16-byte header
+//! (format version, codec version, flags, type size, then the sizes uncompressed, of a
+//! block and compressed), the blocks' offsets, and each block compressed whole or in one
+//! stream per byte of the type ("split"), then byte-unshuffled. LZ4, Zstandard and zlib
+//! streams are decoded (by the `lz4`, `zstd` and `flate2` crates); BloscLZ, Snappy and
+//! bit shuffle are refused by name.
+
+use std::io::Read;
+
+/// The frame header's flags.
+const BYTE_SHUFFLE: u8 = 0x01;
+const MEMCPYED: u8 = 0x02;
+const BIT_SHUFFLE: u8 = 0x04;
+const DONT_SPLIT: u8 = 0x10;
+/// Streams split per byte of the type only up to this type size, and only where a
+/// block holds this many elements.
+const MAX_SPLITS: usize = 16;
+const MIN_BUFFER: usize = 128;
+
+/// The bytes Blosc `frame` holds, at most `most` of them; an error says why the frame
+/// cannot be decoded.
+pub(crate) fn decompress(frame: &[u8], most: usize) -> Result<Vec<u8>, String> {
+    let word = |at: usize| -> Result<usize, String> {
+        frame
+            .get(at..at + 4)
+            .map(|b| u32::from_le_bytes(b.try_into().expect("four bytes")) as usize)
+            .ok_or_else(|| format!("Blosc frame of {} bytes is cut short", frame.len()))
+    };
+    let (version, flags) = match frame {
+        [version, _, flags, ..] => (*version, *flags),
+        _ => return Err("a Blosc frame is shorter than its header".into()),
+    };
+    let typesize = usize::from(*frame.get(3).ok_or("a Blosc frame lacks its type size")?);
+    let (nbytes, blocksize, cbytes) = (word(4)?, word(8)?, word(12)?);
+    if !(1..=4).contains(&version) {
+        return Err(format!(
+            "Blosc frame of format version {version} (1 to 4 are read)"
+        ));
+    }
+    if nbytes > most {
+        return Err(format!(
+            "Blosc frame of {nbytes} bytes where the chunk holds {most}"
+        ));
+    }
+    if cbytes > frame.len() {
+        return Err(format!(
+            "Blosc frame of {cbytes} bytes holds {}",
+            frame.len()
+        ));
+    }
+    if nbytes == 0 {
+        return Ok(Vec::new());
+    }
+    if flags & MEMCPYED != 0 {
+        return frame
+            .get(16..16 + nbytes)
+            .map(<[u8]>::to_vec)
+            .ok_or_else(|| "a stored Blosc frame is cut short".into());
+    }
+    if flags & BIT_SHUFFLE != 0 && typesize > 1 {
+        return Err(
+            "Blosc frame bit-shuffled, which is not read: write the store with \
+             byte shuffle (numcodecs' Blosc(shuffle=Blosc.SHUFFLE))"
+                .into(),
+        );
+    }
+    if blocksize == 0 || typesize == 0 {
+        return Err(format!(
+            "Blosc frame of blocks of {blocksize} bytes, type {typesize}"
+        ));
+    }
+    let codec = match flags >> 5 {
+        1 => Codec::Lz4,
+        3 => Codec::Zlib,
+        4 => Codec::Zstd,
+        0 => {
+            return Err(
+                "Blosc frame compressed by BloscLZ, which is not read: write the \
+             store with LZ4 or Zstandard in Blosc, or with Zstandard alone"
+                    .into(),
+            );
+        }
+        other => {
+            return Err(format!(
+                "Blosc frame of codec {other} (Snappy or unknown), which is not read"
+            ));
+        }
+    };
+    let shuffled = flags & BYTE_SHUFFLE != 0 && typesize > 1;
+    let mut out = vec![0u8; nbytes];
+    for (block, chunk) in out.chunks_mut(blocksize).enumerate() {
+        let leftover = chunk.len() < blocksize;
+        let split = flags & DONT_SPLIT == 0
+            && typesize <= MAX_SPLITS
+            && blocksize / typesize >= MIN_BUFFER
+            && !leftover;
+        let streams = if split { typesize } else { 1 };
+        let stream_bytes = chunk.len() / streams;
+        let mut at = word(16 + 4 * block)?;
+        let mut decoded = Vec::with_capacity(chunk.len());
+        for _ in 0..streams {
+            let length = word(at)?;
+            at += 4;
+            let source = frame
+                .get(at..at.saturating_add(length))
+                .ok_or("a Blosc stream runs past its frame")?;
+            at += length;
+            if length == stream_bytes {
+                decoded.extend_from_slice(source);
+            } else {
+                decoded.extend(codec.decode(source, stream_bytes)?);
+            }
+        }
+        if decoded.len() != chunk.len() {
+            return Err("a Blosc block decodes to another size than its own".into());
+        }
+        if shuffled {
+            unshuffle(&decoded, typesize, chunk);
+        } else {
+            chunk.copy_from_slice(&decoded);
+        }
+    }
+    Ok(out)
+}
+
+#[derive(Clone, Copy)]
+enum Codec {
+    Lz4,
+    Zlib,
+    Zstd,
+}
+
+impl Codec {
+    /// `source` decoded to `size` bytes exactly.
+    fn decode(self, source: &[u8], size: usize) -> Result<Vec<u8>, String> {
+        let decoded = match self {
+            Codec::Lz4 => {
+                let size = i32::try_from(size).map_err(|_| "a Blosc stream too large")?;
+                lz4::block::decompress(source, Some(size)).map_err(|e| e.to_string())?
+            }
+            Codec::Zlib => {
+                let mut out = Vec::with_capacity(size);
+                flate2::read::ZlibDecoder::new(source)
+                    .take(size as u64 + 1)
+                    .read_to_end(&mut out)
+                    .map_err(|e| e.to_string())?;
+                out
+            }
+            Codec::Zstd => zstd::bulk::decompress(source, size).map_err(|e| e.to_string())?,
+        };
+        if decoded.len() == size {
+            Ok(decoded)
+        } else {
+            Err(format!(
+                "a Blosc stream decodes to {} bytes, not {size}",
+                decoded.len()
+            ))
+        }
+    }
+}
+
+/// Byte-shuffled `source` (every element's first bytes, then their second...) back to
+/// whole elements in `out`; bytes past the last whole element stay where they are.
+fn unshuffle(source: &[u8], typesize: usize, out: &mut [u8]) {
+    let elements = source.len() / typesize;
+    for (i, element) in out.chunks_exact_mut(typesize).enumerate() {
+        for (j, byte) in element.iter_mut().enumerate() {
+            *byte = source[j * elements + i];
+        }
+    }
+    let whole = elements * typesize;
+    out[whole..].copy_from_slice(&source[whole..]);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A frame of `values` as Blosc writes one uncompressed with byte shuffle, split
+    /// into streams: each stream stored as it is (its length equals its size).
+    fn frame_of(values: &[u32], blocksize: usize) -> Vec<u8> {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let blocks: Vec<&[u8]> = bytes.chunks(blocksize).collect();
+        let mut body = Vec::new();
+        let mut starts = Vec::new();
+        let header = 16 + 4 * blocks.len();
+        for block in &blocks {
+            starts.push((header + body.len()) as u32);
+            let elements = block.len() / 4;
+            let mut shuffled = vec![0u8; block.len()];
+            for i in 0..elements {
+                for j in 0..4 {
+                    shuffled[j * elements + i] = block[4 * i + j];
+                }
+            }
+            let split = block.len() == blocksize && blocksize / 4 >= MIN_BUFFER;
+            let streams = if split { 4 } else { 1 };
+            for stream in shuffled.chunks(block.len() / streams) {
+                body.extend((stream.len() as u32).to_le_bytes());
+                body.extend_from_slice(stream);
+            }
+        }
+        let mut frame = vec![2, 1, BYTE_SHUFFLE | (1 << 5), 4];
+        frame.extend((bytes.len() as u32).to_le_bytes());
+        frame.extend((blocksize as u32).to_le_bytes());
+        frame.extend(((header + body.len()) as u32).to_le_bytes());
+        for start in starts {
+            frame.extend(start.to_le_bytes());
+        }
+        frame.extend(body);
+        frame
+    }
+
+    #[test]
+    fn shuffled_split_blocks_and_a_leftover_come_back() {
+        let values: Vec<u32> = (0..700u32).map(|i| i.wrapping_mul(2_654_435_761)).collect();
+        let frame = frame_of(&values, 1024);
+        let bytes = decompress(&frame, 2800).unwrap();
+        let back: Vec<u32> = bytes
+            .chunks_exact(4)
+            .map(|b| u32::from_le_bytes(b.try_into().unwrap()))
+            .collect();
+        assert_eq!(back, values);
+        assert!(decompress(&frame, 100).unwrap_err().contains("2800"));
+    }
+
+    #[test]
+    fn lz4_streams_decode() {
+        let bytes: Vec<u8> = (0..4096u32).flat_map(|i| (i / 7).to_le_bytes()).collect();
+        let stream = lz4::block::compress(&bytes, None, false).unwrap();
+        let mut frame = vec![2, 1, DONT_SPLIT | (1 << 5), 4];
+        frame.extend((bytes.len() as u32).to_le_bytes());
+        frame.extend((bytes.len() as u32).to_le_bytes());
+        frame.extend(((24 + stream.len()) as u32).to_le_bytes());
+        frame.extend(20u32.to_le_bytes());
+        frame.extend((stream.len() as u32).to_le_bytes());
+        frame.extend(&stream);
+        assert_eq!(decompress(&frame, bytes.len()).unwrap(), bytes);
+    }
+
+    #[test]
+    fn damaged_frames_are_errors() {
+        let frame = frame_of(&(0..300).collect::<Vec<u32>>(), 512);
+        for cut in 0..frame.len() {
+            let _ = decompress(&frame[..cut], 1200);
+        }
+        let mut bits = frame.clone();
+        bits[2] |= BIT_SHUFFLE;
+        assert!(
+            decompress(&bits, 1200)
+                .unwrap_err()
+                .contains("bit-shuffled")
+        );
+        let mut blosclz = frame;
+        blosclz[2] &= 0x1f;
+        assert!(decompress(&blosclz, 1200).unwrap_err().contains("BloscLZ"));
+    }
+}
