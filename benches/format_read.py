@@ -7,7 +7,8 @@ GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both i
 16's Web Mercator grid (so that GDAL writes its cells as they are), and that package as
 a PMTiles archive (Protomaps' converter; GDAL, which reads no raster PMTiles, is timed
 on the package); SAGA (its SAGA driver) with the DEM as a grid, and zipped as SAGA's
-compressed grid (`.sg-grd-z`, Deflate); each beside an
+compressed grid (`.sg-grd-z`, Deflate); Zarr (xarray's `to_zarr`) with the DEM in 512²
+chunks, version 2 (Blosc with LZ4) and 3 (Zstandard); each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
 the raster as costs and plans two cells apart: the read is the time; wall and user CPU
 seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
@@ -56,6 +57,17 @@ def write(path, values, driver, mercator=False, **options):
         source = write(path + ".mbtiles", values, "MBTiles", mercator, **options)
         mbtiles_to_pmtiles(source, path, None)
         return path
+    if driver.startswith("Zarr"):
+        import xarray as xr
+        crs = "EPSG:32616"
+        x = 440000 + 30 * (np.arange(values.shape[1]) + 0.5)
+        y = 4640000 - 30 * (np.arange(values.shape[0]) + 0.5)
+        ref = xr.DataArray(0, attrs={"crs_wkt": rasterio.crs.CRS.from_string(crs).to_wkt()})
+        ds = xr.Dataset({"dem": (("y", "x"), values, {"grid_mapping": "spatial_ref"}),
+                         "spatial_ref": ref}, coords={"x": x, "y": y})
+        ds["dem"].encoding["chunks"] = (512, 512)
+        ds.to_zarr(path, mode="w", zarr_format=int(driver[-1]), consolidated=False)
+        return path
     if driver == "SAGA compressed":
         stem = os.path.splitext(path)[0]
         write(stem + ".sdat", values, "SAGA", mercator, **options)
@@ -76,6 +88,14 @@ def write(path, values, driver, mercator=False, **options):
                        crs=crs, transform=transform, **options) as dst:
         dst.write(values, 1)
     return path
+
+
+def size_of(path):
+    """The bytes of a file, or of every file in a folder (a Zarr store)."""
+    if not os.path.isdir(path):
+        return os.path.getsize(path)
+    return sum(os.path.getsize(os.path.join(folder, name))
+               for folder, _, names in os.walk(path) for name in names)
 
 
 def timed_plan(binary, raster):
@@ -121,7 +141,9 @@ def main():
              ("PMTiles: cover, PNG tiles", "cover.pmtiles", cover, "PMTiles", {}),
              ("SAGA: DEM", "dem.sdat", dem, "SAGA", {}),
              ("SAGA: DEM, compressed (.sg-grd-z)", "dem_zipped.sg-grd-z", dem,
-              "SAGA compressed", {})]
+              "SAGA compressed", {}),
+             ("Zarr v2: DEM, Blosc LZ4, 512² chunks", "dem_v2.zarr", dem, "Zarr 2", {}),
+             ("Zarr v3: DEM, Zstandard, 512² chunks", "dem_v3.zarr", dem, "Zarr 3", {})]
     print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
           "GDAL, the file | the file to GeoTIFF, user CPU |")
     print("|---|---|---|---|---|---|")
@@ -136,9 +158,11 @@ def main():
         twin = min(timed_plan(binary, tif) for _ in range(REPEATS))
         # GDAL reads no raster PMTiles: it reads the MBTiles the archive was made from.
         gdal_reads = path + ".mbtiles" if driver == "PMTiles" else path
-        gdal = min(timed_gdal(gdal_reads, values) for _ in range(REPEATS))
-        print(f"| {label} | {os.path.getsize(path):,} | {ours[0]:.2f} s / {ours[1]:.2f} s | "
-              f"{twin[0]:.2f} s / {twin[1]:.2f} s | {gdal:.2f} s | {ours[1] / twin[1]:.2f} |",
+        # GDAL 3.10 reads no Zarr version 3 as zarr-python 3 writes it.
+        gdal = ("–" if driver == "Zarr 3" else
+                f"{min(timed_gdal(gdal_reads, values) for _ in range(REPEATS)):.2f} s")
+        print(f"| {label} | {size_of(path):,} | {ours[0]:.2f} s / {ours[1]:.2f} s | "
+              f"{twin[0]:.2f} s / {twin[1]:.2f} s | {gdal} | {ours[1] / twin[1]:.2f} |",
               flush=True)
 
 

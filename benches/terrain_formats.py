@@ -6,7 +6,8 @@ formats a user may be handed instead of a GeoTIFF: a PNG (georeferenced by GDAL'
 JPEG 2000, an ERDAS Imagine file (run-length compressed), an ENVI raster (`.dat`, by
 pixel), a netCDF-4 file with Deflate (a variable per band), a GeoPackage (PNG tiles, or a
 gridded coverage for one band of 16 or 32 bits), a SAGA grid (one band; also zipped as
-SAGA's `.sg-grd-z`), an R raster grid (`.grd` beside `.gri`). Every copy runs `imitate bench terrain` with the same seed and teachers as the
+SAGA's `.sg-grd-z`), an R raster grid (`.grd` beside `.gri`), Zarr stores (versions 2
+and 3, as xarray writes a raster's bands). Every copy runs `imitate bench terrain` with the same seed and teachers as the
 GeoTIFF; a lossless copy must give the GeoTIFF's figures to the last digit. A lossy copy
 is another terrain (its teacher is drawn from the compressed image too), and an RGBA
 image written as BIL (or any format keeping no alpha) is read unmasked, as GDAL reads it.
@@ -80,12 +81,41 @@ def copies(source, out, wanted=lambda label: True):
     # Its own name: an ENVI header is x.hdr, as the BIL's is.
     copy("ENVI", stem + "_envi.dat", "ENVI", INTERLEAVE="BIP")
     copy("netCDF-4", stem + ".nc", "netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
+    # Zarr, as xarray writes a raster's bands (version 2: Blosc with LZ4; 3: Zstandard).
+    for version in (2, 3):
+        label = f"Zarr v{version}"
+        if wanted(label):
+            path = f"{stem}_v{version}.zarr"
+            zarr_dataset(source).to_zarr(path, mode="w", zarr_format=version,
+                                         consolidated=False)
+            made.append((label, path, True))
     # GeoPackage: 8-bit imagery in PNG tiles (a fourth band is its alpha), one band of
     # any other type as a gridded coverage (float in TIFF tiles).
     if dtype == "uint8" or (count == 1 and dtype in ("int16", "uint16", "float32")):
         tiles = "TIFF" if dtype == "float32" else "PNG"
         copy("GeoPackage", stem + ".gpkg", "GPKG", TILE_FORMAT=tiles)
     return made
+
+
+def zarr_dataset(source):
+    """The raster at `source` as xarray holds one: its bands as one variable (band, y,
+    x) or (y, x), cell-centre coordinates, the CRS as a grid mapping's WKT, its nodata
+    as `_FillValue`."""
+    import numpy as np
+    import xarray as xr
+    with rasterio.open(source) as src:
+        values, transform, crs, nodata = src.read(), src.transform, src.crs, src.nodata
+    x = transform.c + transform.a * (np.arange(values.shape[2]) + 0.5)
+    y = transform.f + transform.e * (np.arange(values.shape[1]) + 0.5)
+    dims = ("band", "y", "x") if len(values) > 1 else ("y", "x")
+    data = values if len(values) > 1 else values[0]
+    name = os.path.splitext(os.path.basename(source))[0]
+    ds = xr.Dataset({name: (dims, data, {"grid_mapping": "spatial_ref"}),
+                     "spatial_ref": xr.DataArray(0, attrs={"crs_wkt": crs.to_wkt()})},
+                    coords={"x": x, "y": y})
+    if nodata is not None:
+        ds[name].encoding["_FillValue"] = nodata
+    return ds
 
 
 def run(binary, path, teachers, seed):
