@@ -269,7 +269,48 @@ impl Array {
         } else {
             Self::of_v3(name, folder, &meta)
         };
-        array.map(Some).map_err(|e| Error::input(&meta_path, e))
+        array
+            .and_then(Array::checked)
+            .map(Some)
+            .map_err(|e| Error::input(&meta_path, e))
+    }
+
+    /// The array, once its shape and chunks are known to be sizes a reader can hold:
+    /// as many chunk sides as dimensions, none empty, a chunk under 2 GiB, a count of
+    /// elements that fits in memory's address space.
+    fn checked(self) -> std::result::Result<Self, String> {
+        if self.chunks.len() != self.shape.len() {
+            return Err(format!(
+                "its chunks {:?} do not match its shape {:?}",
+                self.chunks, self.shape
+            ));
+        }
+        if self.chunks.contains(&0) {
+            return Err(format!("its chunks {:?} hold a side of 0", self.chunks));
+        }
+        let chunk_bytes = self
+            .chunks
+            .iter()
+            .try_fold(self.dtype.size, |n, &side| n.checked_mul(side))
+            .filter(|&n| n <= 1 << 31);
+        if chunk_bytes.is_none() {
+            return Err(format!(
+                "its chunks {:?} are larger than 2 GiB",
+                self.chunks
+            ));
+        }
+        if self
+            .shape
+            .iter()
+            .try_fold(1usize, |n, &side| n.checked_mul(side))
+            .is_none()
+        {
+            return Err(format!(
+                "its shape {:?} holds more elements than memory",
+                self.shape
+            ));
+        }
+        Ok(self)
     }
 
     fn of_v2(
@@ -452,6 +493,9 @@ impl Array {
         let count: usize = self.shape.iter().product();
         let mut out = vec![convert(self.fill.unwrap_or(0.0)); count];
         let rank = self.shape.len();
+        if rank == 0 {
+            return Ok(out);
+        }
         let grid: Vec<usize> = self
             .shape
             .iter()
@@ -602,8 +646,12 @@ pub fn read_zarr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let cells = width.saturating_mul(height);
     let layer_count: usize = on_grid
         .iter()
-        .map(|a| a.shape[..a.shape.len() - 2].iter().product::<usize>())
-        .sum();
+        .map(|a| {
+            a.shape[..a.shape.len() - 2]
+                .iter()
+                .fold(1usize, |n, &side| n.saturating_mul(side))
+        })
+        .fold(0usize, usize::saturating_add);
     if cells.saturating_mul(layer_count) > MAX_MAP_CELLS {
         return Err(problem(format!(
             "its gridded arrays hold {layer_count} layers of {width} × {height} cells, more \
@@ -780,6 +828,34 @@ mod tests {
         let encoded = base64::engine::general_purpose::STANDARD.encode((-9999i16).to_le_bytes());
         assert_eq!(number(&Value::from(encoded), i2), Some(-9999.0));
         assert_eq!(number(&Value::from(-9999), i2), Some(-9999.0));
+    }
+
+    #[test]
+    fn hostile_shapes_and_chunks_are_errors() {
+        let dir = tempfile::tempdir().unwrap();
+        for (shape, chunks, needle) in [
+            ("[4, 4]", "[2]", "do not match"),
+            ("[4, 4]", "[0, 2]", "side of 0"),
+            ("[4, 4]", "[4294967296, 4294967296]", "2 GiB"),
+            (
+                "[4294967296, 4294967296, 4294967296]",
+                "[1, 1, 1]",
+                "more elements",
+            ),
+        ] {
+            let folder = dir.path().join("a");
+            std::fs::create_dir_all(&folder).unwrap();
+            let meta = format!(
+                r#"{{"zarr_format": 2, "shape": {shape}, "chunks": {chunks}, "dtype": "<f4",
+                "compressor": null, "fill_value": 0, "order": "C", "filters": null}}"#
+            );
+            std::fs::write(folder.join(".zarray"), meta).unwrap();
+            let error = Array::open(&folder).unwrap_err().to_string();
+            assert!(
+                error.contains(needle) && error.contains(".zarray"),
+                "{error}"
+            );
+        }
     }
 
     #[test]
