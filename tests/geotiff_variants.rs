@@ -1944,9 +1944,10 @@ fn r_raster_grids_read_as_gdal_reads_them() {
 /// shuffle, Blosc's Zstandard and zlib, Zstandard, zlib and gzip alone, uncompressed,
 /// `/` between chunk indices) read as GDAL reads them, and version 3 (Zstandard, gzip
 /// with a checksum, Blosc; degrees with latitudes from the south; bands first beside a
-/// second variable) read as xarray reads them: partial edge chunks, a chunk never
-/// written, `_FillValue` voids and rioxarray's grid mapping. Sharded chunks and a store
-/// without coordinates are refused, naming the problem.
+/// second variable; shards of 2 × 2 chunks) read as xarray reads them: partial edge
+/// chunks, a chunk never written, `_FillValue` voids and rioxarray's grid mapping.
+/// Bit-shuffled Blosc and a store without coordinates are refused, naming the problem;
+/// damaged stores are read or refused, never a panic.
 #[test]
 fn zarr_stores_read_as_gdal_and_xarray_read_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -1967,11 +1968,11 @@ fn zarr_stores_read_as_gdal_and_xarray_read_them() {
         dir.path(),
         &info["refused"],
         &[
-            ("sharded", &["zarr.json", "sharding_indexed"][..]),
+            ("bits", &["bits.zarr", "bit-shuffled"][..]),
             ("bare", &["bare.zarr", "no gridded array"]),
         ],
     );
-    for store in ["v2_default.zarr", "v3_gzip.zarr"] {
+    for store in ["v2_default.zarr", "v3_gzip.zarr", "v3_sharded.zarr"] {
         assert!(damage_store(&dir.path().join(store), 8) >= 100);
     }
 }

@@ -12,7 +12,8 @@
 //! - chunks (C order, regular grid, missing ones holding the fill value) are decoded
 //!   from Blosc (LZ4, Zstandard or zlib inside), Zstandard, zlib, gzip or LZ4 (version
 //!   2's compressor) or the `bytes`, `zstd`, `gzip`, `blosc` and `crc32c` codecs
-//!   (version 3); other codecs, filters and Fortran order are refused by name;
+//!   (version 3), in shards (`sharding_indexed`: inner chunks and their index at either
+//!   end); other codecs, filters and Fortran order are refused by name;
 //! - the CRS is the WKT of the array's `grid_mapping` (`crs_wkt` or `spatial_ref`, as
 //!   rioxarray writes it), else WGS 84 for coordinates in degrees, else a `.prj` or GDAL
 //!   sidecar beside the store;
@@ -188,8 +189,10 @@ struct Array {
     shape: Vec<usize>,
     chunks: Vec<usize>,
     dtype: DataType,
-    /// Decoding steps, in the order they are undone.
+    /// Decoding steps, in the order they are undone (of each shard, where sharded).
     steps: Vec<Step>,
+    /// How each chunk (a shard) holds its inner chunks, where the array is sharded.
+    shard: Option<Shard>,
     fill: Option<f64>,
     /// A chunk's key from its indices: the prefix and separator.
     key_prefix: &'static str,
@@ -197,6 +200,68 @@ struct Array {
     dimensions: Vec<String>,
     attributes: JsonMap<String, Value>,
     version: u8,
+}
+
+/// Version 3's sharding: each chunk file a shard of inner chunks, each encoded on its
+/// own, and an index of where each lies.
+#[derive(Debug, Clone, PartialEq)]
+struct Shard {
+    inner: Vec<usize>,
+    steps: Vec<Step>,
+    /// Whether the index ends the shard (else it opens it).
+    index_at_end: bool,
+    /// Whether a CRC-32C checksum follows the index.
+    index_checksum: bool,
+}
+
+/// The decoding steps (in the order they are undone) and sharding of version 3
+/// `codecs`, the element byte order set in `dtype` by the `bytes` codec.
+fn codecs(
+    list: &Value,
+    dtype: &mut DataType,
+    outermost: bool,
+) -> std::result::Result<(Vec<Step>, Option<Shard>), String> {
+    let mut steps = Vec::new();
+    let mut shard = None;
+    for codec in list.as_array().ok_or("it lists no codecs")? {
+        let configuration = &codec["configuration"];
+        match codec["name"].as_str().unwrap_or_default() {
+            "bytes" => dtype.little = configuration["endian"] != "big",
+            "zstd" => steps.push(Step::Zstd),
+            "gzip" => steps.push(Step::Gzip),
+            "blosc" => steps.push(Step::Blosc),
+            "crc32c" => steps.push(Step::Crc32c),
+            "numcodecs.zlib" => steps.push(Step::Zlib),
+            "sharding_indexed" if outermost => {
+                let (inner_steps, _) = codecs(&configuration["codecs"], dtype, false)?;
+                let mut index_dtype = DataType::of_v3("uint64").expect("a data type");
+                let (index_steps, _) =
+                    codecs(&configuration["index_codecs"], &mut index_dtype, false)?;
+                if !index_dtype.little || index_steps.iter().any(|s| *s != Step::Crc32c) {
+                    return Err(
+                        "its shard index is not little-endian offsets with at most a \
+                         CRC-32C checksum (as zarr writes it)"
+                            .into(),
+                    );
+                }
+                shard = Some(Shard {
+                    inner: sizes(&configuration["chunk_shape"])
+                        .ok_or("its shards' chunk_shape is not a list of sizes")?,
+                    steps: inner_steps,
+                    index_at_end: configuration["index_location"] != "start",
+                    index_checksum: !index_steps.is_empty(),
+                });
+            }
+            other => {
+                return Err(format!(
+                    "its codec '{other}' is not read (bytes, zstd, gzip, blosc, crc32c and \
+                     sharding_indexed are)"
+                ));
+            }
+        }
+    }
+    steps.reverse();
+    Ok((steps, shard))
 }
 
 /// A JSON number, or the strings Zarr writes for non-finite floats and hex bits.
@@ -345,6 +410,7 @@ impl Array {
             chunks: sizes(&meta["chunks"]).ok_or("its chunks are not a list of sizes")?,
             dtype,
             steps,
+            shard: None,
             fill: number(&meta["fill_value"], Some(dtype)),
             key_prefix: "",
             separator: meta["dimension_separator"]
@@ -365,32 +431,7 @@ impl Array {
                 meta["chunk_grid"]["name"]
             ));
         }
-        let mut steps = Vec::new();
-        for codec in meta["codecs"].as_array().ok_or("it lists no codecs")? {
-            let codec_name = codec["name"].as_str().unwrap_or_default();
-            match codec_name {
-                "bytes" => {
-                    dtype.little = codec["configuration"]["endian"] != "big";
-                }
-                "zstd" => steps.push(Step::Zstd),
-                "gzip" => steps.push(Step::Gzip),
-                "blosc" => steps.push(Step::Blosc),
-                "crc32c" => steps.push(Step::Crc32c),
-                "numcodecs.zlib" => steps.push(Step::Zlib),
-                other => {
-                    return Err(format!(
-                        "its codec '{other}' is not read (bytes, zstd, gzip, blosc and crc32c \
-                         are){}",
-                        if other == "sharding_indexed" {
-                            ": write it unsharded"
-                        } else {
-                            ""
-                        }
-                    ));
-                }
-            }
-        }
-        steps.reverse();
+        let (steps, shard) = codecs(&meta["codecs"], &mut dtype, true)?;
         let encoding = &meta["chunk_key_encoding"];
         let v2_keys = encoding["name"] == "v2";
         let separator = encoding["configuration"]["separator"]
@@ -406,6 +447,7 @@ impl Array {
                 .ok_or("its chunk_shape is not a list of sizes")?,
             dtype,
             steps,
+            shard,
             fill: number(&meta["fill_value"], Some(dtype)),
             key_prefix: if v2_keys { "" } else { "c" },
             separator,
@@ -438,10 +480,16 @@ impl Array {
     }
 
     /// The chunk's stored bytes decoded to its elements' bytes.
-    fn decode(&self, path: &Path, mut bytes: Vec<u8>) -> Result<Vec<u8>> {
-        let size = self.chunks.iter().product::<usize>() * self.dtype.size;
+    fn decode(
+        &self,
+        path: &Path,
+        mut bytes: Vec<u8>,
+        steps: &[Step],
+        size: usize,
+        exact: bool,
+    ) -> Result<Vec<u8>> {
         let problem = |e: String| Error::input(path, format!("chunk cannot be decoded: {e}"));
-        for step in &self.steps {
+        for step in steps {
             bytes = match step {
                 Step::Crc32c => {
                     let keep = bytes
@@ -476,15 +524,86 @@ impl Array {
                 }
             };
         }
-        if bytes.len() != size {
+        if exact && bytes.len() != size {
             return Err(problem(format!(
-                "it holds {} bytes where a chunk of {:?} {}-byte elements holds {size}",
+                "it holds {} bytes where a chunk of {}-byte elements holds {size}",
                 bytes.len(),
-                self.chunks,
                 self.dtype.size
             )));
         }
         Ok(bytes)
+    }
+
+    /// The inner chunks of the shard whose (decoded) bytes are `shard`, each decoded,
+    /// with its first element's indices; `origin` is the shard's.
+    fn unshard(
+        &self,
+        path: &Path,
+        shard: &[u8],
+        layout: &Shard,
+        origin: &[usize],
+    ) -> Result<Vec<(Vec<usize>, Vec<u8>)>> {
+        let problem = |e: String| Error::input(path, format!("shard cannot be read: {e}"));
+        if layout.inner.len() != self.chunks.len()
+            || layout
+                .inner
+                .iter()
+                .zip(&self.chunks)
+                .any(|(&i, &c)| i == 0 || c % i != 0)
+        {
+            return Err(problem(format!(
+                "its inner chunks {:?} do not divide its shards {:?}",
+                layout.inner, self.chunks
+            )));
+        }
+        let per_side: Vec<usize> = self
+            .chunks
+            .iter()
+            .zip(&layout.inner)
+            .map(|(c, i)| c / i)
+            .collect();
+        let count: usize = per_side.iter().product();
+        let index_bytes = 16 * count + if layout.index_checksum { 4 } else { 0 };
+        let index = if layout.index_at_end {
+            shard
+                .len()
+                .checked_sub(index_bytes)
+                .map(|at| &shard[at..at + 16 * count])
+        } else {
+            shard.get(..16 * count)
+        }
+        .ok_or_else(|| {
+            problem(format!(
+                "{} bytes hold no index of {count} chunks",
+                shard.len()
+            ))
+        })?;
+        let inner_size = layout.inner.iter().product::<usize>() * self.dtype.size;
+        let word =
+            |at: usize| u64::from_le_bytes(index[at..at + 8].try_into().expect("eight bytes"));
+        let mut pieces = Vec::new();
+        for i in 0..count {
+            let (offset, length) = (word(16 * i), word(16 * i + 8));
+            if offset == u64::MAX && length == u64::MAX {
+                continue;
+            }
+            let stored = usize::try_from(offset)
+                .ok()
+                .zip(usize::try_from(length).ok())
+                .and_then(|(o, n)| shard.get(o..o.checked_add(n)?))
+                .ok_or_else(|| {
+                    problem(format!("its chunk {i} lies past its {} bytes", shard.len()))
+                })?;
+            let bytes = self.decode(path, stored.to_vec(), &layout.steps, inner_size, true)?;
+            let mut rest = i;
+            let mut at = vec![0; per_side.len()];
+            for d in (0..per_side.len()).rev() {
+                at[d] = origin[d] + (rest % per_side[d]) * layout.inner[d];
+                rest /= per_side[d];
+            }
+            pieces.push((at, bytes));
+        }
+        Ok(pieces)
     }
 
     /// Every element, in C order, through `convert` (missing chunks hold the fill
@@ -511,34 +630,50 @@ impl Array {
             at
         };
         let chunk_count: usize = grid.iter().product();
-        let decoded: Vec<(Vec<usize>, Vec<u8>)> = (0..chunk_count)
+        let chunk_elements: usize = self.chunks.iter().product();
+        let size = self.dtype.size;
+        let pieces: Vec<Vec<(Vec<usize>, Vec<u8>)>> = (0..chunk_count)
             .into_par_iter()
-            .filter_map(|flat| {
+            .map(|flat| {
                 let at = index_of(flat, &grid);
                 let path = self.chunk_path(&at);
-                let stored = std::fs::read(&path).ok()?;
-                Some(self.decode(&path, stored).map(|bytes| (at, bytes)))
+                let Ok(stored) = std::fs::read(&path) else {
+                    return Ok(Vec::new());
+                };
+                let origin: Vec<usize> = at.iter().zip(&self.chunks).map(|(a, c)| a * c).collect();
+                match &self.shard {
+                    None => {
+                        let bytes =
+                            self.decode(&path, stored, &self.steps, chunk_elements * size, true)?;
+                        Ok(vec![(origin, bytes)])
+                    }
+                    Some(layout) => {
+                        // A shard: its chunks (compressed, perhaps somewhat larger) and index.
+                        let most = 2 * chunk_elements * size + 16 * chunk_elements + 1024;
+                        let shard = self.decode(&path, stored, &self.steps, most, false)?;
+                        self.unshard(&path, &shard, layout, &origin)
+                    }
+                }
             })
             .collect::<Result<_>>()?;
-        let size = self.dtype.size;
-        let run = self.chunks[rank - 1];
-        let rows_per_chunk: usize = self.chunks[..rank - 1].iter().product();
-        for (at, bytes) in decoded {
-            let last_start = at[rank - 1] * run;
-            let length = run.min(self.shape[rank - 1].saturating_sub(last_start));
-            for row in 0..rows_per_chunk {
-                let within = index_of(row, &self.chunks[..rank - 1]);
+        let piece = self.shard.as_ref().map_or(&self.chunks, |s| &s.inner);
+        let run = piece[rank - 1];
+        let rows_per_piece: usize = piece[..rank - 1].iter().product();
+        for (origin, bytes) in pieces.into_iter().flatten() {
+            let length = run.min(self.shape[rank - 1].saturating_sub(origin[rank - 1]));
+            for row in 0..rows_per_piece {
+                let within = index_of(row, &piece[..rank - 1]);
                 let mut start = 0;
                 let mut inside = true;
                 for d in 0..rank - 1 {
-                    let position = at[d] * self.chunks[d] + within[d];
+                    let position = origin[d] + within[d];
                     inside &= position < self.shape[d];
                     start = start * self.shape[d] + position;
                 }
                 if !inside {
                     continue;
                 }
-                let start = start * self.shape[rank - 1] + last_start;
+                let start = start * self.shape[rank - 1] + origin[rank - 1];
                 let source = &bytes[row * run * size..(row * run + length) * size];
                 self.dtype
                     .convert_run(source, &mut out[start..start + length], &convert);
@@ -867,6 +1002,7 @@ mod tests {
             chunks: vec![2, 2],
             dtype: DataType::of_v3("uint8").unwrap(),
             steps: Vec::new(),
+            shard: None,
             fill: None,
             key_prefix: "c",
             separator: "/".into(),

@@ -10,8 +10,9 @@ GeoTIFF twin of what they read to. Prints one JSON line:
   stores (which this GDAL does not read), twinned by xarray's own reading: the same
   DEM with zarr's default Zstandard, with gzip and a CRC-32C checksum, with Blosc; a
   float32 field in degrees, latitudes from the south, no grid mapping; a 3-band uint16
-  image (band, y, x) beside a second variable on the grid;
-- `refused`: stores refused, by what is wrong: sharded chunks, no coordinates.
+  image (band, y, x) beside a second variable on the grid; the DEM in shards of 2 × 2
+  chunks;
+- `refused`: stores refused, by what is wrong: bit-shuffled Blosc, no coordinates.
 """
 
 import json
@@ -25,7 +26,7 @@ import xarray as xr
 import zarr
 from numcodecs import Blosc, GZip, Zlib, Zstd
 from rasterio.transform import from_origin
-from zarr.codecs import BloscCodec, Crc32cCodec, GzipCodec, ShardingCodec
+from zarr.codecs import BloscCodec, Crc32cCodec, GzipCodec
 
 warnings.filterwarnings("ignore")
 
@@ -57,7 +58,12 @@ def dem_dataset():
 
 
 def write(name, ds, version, **encoding):
+    """`ds` written as store `name` in Zarr `version`, its gridded variables encoded as
+    `encoding` says (`compressor`: version 2's one compressor, None for none)."""
     path = path_of(name)
+    if "compressor" in encoding:
+        compressor = encoding.pop("compressor")
+        encoding["compressors"] = [compressor] if compressor else None
     if encoding:
         for variable in ds.data_vars:
             if ds[variable].ndim >= 2:
@@ -170,10 +176,14 @@ bands["image"] = (("band", "y", "x"), image, {"grid_mapping": "spatial_ref"})
 bands = bands.assign_coords(band=[1, 2, 3])
 pairs.append(xarray_twin(write("v3_bands.zarr", bands, 3), UTM))
 
-# Refused: sharded chunks; an array with no coordinates.
-sharded = write("sharded.zarr", dem_dataset(), 3,
-                chunks=(50, 70), shards=(50, 70))
+# Sharded: shards of 2 × 2 chunks, one shard's chunks partly never written.
+pairs.append(xarray_twin(write("v3_sharded.zarr", dem_dataset(), 3,
+                               chunks=(8, 10), shards=(16, 20)), UTM))
+
+# Refused: bit-shuffled Blosc; an array with no coordinates.
+bits = write("bits.zarr", dem_dataset(), 2,
+             compressor=Blosc(cname="lz4", shuffle=Blosc.BITSHUFFLE))
 bare = path_of("bare.zarr")
 xr.Dataset({"elevation": (("y", "x"), field[0])}).to_zarr(bare, mode="w", zarr_format=3,
                                                           consolidated=False)
-print(json.dumps({"pairs": pairs, "refused": {"sharded": sharded, "bare": bare}}))
+print(json.dumps({"pairs": pairs, "refused": {"bits": bits, "bare": bare}}))
