@@ -15,8 +15,8 @@
 //!   (version 3), in shards (`sharding_indexed`: inner chunks and their index at either
 //!   end); other codecs, filters and Fortran order are refused by name;
 //! - the CRS is the WKT of the array's `grid_mapping` (`crs_wkt` or `spatial_ref`, as
-//!   rioxarray writes it), else WGS 84 for coordinates in degrees, else a `.prj` or GDAL
-//!   sidecar beside the store;
+//!   rioxarray writes it), else of its `_CRS` (as GDAL's Zarr driver writes it), else
+//!   WGS 84 for coordinates in degrees, else a `.prj` or GDAL sidecar beside the store;
 //! - values equal to `_FillValue` or `missing_value` (else version 2's `fill_value`, as
 //!   GDAL and xarray take it) are nodata; `scale_factor` and `add_offset` unpack them.
 
@@ -883,8 +883,9 @@ fn nodata_of(array: &Array) -> Vec<f64> {
     values
 }
 
-/// The GeoKeys of the grid: the WKT of `array`'s grid mapping, WGS 84 for coordinates
-/// in degrees, else a `.prj` or GDAL sidecar beside the store.
+/// The GeoKeys of the grid: the WKT of `array`'s grid mapping, else of its `_CRS`
+/// (GDAL's), WGS 84 for coordinates in degrees, else a `.prj` or GDAL sidecar beside
+/// the store.
 fn grid_crs(
     path: &Path,
     all: &[Array],
@@ -908,6 +909,15 @@ fn grid_crs(
         return wkt_geokeys(wkt).ok_or_else(|| {
             format!(
                 "its grid mapping '{mapping}' is neither a projected nor a geographic CRS: {wkt}"
+            )
+        });
+    }
+    // GDAL's own: the CRS in the array's `_CRS` attribute, as its Zarr driver writes it.
+    if let Some(wkt) = array.attribute("_CRS").and_then(|crs| crs["wkt"].as_str()) {
+        return wkt_geokeys(wkt).ok_or_else(|| {
+            format!(
+                "its array {}'s _CRS is neither a projected nor a geographic CRS: {wkt}",
+                array.name
             )
         });
     }

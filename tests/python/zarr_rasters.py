@@ -6,7 +6,8 @@ GeoTIFF twin of what they read to. Prints one JSON line:
   (`spatial_ref` with `crs_wkt`), in chunks that leave partial chunks at the edges and
   one chunk never written (all fill), compressed as zarr writes version 2 by default
   (Blosc with LZ4 and byte shuffle), with Blosc's Zstandard and zlib, with Zstandard,
-  zlib and gzip alone, uncompressed, and with `/` between chunk indices; version 3
+  zlib and gzip alone, uncompressed, and with `/` between chunk indices, and a store
+  GDAL's Zarr driver writes (X and Y arrays, the CRS in `_CRS`); version 3
   stores (which this GDAL does not read), twinned by xarray's own reading: the same
   DEM with zarr's default Zstandard, with gzip and a CRC-32C checksum, with Blosc; a
   float32 field in degrees, latitudes from the south, no grid mapping; a 3-band uint16
@@ -22,6 +23,7 @@ import warnings
 
 import numpy as np
 import rasterio
+import rasterio.shutil
 import xarray as xr
 import zarr
 from numcodecs import Blosc, GZip, Zlib, Zstd
@@ -151,6 +153,16 @@ for key in sorted(os.listdir(os.path.join(slashed, "elevation"))):
 meta["dimension_separator"] = "/"
 json.dump(meta, open(os.path.join(slashed, "elevation", ".zarray"), "w"))
 pairs.append(gdal_twin(slashed, ["elevation"]))
+
+# As GDAL's Zarr driver writes a raster (gdal_translate -of Zarr): X and Y arrays, the
+# CRS in the array's _CRS attribute.
+with rasterio.open(path_of("dem_source.tif"), "w", driver="GTiff", width=70, height=50,
+                   count=1, dtype="int16", crs=UTM, nodata=-9999,
+                   transform=from_origin(400000.0, 5200030.0, 30, 30)) as dst:
+    dst.write(dem_dataset()["elevation"].values, 1)
+gdal_written = path_of("gdal_written.zarr")
+rasterio.shutil.copy(path_of("dem_source.tif"), gdal_written, driver="Zarr")
+pairs.append(gdal_twin(gdal_written, ["gdal_written"]))
 
 # Version 3: zarr's default Zstandard, gzip with a checksum, Blosc.
 pairs.append(xarray_twin(write("v3_default.zarr", dem_dataset(), 3), UTM))
