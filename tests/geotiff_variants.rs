@@ -1914,9 +1914,11 @@ fn envi_rasters_read_as_gdal_reads_them() {
 
 /// R raster grids as GDAL writes them (every sample type, by line, band and pixel, band
 /// names and nodata) and as R's `raster` package writes them (big-endian, a PROJ string
-/// and no WKT): each reads to the grid, CRS, names, values and nodata GDAL reads it to,
+/// and no WKT: geographic, equal-area, oblique stereographic, Mercator, polar): each
+/// reads to the grid, CRS, ground scale, names, values and nodata GDAL reads it to,
 /// beside Surfer and netCDF grids of the same extension. A grid without its samples, an
-/// INT8S one and one whose PROJ string needs its WKT are refused, naming the problem.
+/// INT8S one and one in a projection not read from PROJ strings are refused, naming
+/// the problem.
 #[test]
 fn r_raster_grids_read_as_gdal_reads_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -1935,7 +1937,72 @@ fn r_raster_grids_read_as_gdal_reads_them() {
                 &["no_samples.grd", "no_samples.gri", "missing"][..],
             ),
             ("int8", &["int8.grd", "INT8S"]),
-            ("proj", &["laea.grd", "+proj=laea", ".prj"]),
+            ("proj", &["robin.grd", "+proj=robin", ".prj"]),
+        ],
+    );
+}
+
+/// The example rasters R users load (R's raster, terra and stars packages, as Debian
+/// ships them: `scripts/sample-data.sh`): R-written grids whose CRS is a PROJ string
+/// (the Dutch RD grid, Mercator), GeoTIFFs (a Landsat 7 scene, DEMs, a land cover) and
+/// netCDF variables (a Lambert grid in km, longitudes from 0–360° cut across
+/// Greenwich, sea-surface temperatures, climate projections) read as GDAL reads them;
+/// a rotated GeoTIFF, stations, a grid of 2-D latitudes and longitudes and x before y
+/// are refused, naming the problem.
+#[test]
+fn r_packages_example_rasters_read_as_gdal_reads_them() {
+    let samples = common::repo().join("target/sample-data");
+    if !samples.join(".complete").is_file() {
+        eprintln!("skipped: R's example rasters not fetched (run scripts/sample-data.sh)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("r_samples.py", &[&samples, dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (file, gdal, ours) = read_twins_nearly(pair);
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (worst, _) = differences_from_gdal(&file, a, b);
+            assert_eq!(worst, 0.0, "{file} {}", b.name);
+        }
+    }
+    for variable in info["variables"].as_array().unwrap() {
+        let (file, gdal, ours) = read_twins_nearly(variable);
+        let name = variable[2].as_str().unwrap();
+        let ours: Vec<_> = ours
+            .layers
+            .iter()
+            .filter(|l| l.name == name || l.name.starts_with(&format!("{name}_")))
+            .collect();
+        assert_eq!(gdal.layers.len(), ours.len(), "{file} {name}");
+        for (a, b) in gdal.layers.iter().zip(ours) {
+            // GDAL numbers a variable's steps as bands; ours are named by the variable.
+            let gdal_step = imitate::grid::Layer {
+                name: b.name.clone(),
+                ..a.clone()
+            };
+            let (worst, _) = differences_from_gdal(&file, &gdal_step, b);
+            assert_eq!(worst, 0.0, "{file} {}", b.name);
+        }
+    }
+    plans_across(dir.path(), "test.grd", "20,20", "90,60");
+    assert_refused(
+        dir.path(),
+        &info["refused"],
+        &[
+            ("rotated", &["geomatrix.tif", "rotated"][..]),
+            ("stations", &["timeseries.nc", "station"]),
+            (
+                "curvilinear",
+                &["test_stageiv_xyt.nc", "no coordinate variables"],
+            ),
+            (
+                "transposed",
+                &["3B42_Daily.19991231.7.test.nc", "x before y"],
+            ),
         ],
     );
 }

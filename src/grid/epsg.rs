@@ -8,22 +8,16 @@
 use super::equal_area::{Ellipsoid, EqualArea};
 use super::geodesy::{PolarScale, Projection};
 
-/// One CRS of the registry: its PROJ string's `+key=value` terms.
-pub struct EpsgCrs {
-    terms: Vec<(&'static str, &'static str)>,
+/// A CRS as a PROJ string's `+key=value` terms: one of the registry's, or one a file
+/// gives (R's raster headers write their CRS so).
+pub struct ProjCrs {
+    terms: Vec<(String, String)>,
 }
 
 /// The registry's CRS of `code`; `None` for codes it does not hold (vertical CRSs,
 /// codes newer than it).
-pub fn epsg_crs(code: u16) -> Option<EpsgCrs> {
-    let definition = crs_definitions::from_code(code)?;
-    let terms = definition
-        .proj4
-        .split_whitespace()
-        .filter_map(|term| term.strip_prefix('+'))
-        .map(|term| term.split_once('=').unwrap_or((term, "")))
-        .collect();
-    Some(EpsgCrs { terms })
+pub fn epsg_crs(code: u16) -> Option<ProjCrs> {
+    crs_definitions::from_code(code).map(|definition| ProjCrs::parse(definition.proj4))
 }
 
 /// Metres per linear unit, for the EPSG unit codes rasters use (GeoTIFF's
@@ -58,24 +52,41 @@ fn metres_per_named_unit(name: &str) -> Option<f64> {
     })
 }
 
-impl EpsgCrs {
-    fn value(&self, key: &str) -> Option<&'static str> {
-        self.terms.iter().find(|(k, _)| *k == key).map(|(_, v)| *v)
+impl ProjCrs {
+    /// The terms of PROJ string `proj` (`+proj=utm +zone=33 +south`: flags have no value).
+    pub fn parse(proj: &str) -> ProjCrs {
+        let terms = proj
+            .split_whitespace()
+            .filter_map(|term| term.strip_prefix('+'))
+            .map(|term| term.split_once('=').unwrap_or((term, "")))
+            .map(|(key, value)| (key.to_string(), value.to_string()))
+            .collect();
+        ProjCrs { terms }
     }
 
-    fn number(&self, key: &str) -> Option<f64> {
+    /// The value of term `key` (empty for a flag).
+    pub fn value(&self, key: &str) -> Option<&str> {
+        self.terms
+            .iter()
+            .find(|(k, _)| k == key)
+            .map(|(_, v)| v.as_str())
+    }
+
+    /// The value of term `key`, where it is a finite number.
+    pub fn number(&self, key: &str) -> Option<f64> {
         self.value(key)?
             .parse()
             .ok()
             .filter(|v: &f64| v.is_finite())
     }
 
-    fn has(&self, key: &str) -> bool {
-        self.terms.iter().any(|(k, _)| *k == key)
+    /// Whether term `key` is given (`+south`).
+    pub fn has(&self, key: &str) -> bool {
+        self.terms.iter().any(|(k, _)| k == key)
     }
 
     /// PROJ's projection name (`tmerc`, `lcc`, `longlat`, ...).
-    pub fn projection_name(&self) -> &'static str {
+    pub fn projection_name(&self) -> &str {
         self.value("proj").unwrap_or("")
     }
 
@@ -98,17 +109,35 @@ impl EpsgCrs {
         }
     }
 
-    /// The ellipsoid: `+a` with `+rf` or `+b`, else the named one or the datum's.
+    /// The ellipsoid of [`ProjCrs::axes`] (its eccentricity from `+b` where given).
     fn ellipsoid(&self) -> Ellipsoid {
+        let given = (self.number("a"), self.number("rf"), self.number("b"));
+        if let (Some(a), None, Some(b)) = given
+            && a > 0.0
+            && b > 0.0
+            && b <= a
+        {
+            return Ellipsoid {
+                a,
+                e2: 1.0 - (b / a).powi(2),
+            };
+        }
+        let (a, rf) = self.axes();
+        Ellipsoid::from_inverse_flattening(a, rf)
+    }
+
+    /// The ellipsoid's semi-major axis and inverse flattening (0: a sphere): `+a` with
+    /// `+rf` or `+b`, `+R`, else the named one or the datum's, else WGS 84's.
+    pub fn axes(&self) -> (f64, f64) {
         if let Some(a) = self.number("a").filter(|a| *a > 0.0) {
             return match (self.number("rf"), self.number("b")) {
-                (Some(rf), _) => Ellipsoid::from_inverse_flattening(a, rf),
-                (None, Some(b)) if b > 0.0 && b <= a => Ellipsoid {
-                    a,
-                    e2: 1.0 - (b / a).powi(2),
-                },
-                _ => Ellipsoid::sphere(a),
+                (Some(rf), _) => (a, rf),
+                (None, Some(b)) if b > 0.0 && b < a => (a, a / (a - b)),
+                _ => (a, 0.0),
             };
+        }
+        if let Some(radius) = self.number("R").filter(|r| *r > 0.0) {
+            return (radius, 0.0);
         }
         let name = match self.value("datum") {
             Some("NAD27") => "clrk66",
@@ -120,6 +149,7 @@ impl EpsgCrs {
             _ => self.value("ellps").unwrap_or("WGS84"),
         };
         let (a, rf) = match name {
+            "GRS80" => (6_378_137.0, 298.257_222_101),
             "clrk66" => (6_378_206.4, 294.978_698_213_898),
             "airy" => (6_377_563.396, 299.324_964_6),
             "mod_airy" => (6_377_340.189, 299.324_964_6),
@@ -135,9 +165,10 @@ impl EpsgCrs {
             "aust_SA" => (6_378_160.0, 298.25),
             "helmert" => (6_378_200.0, 298.3),
             "evrstSS" => (6_377_298.556, 300.8017),
-            _ => return Ellipsoid::WGS84,
+            "sphere" => (6_370_997.0, 0.0),
+            _ => (6_378_137.0, 298.257_223_563),
         };
-        Ellipsoid::from_inverse_flattening(a, rf)
+        (a, rf)
     }
 
     /// The projection, where it is one whose scale the reader measures: Transverse

@@ -294,7 +294,7 @@ impl Projection {
     }
 
     /// Mercator on WGS 84, true to scale on the equator (EPSG:3395).
-    pub(super) fn world_mercator() -> Projection {
+    pub(crate) fn world_mercator() -> Projection {
         Projection(Kind::Conformal(Conformal::WorldMercator))
     }
 

@@ -27,6 +27,7 @@ pub mod parquet_check;
 pub mod picture;
 pub mod pmtiles;
 pub mod png;
+mod proj_string;
 pub mod rraster;
 pub mod saga;
 mod sidecar_bands;

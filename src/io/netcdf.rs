@@ -10,7 +10,9 @@
 //!   x), and every gridded variable on it is read, a layer each (more where leading
 //!   dimensions such as time or level hold several steps: one per step);
 //! - the grid comes from the coordinate variables (cell centres, evenly spaced); y may
-//!   run either way and x east or west;
+//!   run either way and x east or west; projected coordinates in km (Daymet's) are
+//!   read in metres and longitudes that wrap past 360° (a 0–360° product cut across
+//!   Greenwich) run on, as GDAL reads them;
 //! - the CRS from the `grid_mapping` variable's WKT (`crs_wkt`, GDAL's `spatial_ref`),
 //!   else its CF parameters (`latitude_longitude`, transverse Mercator, Lambert
 //!   conformal conic, polar stereographic and four equal-area mappings); coordinates in
@@ -34,6 +36,7 @@ use super::ascii_grid::crs_keys;
 use super::geotiff::metadata::metres_per_unit;
 use super::geotiff::{Georeferencing, georeference, wkt_geokeys};
 use super::named_crs::{self, Named};
+use super::proj_string::esri_projected_wkt;
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, open_input};
 use crate::grid::Map;
@@ -170,6 +173,34 @@ pub(super) fn spacing(
         first: values[0],
         step,
     })
+}
+
+/// Metres per unit of projected coordinates in kilometres (Daymet's Lambert grid: `x`
+/// and `y` in `km`), which GDAL reads in metres, the unit of the CRSs they lie in;
+/// `None` for any other unit.
+pub(super) fn kilometres(units: Option<String>) -> Option<f64> {
+    units
+        .as_deref()
+        .and_then(metres_per_unit)
+        .filter(|&factor| factor == 1000.0)
+}
+
+/// Longitudes that wrap from 360° to 0° (or 180° to -180°) within the grid, as a
+/// region cut across Greenwich from a 0–360° product (CAMS, ERA5) holds them: each a
+/// whole turn from where it wrapped, so that they run evenly, and the run a turn west
+/// where it starts past 180°, as GDAL reads them (359.55, ..., 0.55 is -0.45 to 0.55).
+pub(super) fn unwrap_longitudes(values: &mut [f64]) {
+    let mut wrapped = false;
+    for i in 1..values.len() {
+        let jump = values[i] - values[i - 1];
+        if jump.is_finite() && jump.abs() > 180.0 {
+            values[i] -= 360.0 * (jump / 360.0).round();
+            wrapped = true;
+        }
+    }
+    if wrapped && values[0] >= 180.0 {
+        values.iter_mut().for_each(|v| *v -= 360.0);
+    }
 }
 
 /// The GeoKeys of the grid's CRS: the grid mapping's WKT or `latitude_longitude`,
@@ -343,18 +374,17 @@ fn cf_projection_wkt(mapping: &NcVariable, kind: &str) -> Option<String> {
         "sinusoidal" => ("Sinusoidal", vec![("Central_Meridian", meridian)]),
         _ => return None,
     };
-    let mut wkt = format!(
-        "PROJCS[\"{kind}\",GEOGCS[\"GCS_{kind}\",DATUM[\"D_{kind}\",SPHEROID[\"S_{kind}\",{a},{rf}]],\
-         PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]],PROJECTION[\"{projection}\"],\
-         PARAMETER[\"False_Easting\",{}],PARAMETER[\"False_Northing\",{}]",
-        number("false_easting").unwrap_or(0.0),
-        number("false_northing").unwrap_or(0.0)
-    );
-    for (name, value) in parameters {
-        wkt.push_str(&format!(",PARAMETER[\"{name}\",{value}]"));
-    }
-    wkt.push_str(",UNIT[\"Meter\",1.0]]");
-    Some(wkt)
+    Some(esri_projected_wkt(
+        kind,
+        (a, rf),
+        projection,
+        [
+            number("false_easting").unwrap_or(0.0),
+            number("false_northing").unwrap_or(0.0),
+        ],
+        &parameters,
+        1.0,
+    ))
 }
 
 /// A gridded variable's layers: one per step of its leading dimensions.
@@ -468,9 +498,11 @@ impl Grid {
                 x.name()
             ));
         }
-        let axis = |coordinate: &NcVariable| -> std::result::Result<(Spacing, usize), String> {
+        let axis = |coordinate: &NcVariable,
+                    longitude: bool|
+         -> std::result::Result<(Spacing, usize), String> {
             // Packed coordinates (integers with a `scale_factor`) unpacked, as CF says.
-            let values: Vec<f64> = file
+            let mut values: Vec<f64> = file
                 .read_variable_unpacked(coordinate.name())
                 .map_err(|e| {
                     format!(
@@ -481,10 +513,15 @@ impl Grid {
                 .iter()
                 .copied()
                 .collect();
+            if longitude {
+                unwrap_longitudes(&mut values);
+            } else if let Some(factor) = kilometres(text(coordinate, "units")) {
+                values.iter_mut().for_each(|v| *v *= factor);
+            }
             let single = coordinate.dtype() == &NcType::Float;
             Ok((spacing(&values, single, coordinate.name())?, values.len()))
         };
-        let ((x, width), (y, height)) = (axis(x)?, axis(y)?);
+        let ((x, width), (y, height)) = (axis(x, x_degrees)?, axis(y, false)?);
         Ok(Grid {
             x,
             y,
@@ -726,6 +763,25 @@ pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
 mod tests {
     use super::*;
     use netcdf_reader::{NcAttrValue, NcAttribute};
+
+    #[test]
+    fn longitudes_wrapping_across_greenwich_run_on() {
+        let mut across = [359.75, 359.85, 359.95, 0.05, 0.15];
+        unwrap_longitudes(&mut across);
+        let expected = [-0.25, -0.15, -0.05, 0.05, 0.15];
+        assert!(
+            across
+                .iter()
+                .zip(expected)
+                .all(|(a, b)| (a - b).abs() < 1e-9)
+        );
+        let mut antimeridian = [179.5, -179.5, -178.5];
+        unwrap_longitudes(&mut antimeridian);
+        assert_eq!(antimeridian, [179.5, 180.5, 181.5]);
+        let mut global = [0.5, 90.5, 180.5, 270.5];
+        unwrap_longitudes(&mut global);
+        assert_eq!(global, [0.5, 90.5, 180.5, 270.5]);
+    }
 
     #[test]
     fn spacing_allows_single_precision_rounding_only() {

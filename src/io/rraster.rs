@@ -17,7 +17,7 @@ use std::path::{Path, PathBuf};
 use super::ascii_grid::crs_keys;
 use super::ehdr::{Interleave, KeyValues, Layout, RawRaster, RawValues, Sample, read_raw_bytes};
 use super::geotiff::{sidecar, wkt_geokeys};
-use super::named_crs::{self, Named};
+use super::proj_string::{CrsKeys, proj_string_geokeys};
 use crate::error::{Error, Result, read_input};
 use crate::grid::Map;
 
@@ -99,32 +99,6 @@ fn sample(datatype: &str) -> std::result::Result<Sample, String> {
     })
 }
 
-/// The GeoKeys of a PROJ string as R writes a CRS: longitude and latitude or a UTM
-/// zone, on a datum `named_crs` knows (`+datum=`, else a WGS 84 ellipsoid).
-fn proj_string_geokeys(proj: &str) -> Option<Vec<u16>> {
-    let value = |key: &str| {
-        proj.split_whitespace()
-            .find_map(|part| part.strip_prefix(&format!("+{key}=")))
-    };
-    let has = |flag: &str| {
-        proj.split_whitespace()
-            .any(|part| part == format!("+{flag}"))
-    };
-    let datum = value("datum").or_else(|| (value("ellps") == Some("WGS84")).then_some("WGS84"))?;
-    let crs = match value("proj")? {
-        "longlat" | "latlong" | "lonlat" | "latlon" => Named::Geographic,
-        "utm" => Named::Utm {
-            zone: value("zone")?.parse().ok()?,
-            north: !has("south"),
-        },
-        _ => return None,
-    };
-    named_crs::geokeys(crs, datum)
-}
-
-/// A CRS's GeoKeys and the citations they point into.
-type CrsKeys = (Vec<u16>, String);
-
 /// The raster a header describes (its CRS left empty) and the CRS it gives, if any.
 fn read_header(text: &str) -> std::result::Result<(RawRaster, Option<CrsKeys>), String> {
     let fields = KeyValues::parse(text);
@@ -200,17 +174,9 @@ fn read_header(text: &str) -> std::result::Result<(RawRaster, Option<CrsKeys>), 
         (Some(wkt), _) => Some(wkt_geokeys(wkt).ok_or_else(|| {
             format!("its header's wkt is neither a projected nor a geographic CRS: {wkt}")
         })?),
-        (None, Some(proj)) if !proj.eq_ignore_ascii_case("NA") => Some(
-            proj_string_geokeys(proj)
-                .map(|keys| (keys, String::new()))
-                .ok_or_else(|| {
-                    format!(
-                        "its header's projection '{proj}' is not one read without its WKT \
-                         (longitude and latitude or UTM on WGS 84, NAD83 or NAD27): write \
-                         the CRS beside it as a .prj"
-                    )
-                })?,
-        ),
+        (None, Some(proj)) if !proj.eq_ignore_ascii_case("NA") => {
+            Some(proj_string_geokeys(proj).map_err(|e| format!("its header's {e}"))?)
+        }
         _ => None,
     };
     let descriptions = text_of("layername")
@@ -256,19 +222,21 @@ mod tests {
         );
         assert_eq!(layout.nodata, Some(-32768.0));
         assert_eq!(raster.descriptions, vec![Some("elevation".to_string())]);
-        assert_eq!(crs.unwrap().0, named_crs::epsg_geokeys(32633, true));
+        assert_eq!(
+            crs.unwrap().0,
+            crate::io::named_crs::epsg_geokeys(32633, true)
+        );
     }
 
     #[test]
-    fn proj_strings_as_r_writes_them() {
-        let wgs84 = proj_string_geokeys("+proj=longlat +datum=WGS84 +no_defs");
-        assert_eq!(wgs84, Some(named_crs::epsg_geokeys(4326, false)));
-        let south = proj_string_geokeys("+proj=utm +zone=56 +south +ellps=WGS84 +units=m");
-        assert_eq!(south, Some(named_crs::epsg_geokeys(32756, true)));
-        assert_eq!(
-            proj_string_geokeys("+proj=laea +lat_0=52 +datum=WGS84"),
-            None
-        );
+    fn projections_other_than_utm_are_read_from_the_proj_string() {
+        // R's own example (raster's test.grd): the Dutch RD grid, no WKT.
+        let rd = "+proj=sterea +lat_0=52.1561605555556 +lon_0=5.38763888888889 \
+                  +k=0.9999079 +x_0=155000 +y_0=463000 +datum=WGS84 +units=m +no_defs";
+        let header = R.replace("+proj=utm +zone=33 +datum=WGS84 +units=m +no_defs", rd);
+        let (keys, citation) = read_header(&header).unwrap().1.unwrap();
+        assert!(citation.contains("Double_Stereographic"), "{citation}");
+        assert!(keys.contains(&32767));
     }
 
     #[test]
@@ -279,7 +247,7 @@ mod tests {
             ("xmax=500120", "xmax=499000", "extent"),
             ("bandorder=BIL", "bandorder=XYZ", "bandorder"),
             ("byteorder=big", "byteorder=middle", "byteorder"),
-            ("+proj=utm +zone=33", "+proj=laea +zone=33", ".prj"),
+            ("+proj=utm +zone=33", "+proj=robin +zone=33", ".prj"),
             ("nodatavalue=-32768", "nodatavalue=low", "nodatavalue"),
         ] {
             let error = read_header(&R.replace(from, to)).err().unwrap();

@@ -31,7 +31,7 @@ use super::ascii_grid::crs_keys;
 use super::blosc;
 use super::geotiff::{Georeferencing, georeference, wkt_geokeys};
 use super::named_crs::{self, Named};
-use super::netcdf::spacing;
+use super::netcdf::{kilometres, spacing, unwrap_longitudes};
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, read_input};
 use crate::grid::Map;
@@ -795,8 +795,15 @@ pub fn read_zarr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     }
     let x_array = coordinate(x_name, width).expect("a gridded array's x");
     let y_array = coordinate(y_name, height).expect("a gridded array's y");
-    let xs = x_array.values(|v| v)?;
-    let ys = y_array.values(|v| v)?;
+    let (mut xs, mut ys) = (x_array.values(|v| v)?, y_array.values(|v| v)?);
+    if in_degrees(x_array) {
+        unwrap_longitudes(&mut xs);
+    }
+    for (values, array) in [(&mut xs, x_array), (&mut ys, y_array)] {
+        if let Some(factor) = kilometres(array.text("units").map(str::to_string)) {
+            values.iter_mut().for_each(|v| *v *= factor);
+        }
+    }
     let single = |a: &Array| a.dtype.size == 4;
     let x = spacing(&xs, single(x_array), x_name).map_err(problem)?;
     let y = spacing(&ys, single(y_array), y_name).map_err(problem)?;

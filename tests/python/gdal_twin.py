@@ -7,8 +7,10 @@ import numpy as np
 import rasterio
 
 
-def twin(path):
-    """Writes `path`.tif, GDAL's reading of `path`; returns [twin, path]."""
+def twin(path, to=None):
+    """Writes `to` (by default `path`.tif), GDAL's reading of `path`; returns [twin,
+    path]."""
+    to = to or path + ".tif"
     with rasterio.open(path) as src:
         values = src.read().astype("float32")
         values[src.read_masks() == 0] = np.nan
@@ -16,13 +18,13 @@ def twin(path):
                        dtype="float32", transform=src.transform, nodata=float("nan"))
         if src.crs:
             profile["crs"] = src.crs
-        with rasterio.open(path + ".tif", "w", **profile) as dst:
+        with rasterio.open(to, "w", **profile) as dst:
             dst.write(values)
             dst.descriptions = src.descriptions
             dst.units = src.units
             dst.scales = src.scales
             dst.offsets = src.offsets
-    return [path + ".tif", path]
+    return [to, path]
 
 
 def imagery_twin(path, bands):

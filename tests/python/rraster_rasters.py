@@ -6,9 +6,10 @@ GeoTIFF twin of what GDAL reads it to. Prints one JSON line:
   2-band float32 image in UTM with band names and nodata, by line; an int16 DEM in
   degrees, by band; uint8 by pixel; uint16, int32, uint32, float64), and a header as
   R's `raster` writes it (its sections and keys, big-endian INT2S samples, a PROJ
-  string and no WKT, `nodatavalue` and `layername`);
+  string and no WKT, `nodatavalue` and `layername`), and that header with the PROJ
+  strings of other projections (equal-area, oblique stereographic, Mercator, polar);
 - `refused`: grids refused, by what is wrong: samples missing, a data type GDAL reads
-  not (INT8S), a PROJ string not read without WKT.
+  not (INT8S), a projection not read from a PROJ string (Robinson).
 """
 
 import json
@@ -70,7 +71,6 @@ with open(r_grid, "w") as f:
             f"minvalue={r_heights.min()}\nmaxvalue={r_heights.max()}\nnodatavalue=-32768\n"
             "[legend]\nlegendtype=\nvalues=\ncolor=\n[description]\nlayername=elevation\n"
             "history=\n")
-pairs = [twin(g) for g in grids + [r_grid]]
 
 
 def variant(name, old, new, samples=True):
@@ -82,10 +82,22 @@ def variant(name, old, new, samples=True):
     return target
 
 
+# Projections R writes as PROJ strings alone: equal-area, the Dutch grid (oblique
+# stereographic on Bessel's ellipsoid), Mercator, a polar grid scaled at the pole.
+projected = [
+    variant("laea.grd", "+proj=longlat +datum=WGS84",
+            "+proj=laea +lat_0=52 +lon_0=10 +x_0=4321000 +y_0=3210000 +ellps=GRS80 +units=m"),
+    variant("sterea.grd", "+proj=longlat +datum=WGS84",
+            "+proj=sterea +lat_0=52.1561605555556 +lon_0=5.38763888888889 +k=0.9999079 "
+            "+x_0=155000 +y_0=463000 +ellps=bessel +units=m"),
+    variant("merc.grd", "+proj=longlat +datum=WGS84", "+proj=merc +datum=WGS84"),
+    variant("ups.grd", "+proj=longlat +datum=WGS84",
+            "+proj=stere +lat_0=90 +lon_0=0 +k=0.994 +x_0=2000000 +y_0=2000000 +datum=WGS84"),
+]
+pairs = [twin(g) for g in grids + [r_grid] + projected]
 refused = {
     "headless": variant("no_samples.grd", "", "", samples=False),
     "int8": variant("int8.grd", "datatype=INT2S", "datatype=INT8S"),
-    "proj": variant("laea.grd", "+proj=longlat +datum=WGS84",
-                    "+proj=laea +lat_0=52 +lon_0=10 +datum=WGS84"),
+    "proj": variant("robin.grd", "+proj=longlat +datum=WGS84", "+proj=robin +datum=WGS84"),
 }
 print(json.dumps({"pairs": pairs, "refused": refused}))

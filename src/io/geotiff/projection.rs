@@ -401,6 +401,12 @@ pub(super) fn of_wkt_citation(
                 false_origin,
             ));
         }
+        "polar_stereographic_variant_a" => {
+            return Some(Projection::polar_stereographic_scaled_at_pole(
+                scale,
+                false_origin,
+            ));
+        }
         "stereographic_north_pole"
         | "stereographic_south_pole"
         | "polar_stereographic_variant_b" => {
@@ -408,6 +414,16 @@ pub(super) fn of_wkt_citation(
                 first_parallel?.abs(),
                 false_origin,
             ));
+        }
+        "mercator" | "mercator_1sp" | "mercator_2sp" | "mercator_variant_a"
+        | "mercator_variant_b" => {
+            // On the ellipsoid, true to scale on the equator, from it (World Mercator);
+            // a sphere's is Web Mercator's, measured apart; other parallels are not.
+            let standard = first_parallel.unwrap_or(0.0) == 0.0
+                && scale == 1.0
+                && false_origin[1] == 0.0
+                && ellipsoid.e2 > 0.0;
+            return standard.then(Projection::world_mercator);
         }
         "mollweide" => EqualArea::Mollweide {
             radius: ellipsoid.a,
@@ -736,5 +752,42 @@ mod tests {
             citations: "",
         };
         assert!(of_keys(&keys, 1.0).is_none());
+    }
+
+    #[test]
+    fn proj_strings_measure_as_the_registry_measures_them() {
+        // Every registry CRS whose PROJ string becomes a user-defined WKT (a projection
+        // read from PROJ strings, not a named UTM zone): the WKT's projection has the
+        // registry's scales about its false origin.
+        let mut compared = 0;
+        for code in 1..=u16::MAX {
+            let Some(crs) = crate::grid::epsg_crs(code) else {
+                continue;
+            };
+            let (Some(registry), Some(unit)) = (crs.projection(), crs.metres_per_unit()) else {
+                continue;
+            };
+            let proj = crs_definitions::from_code(code).unwrap().proj4;
+            let Ok((_, citation)) = crate::io::proj_string::proj_string_geokeys(proj) else {
+                continue;
+            };
+            if citation.is_empty() {
+                continue;
+            }
+            let ours = of_wkt_citation(&citation, None, unit)
+                .unwrap_or_else(|| panic!("EPSG:{code} {proj}: {citation}"));
+            let origin = [crs.number("x_0"), crs.number("y_0")].map(|v| v.unwrap_or(0.0));
+            for (dx, dy) in [(0.0, 0.0), (1.0e5, 2.0e5), (-2.0e5, -1.0e5)] {
+                let (x, y) = (origin[0] + dx, origin[1] + dy);
+                let (a, b) = (ours.axis_scales(x, y).0, registry.axis_scales(x, y).0);
+                for (a, b) in a.into_iter().zip(b) {
+                    let agree =
+                        a == b || (a - b).abs() <= 1e-6 * a.abs() || (a.is_nan() && b.is_nan());
+                    assert!(agree, "EPSG:{code} {proj} at ({x}, {y}): {a} against {b}");
+                }
+            }
+            compared += 1;
+        }
+        assert!(compared > 1000, "{compared}");
     }
 }

@@ -1,0 +1,32 @@
+#!/usr/bin/env bash
+# Real rasters as R users have them: the example files of R's raster, terra and stars
+# packages (R-written .grd grids whose CRS is a PROJ string, GeoTIFFs of a Landsat
+# scene and DEMs, netCDF files of climate and ocean products), from Debian's packages
+# of them, into target/sample-data/<package>/. The tests that read them skip where apt
+# cannot fetch them.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+out=target/sample-data
+[ -f "$out/.complete" ] && exit 0
+if ! command -v apt-get >/dev/null || ! command -v dpkg-deb >/dev/null; then
+    echo "sample-data: no apt-get and dpkg-deb to fetch R's sample rasters; the tests" \
+        "that read them will skip" >&2
+    exit 0
+fi
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+packages=(r-cran-raster r-cran-terra r-cran-stars)
+fetch() { (cd "$work" && apt-get download -qq "${packages[@]}" 2>/dev/null); }
+if ! fetch && ! { apt-get update -qq 2>/dev/null && fetch; }; then
+    echo "sample-data: apt could not fetch ${packages[*]}; the tests that read R's" \
+        "sample rasters will skip" >&2
+    exit 0
+fi
+for deb in "$work"/*.deb; do dpkg-deb -x "$deb" "$work/tree"; done
+library="$work/tree/usr/lib/R/site-library"
+rm -rf "$out"
+mkdir -p "$out/raster" "$out/terra" "$out/stars"
+cp "$library"/raster/external/*.gr[di] "$out/raster/"
+cp "$library"/terra/ex/*.tif "$library"/terra/ex/*.gr[di] "$out/terra/"
+cp "$library"/stars/tif/*.tif "$library"/stars/nc/*.nc "$out/stars/"
+touch "$out/.complete"

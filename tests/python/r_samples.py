@@ -1,0 +1,60 @@
+"""The example rasters of R's raster, terra and stars packages (fetched by
+scripts/sample-data.sh), copied to OUT, each beside a GeoTIFF twin of what GDAL reads it
+to. Prints one JSON line:
+
+- `pairs` (GeoTIFF twin, raster): R-written `.grd` grids (their CRS a PROJ string: the
+  Dutch RD grid, Mercator) and GeoTIFFs (a Landsat 7 scene, DEMs, a land cover);
+- `variables` (GeoTIFF twin, netCDF file, variable): each variable GDAL reads of the
+  netCDF files it georeferences, its steps as bands (a Lambert grid in km, 0–360°
+  longitudes cut across Greenwich, sea-surface temperatures, climate projections);
+- `refused`: files imitate refuses, by what is wrong: a rotated GeoTIFF, stations
+  rather than a grid, grids of 2-D latitudes and longitudes, x before y.
+"""
+
+import glob
+import json
+import os
+import shutil
+import sys
+import warnings
+
+import rasterio
+
+from gdal_twin import twin
+
+samples, out = sys.argv[1], sys.argv[2]
+warnings.simplefilter("ignore")
+for path in glob.glob(os.path.join(samples, "*", "*")):
+    shutil.copy(path, os.path.join(out, os.path.basename(path)))
+
+
+def at(name):
+    return os.path.join(out, name)
+
+
+pairs = [twin(at(name)) for name in [
+    "test.grd", "rlogo.grd", "elev.tif", "logo.tif", "meuse.tif", "L7_ETMs.tif",
+    "olinda_dem_utm25s.tif", "lc.tif", "na.tif"]]
+variables = []
+for name in ["lcc_km.nc", "test_adaptor.cams_regional_fc.nc", "reduced.nc",
+             "bcsd_obs_1999.nc", "sub.nc"]:
+    with rasterio.open(at(name)) as src:
+        datasets = src.subdatasets or [at(name)]
+    for dataset in datasets:
+        variable = dataset.split(":")[-1] if dataset.startswith("netcdf:") else None
+        with rasterio.open(dataset) as src:
+            variable = variable or src.tags(1).get("NETCDF_VARNAME")
+        tif = twin(dataset, at(f"{name}.{variable}.tif"))[0]
+        with rasterio.open(tif, "r+") as dst:
+            if dst.crs is None:
+                # GDAL leaves a grid of latitudes and longitudes with no grid mapping
+                # without a CRS; CF's, and imitate's, is WGS 84.
+                dst.crs = "EPSG:4326"
+        variables.append([tif, at(name), variable])
+refused = {
+    "rotated": at("geomatrix.tif"),
+    "stations": at("timeseries.nc"),
+    "curvilinear": at("test_stageiv_xyt.nc"),
+    "transposed": at("3B42_Daily.19991231.7.test.nc"),
+}
+print(json.dumps({"pairs": pairs, "variables": variables, "refused": refused}))
