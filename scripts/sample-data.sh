@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Real rasters as R users have them: the example files of R's raster, terra and stars
-# packages (R-written .grd grids whose CRS is a PROJ string, GeoTIFFs of a Landsat
-# scene and DEMs, netCDF files of climate and ocean products), from Debian's packages
-# of them, into target/sample-data/<package>/. The tests that read them skip where apt
+# Real rasters as R users have them: the example files of R's raster, terra, stars and
+# rgdal packages (R-written .grd grids whose CRS is a PROJ string, GeoTIFFs of a Landsat
+# scene and DEMs, netCDF files of climate and ocean products, the GeoTIFF project's
+# State Plane samples, an ENVI classification, a VRT over a raw file), from Debian's
+# packages of them, into target/sample-data/<package>/. The tests that read them skip where apt
 # cannot fetch them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -15,7 +16,7 @@ if ! command -v apt-get >/dev/null || ! command -v dpkg-deb >/dev/null; then
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-packages=(r-cran-raster r-cran-terra r-cran-stars)
+packages=(r-cran-raster r-cran-terra r-cran-stars r-cran-rgdal)
 fetch() { (cd "$work" && apt-get download -qq "${packages[@]}" 2>/dev/null); }
 if ! fetch && ! { apt-get update -qq 2>/dev/null && fetch; }; then
     echo "sample-data: apt could not fetch ${packages[*]}; the tests that read R's" \
@@ -25,8 +26,9 @@ fi
 for deb in "$work"/*.deb; do dpkg-deb -x "$deb" "$work/tree"; done
 library="$work/tree/usr/lib/R/site-library"
 rm -rf "$out"
-mkdir -p "$out/raster" "$out/terra" "$out/stars"
+mkdir -p "$out/raster" "$out/terra" "$out/stars" "$out/rgdal"
 cp "$library"/raster/external/*.gr[di] "$out/raster/"
 cp "$library"/terra/ex/*.tif "$library"/terra/ex/*.gr[di] "$out/terra/"
 cp "$library"/stars/tif/*.tif "$library"/stars/nc/*.nc "$out/stars/"
+cp "$library"/rgdal/pictures/*.{TIF,tif,asc,envi,hdr,vrt,dat} "$out/rgdal/"
 touch "$out/.complete"

@@ -1471,8 +1471,8 @@ fn ascii_grids_and_srtm_tiles_read_as_their_geotiff_twins() {
 
 /// Mosaics and band stacks as gdalbuildvrt writes them (GDAL's own GDALBuildVRT): each
 /// VRT reads to the grid and values GDAL reads it to (tiles that overlap with voids, a
-/// missing tile, SRTM tiles, bands of three types, a coarser cell, a VRT of a VRT), and
-/// ingest takes one as a map. A VRT that points at nothing readable is refused by name.
+/// missing tile, SRTM tiles, bands of three types, a coarser cell, a VRT of a VRT), as
+/// do raw bands of a hand-written VRT, and ingest takes one as a map. A VRT that points at nothing readable is refused by name.
 #[test]
 fn gdal_virtual_rasters_read_as_gdal_reads_them() {
     let dir = tempfile::tempdir().unwrap();
@@ -1942,9 +1942,10 @@ fn r_raster_grids_read_as_gdal_reads_them() {
     );
 }
 
-/// The example rasters R users load (R's raster, terra and stars packages, as Debian
-/// ships them: `scripts/sample-data.sh`): R-written grids whose CRS is a PROJ string
-/// (the Dutch RD grid, Mercator), GeoTIFFs (a Landsat 7 scene, DEMs, a land cover) and
+/// The example rasters R users load (R's raster, terra, stars and rgdal packages, as
+/// Debian ships them: `scripts/sample-data.sh`): R-written grids whose CRS is a PROJ
+/// string (the Dutch RD grid, Mercator), GeoTIFFs (a Landsat 7 scene, DEMs, a land
+/// cover, State Plane in feet), an ASCII grid, an ENVI `.envi`, a VRT of raw bands, and
 /// netCDF variables (a Lambert grid in km, longitudes from 0–360° cut across
 /// Greenwich, sea-surface temperatures, climate projections) read as GDAL reads them;
 /// a rotated GeoTIFF, stations, a grid of 2-D latitudes and longitudes and x before y

@@ -45,14 +45,14 @@ pub(super) enum Sample {
 }
 
 impl Sample {
-    fn bytes(self) -> usize {
+    pub(super) fn bytes(self) -> usize {
         match self {
             Sample::Unsigned(b) | Sample::Signed(b) | Sample::Float(b) => b,
         }
     }
 
     /// The sample in `raw` (its bytes, little-endian first where `little`).
-    fn read(self, raw: &[u8], little: bool) -> f32 {
+    pub(super) fn read(self, raw: &[u8], little: bool) -> f32 {
         /// The `$n` bytes of `raw` as a `$t` in the file's byte order.
         macro_rules! word {
             ($t:ty, $n:literal) => {{

@@ -499,11 +499,19 @@ pub(crate) fn georeference(
     // PixelIsPoint moves the TIFF's own tiepoints; a sidecar's transform is GDAL's,
     // from cell corners already.
     let point = from_tags && key(GT_RASTER_TYPE) == Some(PIXEL_IS_POINT);
+    let units = crs_units(&key).map_err(problem)?;
+    // A linear unit other than the code's own (an old ERDAS State Plane file: its
+    // metric EPSG code, coordinates in US survey feet) makes the CRS another than the
+    // code's, as GDAL reads it: not named by the code.
+    let unit_overridden = key(PROJECTED_CRS)
+        .filter(|_| key(PROJ_LINEAR_UNITS).is_some())
+        .and_then(crate::grid::epsg_crs)
+        .and_then(|crs| crs.metres_per_unit())
+        .is_some_and(|own| (own / units.scale - 1.0).abs() > 1e-9);
     let frame = key(PROJECTED_CRS)
         .or(key(GEOGRAPHIC_CRS))
-        .filter(|&code| code != 0 && code != USER_DEFINED)
+        .filter(|&code| code != 0 && code != USER_DEFINED && !unit_overridden)
         .map_or_else(|| "map".to_string(), |code| format!("EPSG:{code}"));
-    let units = crs_units(&key).map_err(problem)?;
     let heights = height_scale(&key).map_err(problem)?;
 
     // Rotation terms below a billionth of a cell are the writer's float noise (a

@@ -50,14 +50,14 @@ use crate::grid::Map;
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
-/// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.bsq`...),
+/// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.envi`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
 /// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
 /// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders).
-pub const RASTER_EXTENSIONS: [&str; 31] = [
+pub const RASTER_EXTENSIONS: [&str; 32] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "nc", "nc4", "grd", "gpkg", "mbtiles",
-    "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "grd", "gpkg",
+    "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -105,7 +105,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
         "xyz" => xyz::read_xyz_rows(path, name),
         "img" => hfa::read_hfa_rows(path, name),
-        "dat" => envi::read_envi_rows(path, name),
+        "dat" | "envi" => envi::read_envi_rows(path, name),
         "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
         "grd" if rraster::is_rraster(path) => rraster::read_rraster_rows(path, name),
         "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
@@ -122,7 +122,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
-                 XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat \
+                 XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat, .envi \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
                  grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
                  MBTiles (.mbtiles), PMTiles (.pmtiles), SAGA grids (.sdat, .sgrd, \
@@ -144,6 +144,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         }
         "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
+        "envi" => envi::envi_sidecars(path),
         "sdat" | "sgrd" => saga::saga_sidecars(path),
         "grd" if rraster::is_rraster(path) => rraster::rraster_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.

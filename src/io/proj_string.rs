@@ -59,6 +59,34 @@ pub(crate) fn proj_string_geokeys(proj: &str) -> Result<CrsKeys, String> {
     wkt_geokeys(&wkt).ok_or_else(|| format!("its projection '{proj}' cannot be read"))
 }
 
+/// The GeoKeys of a CRS as GDAL takes one from a user (a VRT's `<SRS>`, which GDAL
+/// parses with `SetFromUserInput`): WKT, a PROJ string, or an EPSG code as `EPSG:n`,
+/// an OGC URN or an OGC URL; an error says what cannot be read.
+pub(crate) fn user_crs_geokeys(text: &str) -> Result<CrsKeys, String> {
+    let text = text.trim();
+    if text.starts_with('+') {
+        return proj_string_geokeys(text);
+    }
+    let lower = text.to_ascii_lowercase();
+    let code = ["epsg:", "urn:ogc:def:crs:epsg::", "urn:ogc:def:crs:epsg:"]
+        .iter()
+        .chain(&["http://www.opengis.net/def/crs/epsg/0/"])
+        .find_map(|prefix| lower.strip_prefix(prefix));
+    if let Some(code) = code {
+        let number = code.trim().parse::<u16>().ok();
+        let registered = number.and_then(|n| epsg_crs(n).map(|crs| (n, crs)));
+        let (number, crs) =
+            registered.ok_or_else(|| format!("its CRS '{text}' is not an EPSG code we know"))?;
+        return Ok((
+            named_crs::epsg_geokeys(number, !crs.is_geographic()),
+            String::new(),
+        ));
+    }
+    wkt_geokeys(text).ok_or_else(|| {
+        format!("its CRS is neither WKT of a projected or geographic CRS, a PROJ string nor an EPSG code: {text}")
+    })
+}
+
 /// ESRI's WKT 1 of a PROJ CRS whose projection is one of [`READ`].
 fn esri_wkt_of(crs: &ProjCrs) -> Option<String> {
     let number = |key: &str| crs.number(key);
@@ -292,6 +320,26 @@ mod tests {
             citation.contains("Polar_Stereographic_Variant_A"),
             "{citation}"
         );
+    }
+
+    #[test]
+    fn users_give_crss_in_wkt_proj_strings_or_epsg_codes() {
+        let code = |text: &str| user_crs_geokeys(text).unwrap().0[11];
+        assert_eq!(code("EPSG:32633"), 32633);
+        assert_eq!(code(" urn:ogc:def:crs:EPSG::4326"), 4326);
+        assert_eq!(code("http://www.opengis.net/def/crs/EPSG/0/3857"), 3857);
+        assert_eq!(
+            code("+proj=utm +zone=18 +datum=WGS84 +towgs84=0,0,0"),
+            32618
+        );
+        assert_eq!(
+            code(
+                r#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],AUTHORITY["EPSG","4326"]]"#
+            ),
+            4326
+        );
+        assert!(user_crs_geokeys("EPSG:1").unwrap_err().contains("EPSG:1"));
+        assert!(user_crs_geokeys("WGS84").unwrap_err().contains("WGS84"));
     }
 
     #[test]

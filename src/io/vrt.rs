@@ -9,6 +9,8 @@
 //! grid, SRTM tile, another VRT); their nodata is transparent, so a later tile's void
 //! does not hide an earlier tile's ground. Cells no source covers are nodata, even
 //! where the VRT declares no `<NoDataValue>` (GDAL reads 0 there: ground that is not).
+//! A `VRTRawRasterBand` reads its cells from a raw file at the offsets it gives. The
+//! `<SRS>` may be WKT, a PROJ string or an EPSG code, as GDAL takes it from a user.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -16,9 +18,13 @@ use std::path::{Path, PathBuf};
 use quick_xml::events::{BytesStart, Event};
 use quick_xml::reader::Reader;
 
+use rayon::prelude::*;
+
 use super::MAX_MAP_CELLS as MAX_CELLS;
+use super::ehdr::Sample;
 use super::geotiff::metadata::{BandMetadata, layer_names, metres_per_unit};
-use super::geotiff::{Georeferencing, dataset_georeference, georeference, wkt_geokeys};
+use super::geotiff::{Georeferencing, dataset_georeference, georeference};
+use super::proj_string::user_crs_geokeys;
 use crate::error::{Error, Result, read_input};
 use crate::grid::{Layer, LayerKind, Map};
 
@@ -48,6 +54,11 @@ fn collect_inputs(path: &Path, depth: usize, inputs: &mut Vec<PathBuf>) {
     let Ok(dataset) = parse_dataset(path, &text) else {
         return;
     };
+    for raw in dataset.bands.iter().filter_map(|b| b.raw.as_ref()) {
+        if !inputs.contains(&raw.file) {
+            inputs.push(raw.file.clone());
+        }
+    }
     for source in dataset.bands.iter().flat_map(|b| &b.sources) {
         if inputs.contains(&source.file) {
             continue;
@@ -202,6 +213,103 @@ struct Band {
     /// A colour table or category names declare its values classes.
     classes: bool,
     sources: Vec<Source>,
+    /// A `VRTRawRasterBand`'s raw file, which gives its cells in place of sources.
+    raw: Option<RawBand>,
+}
+
+/// A `VRTRawRasterBand`: its samples at fixed strides in a raw file, as GDAL describes
+/// a binary file with no header of its own (SAR processors' outputs, a VRT written by
+/// hand over a `.bin` or `.dat`).
+#[derive(Debug)]
+struct RawBand {
+    file: PathBuf,
+    sample: Sample,
+    little_endian: bool,
+    /// Bytes before the first sample, between a row's samples and between rows.
+    image_offset: usize,
+    pixel_offset: usize,
+    line_offset: Option<usize>,
+}
+
+impl RawBand {
+    fn parse(band: &Element, data_type: &str, folder: &Path) -> std::result::Result<Self, String> {
+        let sample = match data_type {
+            "Byte" => Sample::Unsigned(1),
+            "Int8" => Sample::Signed(1),
+            "UInt16" => Sample::Unsigned(2),
+            "Int16" => Sample::Signed(2),
+            "UInt32" => Sample::Unsigned(4),
+            "Int32" => Sample::Signed(4),
+            "UInt64" => Sample::Unsigned(8),
+            "Int64" => Sample::Signed(8),
+            "Float32" => Sample::Float(4),
+            "Float64" => Sample::Float(8),
+            other => return Err(format!("its raw samples' data type {other} is not read")),
+        };
+        let offset = |name: &str| -> std::result::Result<Option<usize>, String> {
+            band.child_text(name)
+                .map(|text| {
+                    text.trim().parse::<usize>().map_err(|_| {
+                        format!("its <{name}> '{}' is not a count of bytes", text.trim())
+                    })
+                })
+                .transpose()
+        };
+        let little_endian = match band.child_text("ByteOrder").map(str::trim) {
+            None | Some("LSB") => true,
+            Some("MSB") => false,
+            Some(other) => {
+                return Err(format!("its <ByteOrder> '{other}' is not LSB or MSB"));
+            }
+        };
+        Ok(RawBand {
+            file: resolve(folder, band, source_file(band)?),
+            sample,
+            little_endian,
+            image_offset: offset("ImageOffset")?.unwrap_or(0),
+            pixel_offset: offset("PixelOffset")?.unwrap_or(sample.bytes()),
+            line_offset: offset("LineOffset")?,
+        })
+    }
+
+    /// The band's cells, rows from the top; an error where the file is too short.
+    fn cells(&self, width: usize, height: usize) -> std::result::Result<Vec<f32>, String> {
+        let bytes = std::fs::read(&self.file)
+            .map_err(|e| format!("its raw file {} cannot be read: {e}", self.file.display()))?;
+        let size = self.sample.bytes();
+        let line = match self.line_offset {
+            Some(line) => line,
+            None => self
+                .pixel_offset
+                .checked_mul(width)
+                .ok_or("its rows overflow memory")?,
+        };
+        let needed = (height - 1)
+            .checked_mul(line)
+            .and_then(|rows| rows.checked_add((width - 1).checked_mul(self.pixel_offset)?))
+            .and_then(|last| last.checked_add(self.image_offset)?.checked_add(size))
+            .ok_or("its offsets overflow memory")?;
+        if bytes.len() < needed {
+            return Err(format!(
+                "its raw file {} holds {} bytes; its {width} × {height} samples at its \
+                 offsets need {needed}",
+                self.file.display(),
+                bytes.len()
+            ));
+        }
+        let mut cells = vec![0f32; width * height];
+        cells
+            .par_chunks_mut(width)
+            .enumerate()
+            .for_each(|(row, cells)| {
+                let start = self.image_offset + row * line;
+                for (col, cell) in cells.iter_mut().enumerate() {
+                    let at = start + col * self.pixel_offset;
+                    *cell = self.sample.read(&bytes[at..at + size], self.little_endian);
+                }
+            });
+        Ok(cells)
+    }
 }
 
 /// A VRT's dataset.
@@ -271,12 +379,6 @@ fn number(text: &str, what: &str) -> std::result::Result<f64, String> {
 }
 
 fn parse_band(band: &Element, folder: &Path) -> std::result::Result<Band, String> {
-    if let Some(kind) = band.attribute("subClass") {
-        return Err(format!(
-            "is a {kind}, whose cells a pixel function or raw file computes; this tool reads \
-             bands of sources (gdal_translate it to a GeoTIFF first)"
-        ));
-    }
     let data_type = band.attribute("dataType").unwrap_or("Byte").to_string();
     if data_type.starts_with('C') {
         return Err(format!(
@@ -284,6 +386,16 @@ fn parse_band(band: &Element, folder: &Path) -> std::result::Result<Band, String
              real band first"
         ));
     }
+    let raw = match band.attribute("subClass") {
+        None => None,
+        Some("VRTRawRasterBand") => Some(RawBand::parse(band, &data_type, folder)?),
+        Some(kind) => {
+            return Err(format!(
+                "is a {kind}, whose cells a pixel function computes; this tool reads bands \
+                 of sources and raw files (gdal_translate it to a GeoTIFF first)"
+            ));
+        }
+    };
     let optional = |name: &str| {
         band.child_text(name)
             .map(|t| number(t, &format!("<{name}>")))
@@ -319,11 +431,13 @@ fn parse_band(band: &Element, folder: &Path) -> std::result::Result<Band, String
         metadata,
         classes: band.child("ColorTable").is_some() || band.child("CategoryNames").is_some(),
         sources,
+        raw,
     })
 }
 
-fn parse_source(source: &Element, folder: &Path) -> std::result::Result<Source, String> {
-    let name = source
+/// The file `element`'s `<SourceFilename>` names, as written.
+fn source_file(element: &Element) -> std::result::Result<PathBuf, String> {
+    let name = element
         .child("SourceFilename")
         .ok_or("has no <SourceFilename>")?;
     let written = name.text.trim();
@@ -336,12 +450,23 @@ fn parse_source(source: &Element, folder: &Path) -> std::result::Result<Source, 
              on disk (unpack or download it, and point the VRT at the file)"
         ));
     }
-    let relative = name.attribute("relativeToVRT") == Some("1");
-    let file = if relative {
-        folder.join(written)
-    } else {
-        PathBuf::from(written)
-    };
+    Ok(PathBuf::from(written))
+}
+
+/// `file` as GDAL resolves `element`'s `<SourceFilename>`: in the VRT's folder where
+/// `relativeToVRT` is 1 (any case, as GDAL writes `relativeToVRT` and GDAL's docs
+/// `relativetoVRT`).
+fn resolve(folder: &Path, element: &Element, file: PathBuf) -> PathBuf {
+    let relative = element.child("SourceFilename").is_some_and(|name| {
+        name.attributes
+            .iter()
+            .any(|(key, value)| key.eq_ignore_ascii_case("relativeToVRT") && value == "1")
+    });
+    if relative { folder.join(file) } else { file }
+}
+
+fn parse_source(source: &Element, folder: &Path) -> std::result::Result<Source, String> {
+    let file = resolve(folder, source, source_file(source)?);
     let band_text = source.child_text("SourceBand").unwrap_or("1");
     let band = band_text
         .parse::<usize>()
@@ -429,9 +554,7 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
         )
     })?;
     let (keys, ascii) = match srs {
-        Some(wkt) => wkt_geokeys(&wkt).ok_or_else(|| {
-            problem("its <SRS> is neither a projected nor a geographic CRS in WKT".into())
-        })?,
+        Some(srs) => user_crs_geokeys(&srs).map_err(|e| problem(format!("its <SRS>: {e}")))?,
         None => (Vec::new(), String::new()),
     };
     let (width, height) = (dataset.width, dataset.height);
@@ -453,7 +576,12 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
     let mut layers = Vec::with_capacity(dataset.bands.len());
     for (index, band) in dataset.bands.iter().enumerate() {
         let in_band = |message: String| problem(format!("band {}: {message}", index + 1));
-        let mut cells = vec![f32::NAN; width as usize * height as usize];
+        let mut cells = match &band.raw {
+            Some(raw) => raw
+                .cells(width as usize, height as usize)
+                .map_err(&in_band)?,
+            None => vec![f32::NAN; width as usize * height as usize],
+        };
         let mut classes = band.classes;
         for (s, source) in band.sources.iter().enumerate() {
             let in_source = |message: String| in_band(format!("source {}: {message}", s + 1));

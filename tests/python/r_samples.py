@@ -1,9 +1,12 @@
-"""The example rasters of R's raster, terra and stars packages (fetched by
+"""The example rasters of R's raster, terra, stars and rgdal packages (fetched by
 scripts/sample-data.sh), copied to OUT, each beside a GeoTIFF twin of what GDAL reads it
 to. Prints one JSON line:
 
 - `pairs` (GeoTIFF twin, raster): R-written `.grd` grids (their CRS a PROJ string: the
-  Dutch RD grid, Mercator) and GeoTIFFs (a Landsat 7 scene, DEMs, a land cover);
+  Dutch RD grid, Mercator), GeoTIFFs (a Landsat 7 scene, DEMs, a land cover, the
+  GeoTIFF project's samples: State Plane in feet, cylindrical equal-area), an Esri
+  ASCII grid, an ENVI classification named `.envi`, a VRT of raw bands with a PROJ
+  string as its SRS, scales and offsets;
 - `variables` (GeoTIFF twin, netCDF file, variable): each variable GDAL reads of the
   netCDF files it georeferences, its steps as bands (a Lambert grid in km, 0–360°
   longitudes cut across Greenwich, sea-surface temperatures, climate projections);
@@ -34,7 +37,8 @@ def at(name):
 
 pairs = [twin(at(name)) for name in [
     "test.grd", "rlogo.grd", "elev.tif", "logo.tif", "meuse.tif", "L7_ETMs.tif",
-    "olinda_dem_utm25s.tif", "lc.tif", "na.tif"]]
+    "olinda_dem_utm25s.tif", "lc.tif", "na.tif", "SP27GTIF.TIF", "cea.tif",
+    "erdas_spnad83.tif", "big_int_arc_file.asc", "test_envi_class.envi", "scaleoffset.vrt"]]
 variables = []
 for name in ["lcc_km.nc", "test_adaptor.cams_regional_fc.nc", "reduced.nc",
              "bcsd_obs_1999.nc", "sub.nc"]:

@@ -7,7 +7,9 @@ it to:
 - two SRTM tiles side by side (.hgt, 1201 x 1201, their shared edge column twice);
 - three single-band files of three types stacked as bands (-separate);
 - the mosaic at twice its cell size (-tr, nearest);
-- a VRT of the mosaic's VRT.
+- a VRT of the mosaic's VRT;
+- a raw file described by hand-written `VRTRawRasterBand`s (strides, byte orders, an
+  EPSG code as its SRS).
 
 Prints one JSON line: the pairs (GeoTIFF as GDAL reads the VRT, the VRT) and the tiles'
 folder."""
@@ -106,5 +108,41 @@ stack = buildvrt("stack.vrt", bands, "-separate")
 coarse = buildvrt("coarse.vrt", tiles, "-tr", "20", "20")
 nested = buildvrt("nested.vrt", [mosaic])
 
-pairs = [[as_gdal_reads(v), v] for v in (mosaic, srtm_vrt, stack, coarse, nested)]
+# A raw file with no header of its own, described by a VRT written by hand (as SAR
+# processors and users write them): two big-endian int16 bands interleaved by pixel
+# after a 100-byte header, rows padded to 8 bytes more, nodata in the first; a float32
+# band little-endian after them; the CRS an EPSG code, the file named in lowercase
+# `relativetoVRT` as GDAL's own docs write it.
+heights = (rng.normal(size=(2, 30, 40)).cumsum(1).cumsum(2) * 20).astype(">i2")
+heights[0, 3:6, 4:9] = -9999
+line = 40 * 2 * 2 + 8
+raw = bytearray(100 + 30 * line)
+for row in range(30):
+    pixels = np.stack([heights[0, row], heights[1, row]], axis=1).tobytes()
+    raw[100 + row * line:100 + row * line + len(pixels)] = pixels
+floats = (rng.uniform(0, 1, size=(30, 40))).astype("<f4")
+raw += floats.tobytes()
+with open(os.path.join(out, "tiles", "scene.bin"), "wb") as f:
+    f.write(bytes(raw))
+
+
+def raw_band(number, dtype, offset, pixel, line, order, extra=""):
+    return (f'<VRTRasterBand dataType="{dtype}" band="{number}" subClass="VRTRawRasterBand">'
+            f'<SourceFilename relativetoVRT="1">tiles/scene.bin</SourceFilename>'
+            f"<ImageOffset>{offset}</ImageOffset><PixelOffset>{pixel}</PixelOffset>"
+            f"<LineOffset>{line}</LineOffset><ByteOrder>{order}</ByteOrder>{extra}"
+            "</VRTRasterBand>")
+
+
+raw_vrt = os.path.join(out, "raw.vrt")
+with open(raw_vrt, "w") as f:
+    f.write('<VRTDataset rasterXSize="40" rasterYSize="30"><SRS>EPSG:32633</SRS>'
+            "<GeoTransform>500000, 10, 0, 5000000, 0, -10</GeoTransform>"
+            + raw_band(1, "Int16", 100, 4, line, "MSB",
+                       "<NoDataValue>-9999</NoDataValue>")
+            + raw_band(2, "Int16", 102, 4, line, "MSB")
+            + raw_band(3, "Float32", 100 + 30 * line, 4, 160, "LSB")
+            + "</VRTDataset>")
+
+pairs = [[as_gdal_reads(v), v] for v in (mosaic, srtm_vrt, stack, coarse, nested, raw_vrt)]
 print(json.dumps({"pairs": pairs, "tiles": os.path.join(out, "tiles")}))
