@@ -588,8 +588,15 @@ pub(crate) fn georeference(
         .flatten();
     geo.tiff_crs = tiff_crs(keys, doubles, ascii, coordinates).map(|crs| TiffCrs { proj, ..crs });
     geo.validate().map_err(problem)?;
+    // Grids whose nodes lie on the poles (a global DEM registered on its grid lines, as
+    // ETOPO and GMT's `_g` grids are) reach half a cell past them.
+    let past_poles = if geo.degrees {
+        0.5 * geo.cell_size()[1].abs() + 1e-6
+    } else {
+        1e-6
+    };
     if let Some([south, north]) = geo.latitudes()
-        && (south < -90.0 - 1e-6 || north > 90.0 + 1e-6)
+        && (south < -90.0 - past_poles || north > 90.0 + past_poles)
     {
         return Err(problem(format!(
             "the raster is in degrees but spans latitudes {south} to {north}"

@@ -51,13 +51,13 @@ use crate::grid::Map;
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.envi`...),
-/// netCDF (classic and netCDF-4; GMT's `.grd`), Surfer grids (`.grd`), GeoPackage
+/// netCDF (classic and netCDF-4; GMT's `.grd`, Ferret's `.cdf`), Surfer grids (`.grd`), GeoPackage
 /// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
 /// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders).
-pub const RASTER_EXTENSIONS: [&str; 32] = [
+pub const RASTER_EXTENSIONS: [&str; 33] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "grd", "gpkg",
-    "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
+    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "cdf", "grd",
+    "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -108,7 +108,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "dat" | "envi" => envi::read_envi_rows(path, name),
         "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
         "grd" if rraster::is_rraster(path) => rraster::read_rraster_rows(path, name),
-        "nc" | "nc4" | "grd" => netcdf::read_netcdf_rows(path, name),
+        "nc" | "nc4" | "cdf" | "grd" => netcdf::read_netcdf_rows(path, name),
         "gpkg" => geopackage::read_geopackage_rows(path, name),
         "mbtiles" => mbtiles::read_mbtiles_rows(path, name),
         "pmtiles" => pmtiles::read_pmtiles_rows(path, name),
@@ -123,7 +123,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
                  header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat, .envi \
-                 with an ENVI .hdr), netCDF grids (.nc, .nc4, GMT's .grd), Surfer \
+                 with an ENVI .hdr), netCDF grids (.nc, .nc4, .cdf, GMT's .grd), Surfer \
                  grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
                  MBTiles (.mbtiles), PMTiles (.pmtiles), SAGA grids (.sdat, .sgrd, \
                  .sg-grd-z) or Zarr stores (.zarr), not '.{other}'"
@@ -148,7 +148,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "sdat" | "sgrd" => saga::saga_sidecars(path),
         "grd" if rraster::is_rraster(path) => rraster::rraster_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.
-        "nc" | "nc4" | "grd" => ascii_grid::ascii_grid_sidecars(path),
+        "nc" | "nc4" | "cdf" | "grd" => ascii_grid::ascii_grid_sidecars(path),
         // A Zarr store is a folder: digested whole as an input.
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" | "zarr" => Vec::new(),
         _ => geotiff::sidecars(path),

@@ -204,7 +204,7 @@ fn load_map(path: &Path) -> Result<Map> {
                  (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .png/.jpg \
                  (georeferenced image), .bil/.bip/.bsq/.flt (raw raster with an ESRI .hdr), \
                  .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
-                 .dat/.envi (ENVI), .nc/.nc4/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
+                 .dat/.envi (ENVI), .nc/.nc4/.cdf/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
                  .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
                  .zarr (Zarr store), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),

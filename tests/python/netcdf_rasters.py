@@ -15,7 +15,10 @@ gridded variable's bands in the file's order, named by their variable):
   library and through h5py (the h5netcdf engine, chunked and compressed);
 - netCDF4-python with CF grid-mapping parameters and no WKT: an Antarctic polar
   stereographic grid (NSIDC's, BedMachine's) and a Lambert conformal grid on a sphere
-  (WRF's).
+  (WRF's);
+- netCDF4-python as NOAA's ETOPO comes with Ferret (`.cdf`, a global grid whose nodes
+  lie on the poles), as CAMS regions come (0–360° longitudes cut across Greenwich) and
+  as Daymet comes (a Lambert grid in km).
 
 Also, by hand: the same grid with longitudes running west and east and with its
 coordinates packed as int32 micro-degrees (read alike), and
@@ -84,6 +87,58 @@ with netCDF4.Dataset(gebco, "w", format="NETCDF4") as ds:
     elevation.units = "m"
     elevation[:] = (field[2] * 20 - 300).astype("int16")
 files.append(gebco)
+
+# As NOAA's ETOPO comes with Ferret (`.cdf`, classic netCDF): a global grid whose nodes
+# lie on the grid lines, the poles among them (its cells reach half a cell past them).
+etopo = path_of("etopo_like.cdf")
+with netCDF4.Dataset(etopo, "w", format="NETCDF3_CLASSIC") as ds:
+    ds.createDimension("ETOPO60Y", 91)
+    ds.createDimension("ETOPO60X", 180)
+    lat = ds.createVariable("ETOPO60Y", "f8", ("ETOPO60Y",))
+    lat[:] = np.linspace(-90, 90, 91)
+    lat.units = "degrees_north"
+    lon = ds.createVariable("ETOPO60X", "f8", ("ETOPO60X",))
+    lon[:] = 20 + 2 * np.arange(180)
+    lon.units, lon.modulo = "degrees_east", " "
+    rose = ds.createVariable("ROSE", "f4", ("ETOPO60Y", "ETOPO60X"))
+    rose.units = "METERS"
+    rose[:] = np.resize(field[0] * 300, (91, 180))
+files.append(etopo)
+
+# As CAMS and ERA5 regions cut across Greenwich from 0–360° longitudes.
+across = path_of("across_greenwich.nc")
+with netCDF4.Dataset(across, "w", format="NETCDF4") as ds:
+    ds.createDimension("latitude", 11)
+    ds.createDimension("longitude", 11)
+    lat = ds.createVariable("latitude", "f4", ("latitude",))
+    lat[:] = 50.95 - 0.1 * np.arange(11)
+    lat.units = "degrees_north"
+    lon = ds.createVariable("longitude", "f4", ("longitude",))
+    lon[:] = (359.55 + 0.1 * np.arange(11)) % 360
+    lon.units = "degrees_east"
+    pm10 = ds.createVariable("pm10_conc", "f4", ("latitude", "longitude"))
+    pm10[:] = np.abs(field[1, :11, :11])
+files.append(across)
+
+# As Daymet: a Lambert conformal grid whose x and y count in km.
+daymet = path_of("daymet_like.nc")
+with netCDF4.Dataset(daymet, "w", format="NETCDF4") as ds:
+    ds.createDimension("y", 60)
+    ds.createDimension("x", 80)
+    for axis, values in (("x", -778.25 + np.arange(80)), ("y", -120.0 - np.arange(60))):
+        v = ds.createVariable(axis, "f4", (axis,))
+        v[:] = values
+        v.units, v.standard_name = "km", f"projection_{axis}_coordinate"
+    crs = ds.createVariable("lambert_conformal_conic", "i2", ())
+    crs.grid_mapping_name = "lambert_conformal_conic"
+    crs.longitude_of_central_meridian, crs.latitude_of_projection_origin = -100.0, 42.5
+    crs.standard_parallel = [25.0, 60.0]
+    crs.false_easting, crs.false_northing = 0.0, 0.0
+    crs.semi_major_axis, crs.inverse_flattening = 6378137.0, 298.257223563
+    prcp = ds.createVariable("prcp", "f4", ("y", "x"), fill_value=-9999.0)
+    prcp.grid_mapping = "lambert_conformal_conic"
+    prcp[:] = np.abs(field[2]) * 3
+files.append(daymet)
 
 # As ERA5: latitudes from the north in single precision, time steps, packed integers.
 era5 = path_of("era5_like.nc")
