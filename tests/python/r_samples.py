@@ -9,7 +9,9 @@ to. Prints one JSON line:
   string as its SRS, scales and offsets;
 - `variables` (GeoTIFF twin, netCDF file, variable): each variable GDAL reads of the
   netCDF files it georeferences, its steps as bands (a Lambert grid in km, 0–360°
-  longitudes cut across Greenwich, sea-surface temperatures, climate projections);
+  longitudes cut across Greenwich, sea-surface temperatures, climate projections;
+  xarray-spatial's Sentinel-2 bands, written by legacy xarray with the CRS as a `crs`
+  attribute and an attribute named in Latin-1);
 - `refused`: files imitate refuses, by what is wrong: a rotated GeoTIFF, stations
   rather than a grid, grids of 2-D latitudes and longitudes, x before y.
 """
@@ -40,8 +42,12 @@ pairs = [twin(at(name)) for name in [
     "olinda_dem_utm25s.tif", "lc.tif", "na.tif", "SP27GTIF.TIF", "cea.tif",
     "erdas_spnad83.tif", "big_int_arc_file.asc", "test_envi_class.envi", "scaleoffset.vrt"]]
 variables = []
+# The CRS GDAL leaves out where the file gives it otherwise: xarray-spatial's bands keep
+# theirs in a `crs` attribute, as legacy xarray wrote it; CF's is WGS 84 for latitudes
+# and longitudes with no grid mapping.
+given_crs = {"red_band.nc": "EPSG:32719", "nir_band.nc": "EPSG:32719"}
 for name in ["lcc_km.nc", "test_adaptor.cams_regional_fc.nc", "reduced.nc",
-             "bcsd_obs_1999.nc", "sub.nc"]:
+             "bcsd_obs_1999.nc", "sub.nc", "red_band.nc", "nir_band.nc"]:
     with rasterio.open(at(name)) as src:
         datasets = src.subdatasets or [at(name)]
     for dataset in datasets:
@@ -51,9 +57,7 @@ for name in ["lcc_km.nc", "test_adaptor.cams_regional_fc.nc", "reduced.nc",
         tif = twin(dataset, at(f"{name}.{variable}.tif"))[0]
         with rasterio.open(tif, "r+") as dst:
             if dst.crs is None:
-                # GDAL leaves a grid of latitudes and longitudes with no grid mapping
-                # without a CRS; CF's, and imitate's, is WGS 84.
-                dst.crs = "EPSG:4326"
+                dst.crs = given_crs.get(name, "EPSG:4326")
         variables.append([tif, at(name), variable])
 refused = {
     "rotated": at("geomatrix.tif"),
