@@ -185,6 +185,29 @@ mod tests {
         assert!(v.attribute("Wavelength (?m)").is_some());
     }
 
+    proptest::proptest! {
+        /// A damaged header (bytes overwritten anywhere) is walked without a panic,
+        /// and nothing but name bytes changes: each changed byte becomes `?`.
+        #[test]
+        fn damaged_headers_change_only_name_bytes(
+            at in 0usize..150,
+            bytes in proptest::collection::vec(proptest::num::u8::ANY, 1..12),
+        ) {
+            let mut damaged = header(b"Wavelength (\xb5m)");
+            for (i, byte) in bytes.iter().enumerate() {
+                if let Some(b) = damaged.get_mut(at + i) {
+                    *b = *byte;
+                }
+            }
+            let before = damaged.clone();
+            make_names_utf8(&mut damaged);
+            proptest::prop_assert_eq!(damaged.len(), before.len());
+            for (after, before) in damaged.iter().zip(&before) {
+                proptest::prop_assert!(after == before || *after == b'?');
+            }
+        }
+    }
+
     #[test]
     fn what_is_not_a_classic_header_is_left_alone() {
         assert_eq!(make_names_utf8(&mut b"\x89HDF\r\n\x1a\n".to_vec()), None);
