@@ -2,9 +2,9 @@
 //! default (numcodecs' `Blosc`, LZ4 and byte shuffle). A frame is a 16-byte header
 //! (format version, codec version, flags, type size, then the sizes uncompressed, of a
 //! block and compressed), the blocks' offsets, and each block compressed whole or in one
-//! stream per byte of the type ("split"), then byte-unshuffled. LZ4, Zstandard and zlib
-//! streams are decoded (by the `lz4`, `zstd` and `flate2` crates); BloscLZ, Snappy and
-//! bit shuffle are refused by name.
+//! stream per byte of the type ("split"). LZ4, Zstandard and zlib
+//! streams are decoded (by the `lz4`, `zstd` and `flate2` crates), then byte- or
+//! bit-unshuffled; BloscLZ and Snappy are refused by name.
 
 use std::io::Read;
 
@@ -58,13 +58,6 @@ pub(crate) fn decompress(frame: &[u8], most: usize) -> Result<Vec<u8>, String> {
             .map(<[u8]>::to_vec)
             .ok_or_else(|| "a stored Blosc frame is cut short".into());
     }
-    if flags & BIT_SHUFFLE != 0 && typesize > 1 {
-        return Err(
-            "Blosc frame bit-shuffled, which is not read: write the store with \
-             byte shuffle (numcodecs' Blosc(shuffle=Blosc.SHUFFLE))"
-                .into(),
-        );
-    }
     if blocksize == 0 || typesize == 0 {
         return Err(format!(
             "Blosc frame of blocks of {blocksize} bytes, type {typesize}"
@@ -88,6 +81,7 @@ pub(crate) fn decompress(frame: &[u8], most: usize) -> Result<Vec<u8>, String> {
         }
     };
     let shuffled = flags & BYTE_SHUFFLE != 0 && typesize > 1;
+    let bit_shuffled = flags & BIT_SHUFFLE != 0;
     let mut out = vec![0u8; nbytes];
     for (block, chunk) in out.chunks_mut(blocksize).enumerate() {
         let leftover = chunk.len() < blocksize;
@@ -115,8 +109,11 @@ pub(crate) fn decompress(frame: &[u8], most: usize) -> Result<Vec<u8>, String> {
         if decoded.len() != chunk.len() {
             return Err("a Blosc block decodes to another size than its own".into());
         }
+        // As c-blosc: byte shuffle where both are flagged.
         if shuffled {
             unshuffle(&decoded, typesize, chunk);
+        } else if bit_shuffled {
+            bit_unshuffle(&decoded, typesize, version, chunk);
         } else {
             chunk.copy_from_slice(&decoded);
         }
@@ -170,6 +167,36 @@ fn unshuffle(source: &[u8], typesize: usize, out: &mut [u8]) {
         }
     }
     let whole = elements * typesize;
+    out[whole..].copy_from_slice(&source[whole..]);
+}
+
+/// Bit-shuffled `source` back to whole elements in `out`, as c-blosc's `bitunshuffle`:
+/// the elements of the block, a multiple of eight of them, lie as one row per bit of
+/// each byte of the type (byte 0's bit 0, its bit 1, ..., byte 1's bit 0, ...), a row
+/// holding that bit of every element, element `i` at bit `i % 8` of byte `i / 8`; bytes
+/// past them stay where they are. Frames of format version 2 bit-shuffled only blocks
+/// of a multiple of eight elements.
+fn bit_unshuffle(source: &[u8], typesize: usize, version: u8, out: &mut [u8]) {
+    let elements = source.len() / typesize;
+    let shuffled = if version == 2 && !elements.is_multiple_of(8) {
+        0
+    } else {
+        elements - elements % 8
+    };
+    let row = shuffled / 8;
+    out.fill(0);
+    for (i, element) in out[..shuffled * typesize]
+        .chunks_exact_mut(typesize)
+        .enumerate()
+    {
+        let (at, bit) = (i / 8, i % 8);
+        for (j, byte) in element.iter_mut().enumerate() {
+            for k in 0..8 {
+                *byte |= ((source[(j * 8 + k) * row + at] >> bit) & 1) << k;
+            }
+        }
+    }
+    let whole = shuffled * typesize;
     out[whole..].copy_from_slice(&source[whole..]);
 }
 
@@ -240,18 +267,34 @@ mod tests {
     }
 
     #[test]
+    fn bit_shuffled_elements_come_back_with_their_leftovers() {
+        // 21 three-byte elements and a byte: 16 bit-shuffled, the rest as they lie.
+        let values: Vec<u8> = (0..64u32).map(|i| (i * 37 % 251) as u8).collect();
+        let (typesize, shuffled) = (3, 16);
+        let mut source = vec![0u8; values.len()];
+        for i in 0..shuffled {
+            for j in 0..typesize {
+                for k in 0..8 {
+                    let bit = (values[i * typesize + j] >> k) & 1;
+                    source[(j * 8 + k) * (shuffled / 8) + i / 8] |= bit << (i % 8);
+                }
+            }
+        }
+        source[shuffled * typesize..].copy_from_slice(&values[shuffled * typesize..]);
+        let mut out = vec![0u8; values.len()];
+        bit_unshuffle(&source, typesize, 3, &mut out);
+        assert_eq!(out, values);
+        // Format version 2 shuffled no block of other than a multiple of 8 elements.
+        bit_unshuffle(&values, typesize, 2, &mut out);
+        assert_eq!(out, values);
+    }
+
+    #[test]
     fn damaged_frames_are_errors() {
         let frame = frame_of(&(0..300).collect::<Vec<u32>>(), 512);
         for cut in 0..frame.len() {
             let _ = decompress(&frame[..cut], 1200);
         }
-        let mut bits = frame.clone();
-        bits[2] |= BIT_SHUFFLE;
-        assert!(
-            decompress(&bits, 1200)
-                .unwrap_err()
-                .contains("bit-shuffled")
-        );
         let mut blosclz = frame;
         blosclz[2] &= 0x1f;
         assert!(decompress(&blosclz, 1200).unwrap_err().contains("BloscLZ"));

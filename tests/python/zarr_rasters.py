@@ -5,15 +5,17 @@ GeoTIFF twin of what they read to. Prints one JSON line:
   through rasterio): an int16 DEM in UTM with `_FillValue` and rioxarray's grid mapping
   (`spatial_ref` with `crs_wkt`), in chunks that leave partial chunks at the edges and
   one chunk never written (all fill), compressed as zarr writes version 2 by default
-  (Blosc with LZ4 and byte shuffle), with Blosc's Zstandard and zlib, with Zstandard,
-  zlib and gzip alone, uncompressed, and with `/` between chunk indices, and a store
+  (Blosc with LZ4 and byte shuffle), with Blosc's Zstandard and zlib, Blosc with bit
+  shuffle, with Zstandard, zlib and gzip alone, uncompressed, and with `/` between
+  chunk indices, and a store
   GDAL's Zarr driver writes (X and Y arrays, the CRS in `_CRS`); version 3
   stores (which this GDAL does not read), twinned by xarray's own reading: the same
   DEM with zarr's default Zstandard, with gzip and a CRC-32C checksum, with Blosc; a
-  float32 field in degrees, latitudes from the south, no grid mapping; a 3-band uint16
+  float32 field in degrees, latitudes from the south, no grid mapping (also in Blosc
+  with Zstandard and bit shuffle); a 3-band uint16
   image (band, y, x) beside a second variable on the grid; the DEM in shards of 2 × 2
   chunks;
-- `refused`: stores refused, by what is wrong: bit-shuffled Blosc, no coordinates.
+- `refused`: stores refused, by what is wrong: BloscLZ, no coordinates.
 """
 
 import json
@@ -137,6 +139,7 @@ for name, encoding in [
     ("v2_zlib.zarr", {"compressor": Zlib(level=6)}),
     ("v2_gzip.zarr", {"compressor": GZip(level=6)}),
     ("v2_raw.zarr", {"compressor": None}),
+    ("v2_bitshuffle.zarr", {"compressor": Blosc(cname="lz4", shuffle=Blosc.BITSHUFFLE)}),
 ]:
     pairs.append(gdal_twin(write(name, dem_dataset(), 2, **encoding), ["elevation"]))
 slashed = path_of("v2_slashed.zarr")
@@ -180,6 +183,8 @@ degrees = xr.Dataset({"temperature": (("lat", "lon"), temperature)},
                      coords={"lat": ("lat", lat, {"units": "degrees_north"}),
                              "lon": ("lon", lon, {"units": "degrees_east"})})
 pairs.append(xarray_twin(write("v3_degrees.zarr", degrees, 3), "EPSG:4326"))
+pairs.append(xarray_twin(write("v3_degrees_bitshuffle.zarr", degrees, 3, compressors=[
+    BloscCodec(cname="zstd", shuffle="bitshuffle")]), "EPSG:4326"))
 
 # Bands first, and a second variable on the grid.
 image = (np.abs(field) * 50).astype("uint16")
@@ -192,10 +197,10 @@ pairs.append(xarray_twin(write("v3_bands.zarr", bands, 3), UTM))
 pairs.append(xarray_twin(write("v3_sharded.zarr", dem_dataset(), 3,
                                chunks=(8, 10), shards=(16, 20)), UTM))
 
-# Refused: bit-shuffled Blosc; an array with no coordinates.
-bits = write("bits.zarr", dem_dataset(), 2,
-             compressor=Blosc(cname="lz4", shuffle=Blosc.BITSHUFFLE))
+# Refused: BloscLZ; an array with no coordinates.
+blosclz = write("blosclz.zarr", dem_dataset(), 2,
+                compressor=Blosc(cname="blosclz", shuffle=Blosc.SHUFFLE))
 bare = path_of("bare.zarr")
 xr.Dataset({"elevation": (("y", "x"), field[0])}).to_zarr(bare, mode="w", zarr_format=3,
                                                           consolidated=False)
-print(json.dumps({"pairs": pairs, "refused": {"bits": bits, "bare": bare}}))
+print(json.dumps({"pairs": pairs, "refused": {"blosclz": blosclz, "bare": bare}}))
