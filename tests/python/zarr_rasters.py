@@ -5,8 +5,8 @@ GeoTIFF twin of what they read to. Prints one JSON line:
   through rasterio): an int16 DEM in UTM with `_FillValue` and rioxarray's grid mapping
   (`spatial_ref` with `crs_wkt`), in chunks that leave partial chunks at the edges and
   one chunk never written (all fill), compressed as zarr writes version 2 by default
-  (Blosc with LZ4 and byte shuffle), with Blosc's Zstandard and zlib, Blosc with bit
-  shuffle, with Zstandard, zlib and gzip alone, uncompressed, and with `/` between
+  (Blosc with LZ4 and byte shuffle), with Blosc's Zstandard, zlib and BloscLZ, Blosc
+  with bit shuffle, with Zstandard, zlib and gzip alone, uncompressed, and with `/` between
   chunk indices, and a store
   GDAL's Zarr driver writes (X and Y arrays, the CRS in `_CRS`); version 3
   stores (which this GDAL does not read), twinned by xarray's own reading: the same
@@ -15,7 +15,7 @@ GeoTIFF twin of what they read to. Prints one JSON line:
   with Zstandard and bit shuffle); a 3-band uint16
   image (band, y, x) beside a second variable on the grid; the DEM in shards of 2 × 2
   chunks;
-- `refused`: stores refused, by what is wrong: BloscLZ, no coordinates.
+- `refused`: stores refused, by what is wrong: no coordinates.
 """
 
 import json
@@ -58,6 +58,23 @@ def dem_dataset():
                     coords={"x": ("x", x, {"units": "metre"}),
                             "y": ("y", y, {"units": "metre"})})
     ds["elevation"].encoding.update({"_FillValue": -9999, "chunks": (16, 20)})
+    return ds
+
+
+def repeating_dataset():
+    """An int16 grid of 200 × 300 in one chunk whose rows repeat every 40 (24,000 bytes
+    back, past BloscLZ's one-byte distances), with a run of zeros and a void."""
+    values = np.tile((field[1, :40, :60].repeat(5, axis=1) * 7).astype("int16"), (5, 1))
+    values[60:70] = 0
+    values[100:104, 10:20] = -9999
+    ds = dem_dataset().isel(x=[0], y=[0]).drop_vars("elevation")
+    x = 400015.0 + 30 * np.arange(300)
+    y = 5200015.0 - 30 * np.arange(200)
+    ds = xr.Dataset({"elevation": (("y", "x"), values, {"grid_mapping": "spatial_ref"}),
+                     "spatial_ref": ds["spatial_ref"]},
+                    coords={"x": ("x", x, {"units": "metre"}),
+                            "y": ("y", y, {"units": "metre"})})
+    ds["elevation"].encoding.update({"_FillValue": -9999, "chunks": (200, 300)})
     return ds
 
 
@@ -140,6 +157,9 @@ for name, encoding in [
     ("v2_gzip.zarr", {"compressor": GZip(level=6)}),
     ("v2_raw.zarr", {"compressor": None}),
     ("v2_bitshuffle.zarr", {"compressor": Blosc(cname="lz4", shuffle=Blosc.BITSHUFFLE)}),
+    ("v2_blosclz.zarr", {"compressor": Blosc(cname="blosclz", clevel=9, shuffle=Blosc.SHUFFLE)}),
+    ("v2_blosclz_noshuffle.zarr", {"compressor": Blosc(cname="blosclz", clevel=1,
+                                                        shuffle=Blosc.NOSHUFFLE)}),
 ]:
     pairs.append(gdal_twin(write(name, dem_dataset(), 2, **encoding), ["elevation"]))
 slashed = path_of("v2_slashed.zarr")
@@ -156,6 +176,11 @@ for key in sorted(os.listdir(os.path.join(slashed, "elevation"))):
 meta["dimension_separator"] = "/"
 json.dump(meta, open(os.path.join(slashed, "elevation", ".zarray"), "w"))
 pairs.append(gdal_twin(slashed, ["elevation"]))
+for name, shuffle in [("v2_blosclz_far.zarr", Blosc.NOSHUFFLE),
+                      ("v2_blosclz_far_shuffled.zarr", Blosc.SHUFFLE)]:
+    compressor = Blosc(cname="blosclz", clevel=9, shuffle=shuffle, blocksize=1 << 17)
+    pairs.append(gdal_twin(write(name, repeating_dataset(), 2, compressor=compressor),
+                           ["elevation"]))
 
 # As GDAL's Zarr driver writes a raster (gdal_translate -of Zarr): X and Y arrays, the
 # CRS in the array's _CRS attribute.
@@ -197,10 +222,8 @@ pairs.append(xarray_twin(write("v3_bands.zarr", bands, 3), UTM))
 pairs.append(xarray_twin(write("v3_sharded.zarr", dem_dataset(), 3,
                                chunks=(8, 10), shards=(16, 20)), UTM))
 
-# Refused: BloscLZ; an array with no coordinates.
-blosclz = write("blosclz.zarr", dem_dataset(), 2,
-                compressor=Blosc(cname="blosclz", shuffle=Blosc.SHUFFLE))
+# Refused: an array with no coordinates.
 bare = path_of("bare.zarr")
 xr.Dataset({"elevation": (("y", "x"), field[0])}).to_zarr(bare, mode="w", zarr_format=3,
                                                           consolidated=False)
-print(json.dumps({"pairs": pairs, "refused": {"blosclz": blosclz, "bare": bare}}))
+print(json.dumps({"pairs": pairs, "refused": {"bare": bare}}))
