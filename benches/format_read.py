@@ -8,7 +8,8 @@ GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both i
 a PMTiles archive (Protomaps' converter; GDAL, which reads no raster PMTiles, is timed
 on the package); SAGA (its SAGA driver) with the DEM as a grid, and zipped as SAGA's
 compressed grid (`.sg-grd-z`, Deflate); Zarr (xarray's `to_zarr`) with the DEM in 512²
-chunks, version 2 (Blosc with LZ4) and 3 (Zstandard); each beside an
+chunks, version 2 (Blosc with LZ4, with BloscLZ, with LZ4 bit-shuffled) and 3
+(Zstandard); each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
 the raster as costs and plans two cells apart: the read is the time; wall and user CPU
 seconds, the VM's page faults making the wall time noisy) and, in this process, GDAL reading the band through rasterio
@@ -35,6 +36,7 @@ import zipfile
 import numpy as np
 import rasterio
 import rasterio.shutil
+from numcodecs import Blosc
 from pmtiles.convert import mbtiles_to_pmtiles
 from rasterio.transform import from_origin
 
@@ -66,6 +68,8 @@ def write(path, values, driver, mercator=False, **options):
         ds = xr.Dataset({"dem": (("y", "x"), values, {"grid_mapping": "spatial_ref"}),
                          "spatial_ref": ref}, coords={"x": x, "y": y})
         ds["dem"].encoding["chunks"] = (512, 512)
+        if "compressor" in options:
+            ds["dem"].encoding["compressors"] = [options["compressor"]]
         ds.to_zarr(path, mode="w", zarr_format=int(driver[-1]), consolidated=False)
         return path
     if driver == "SAGA compressed":
@@ -143,6 +147,10 @@ def main():
              ("SAGA: DEM, compressed (.sg-grd-z)", "dem_zipped.sg-grd-z", dem,
               "SAGA compressed", {}),
              ("Zarr v2: DEM, Blosc LZ4, 512² chunks", "dem_v2.zarr", dem, "Zarr 2", {}),
+             ("Zarr v2: DEM, Blosc BloscLZ, 512² chunks", "dem_v2_blosclz.zarr", dem,
+              "Zarr 2", {"compressor": Blosc(cname="blosclz", shuffle=Blosc.SHUFFLE)}),
+             ("Zarr v2: DEM, Blosc LZ4 bit-shuffled, 512² chunks", "dem_v2_bits.zarr", dem,
+              "Zarr 2", {"compressor": Blosc(cname="lz4", shuffle=Blosc.BITSHUFFLE)}),
              ("Zarr v3: DEM, Zstandard, 512² chunks", "dem_v3.zarr", dem, "Zarr 3", {})]
     print("| file | bytes | imitate, the file: wall / user CPU | imitate, GeoTIFF twin | "
           "GDAL, the file | the file to GeoTIFF, user CPU |")

@@ -250,20 +250,36 @@ fn bit_unshuffle(source: &[u8], typesize: usize, version: u8, out: &mut [u8]) {
         elements - elements % 8
     };
     let row = shuffled / 8;
-    out.fill(0);
-    for (i, element) in out[..shuffled * typesize]
-        .chunks_exact_mut(typesize)
+    // Eight elements at a time: byte `j` of each is the 8 × 8 bit matrix of the eight
+    // rows' bytes, transposed.
+    for (at, group) in out[..shuffled * typesize]
+        .chunks_exact_mut(8 * typesize)
         .enumerate()
     {
-        let (at, bit) = (i / 8, i % 8);
-        for (j, byte) in element.iter_mut().enumerate() {
-            for k in 0..8 {
-                *byte |= ((source[(j * 8 + k) * row + at] >> bit) & 1) << k;
+        for j in 0..typesize {
+            let rows = (0..8).fold(0u64, |rows, k| {
+                rows | u64::from(source[(j * 8 + k) * row + at]) << (8 * k)
+            });
+            let bytes = transpose_bits(rows).to_le_bytes();
+            for (m, byte) in bytes.into_iter().enumerate() {
+                group[m * typesize + j] = byte;
             }
         }
     }
     let whole = shuffled * typesize;
     out[whole..].copy_from_slice(&source[whole..]);
+}
+
+/// The 8 × 8 bit matrix whose rows are the bytes of `rows` (the first the lowest),
+/// transposed: bit `m` of byte `k` becomes bit `k` of byte `m` (bitshuffle's
+/// `TRANS_BIT_8X8`, three swaps of blocks).
+fn transpose_bits(mut x: u64) -> u64 {
+    let t = (x ^ (x >> 7)) & 0x00AA_00AA_00AA_00AA;
+    x ^= t ^ (t << 7);
+    let t = (x ^ (x >> 14)) & 0x0000_CCCC_0000_CCCC;
+    x ^= t ^ (t << 14);
+    let t = (x ^ (x >> 28)) & 0x0000_0000_F0F0_F0F0;
+    x ^ t ^ (t << 28)
 }
 
 #[cfg(test)]
