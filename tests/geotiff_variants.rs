@@ -1948,9 +1948,10 @@ fn r_raster_grids_read_as_gdal_reads_them() {
 /// cover, State Plane in feet), an ASCII grid, an ENVI `.envi`, a VRT of raw bands, and
 /// netCDF variables (a Lambert grid in km, longitudes from 0–360° cut across
 /// Greenwich, sea-surface temperatures, climate projections; xarray-spatial's
-/// Sentinel-2 bands as legacy xarray wrote them) read as GDAL reads them;
-/// a rotated GeoTIFF, stations, a grid of 2-D latitudes and longitudes and x before y
-/// are refused, naming the problem.
+/// Sentinel-2 bands as legacy xarray wrote them) read as GDAL reads them, and NASA's
+/// TRMM subset, lying (lon, lat), as its values transposed;
+/// a rotated GeoTIFF, stations and a grid of 2-D latitudes and longitudes are refused,
+/// naming the problem.
 #[test]
 fn example_rasters_of_r_and_python_packages_read_as_gdal_reads_them() {
     let samples = common::repo().join("target/sample-data");
@@ -2000,10 +2001,6 @@ fn example_rasters_of_r_and_python_packages_read_as_gdal_reads_them() {
             (
                 "curvilinear",
                 &["test_stageiv_xyt.nc", "no coordinate variables"],
-            ),
-            (
-                "transposed",
-                &["3B42_Daily.19991231.7.test.nc", "x before y"],
             ),
         ],
     );
@@ -2130,9 +2127,12 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
     assert!(near(east.geo.resolution, packed.geo.resolution));
     assert!((0..2).all(|i| near(east.geo.origin[i], packed.geo.origin[i])));
     assert_eq!(east.layers[0].values, packed.layers[0].values);
+    // A variable lying (lon, lat) reads as its (lat, lon) twin.
+    let (lat_lon, lon_lat) = (read("lat_lon"), read("lon_lat"));
+    assert_eq!(lat_lon.geo, lon_lat.geo);
+    assert_eq!(lat_lon.layers[0].values, lon_lat.layers[0].values);
     let refusals = [
         ("uneven", "not evenly spaced"),
-        ("transposed", "x before y"),
         ("no_wkt", "gives no WKT"),
         ("points", "no gridded variable"),
         ("neither", "not a netCDF file"),

@@ -7,7 +7,7 @@
 //! - the gridded variables are those of two or more dimensions that are neither
 //!   coordinates nor named by another's `bounds`, `coordinates` or `grid_mapping`; the
 //!   first whose last two dimensions have coordinate variables sets the grid (y then
-//!   x), and every gridded variable on it is read, a layer each (more where leading
+//!   x, or x then y where their axes say so), and every gridded variable on it is read, a layer each (more where leading
 //!   dimensions such as time or level hold several steps: one per step);
 //! - the grid comes from the coordinate variables (cell centres, evenly spaced); y may
 //!   run either way and x east or west; projected coordinates in km (Daymet's) are
@@ -489,6 +489,9 @@ struct Grid {
     height: usize,
     /// Whether both coordinates count in degrees of longitude and latitude.
     degrees: bool,
+    /// The variable lies (x, y): x its second-last dimension, as NASA's TRMM and
+    /// GPM subsets come (`precipitation(lon, lat)`).
+    transposed: bool,
 }
 
 impl Grid {
@@ -498,11 +501,17 @@ impl Grid {
         y: &NcVariable,
         x: &NcVariable,
     ) -> std::result::Result<Grid, String> {
-        let ((x_axis, x_degrees), (y_axis, y_degrees)) = (axis_of(x), axis_of(y));
+        let (mut x, mut y) = (x, y);
+        let ((mut x_axis, mut x_degrees), (mut y_axis, mut y_degrees)) = (axis_of(x), axis_of(y));
+        let transposed = x_axis == Some(Axis::Y) || y_axis == Some(Axis::X);
+        if transposed {
+            std::mem::swap(&mut x, &mut y);
+            std::mem::swap(&mut x_axis, &mut y_axis);
+            std::mem::swap(&mut x_degrees, &mut y_degrees);
+        }
         if x_axis == Some(Axis::Y) || y_axis == Some(Axis::X) {
             return Err(format!(
-                "its variable {} lies on ({}, {}), x before y; only y before x is read: \
-                 transpose it first (ncpdq or xarray's transpose)",
+                "its variable {} lies on ({}, {}), both of one axis",
                 var.name(),
                 y.name(),
                 x.name()
@@ -538,6 +547,7 @@ impl Grid {
             width,
             height,
             degrees: x_degrees && y_degrees,
+            transposed,
         })
     }
 
@@ -760,7 +770,7 @@ pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         }
         masks.descriptions.extend(source.names());
     }
-    let west = grid.x.step < 0.0;
+    let (west, transposed) = (grid.x.step < 0.0, grid.transposed);
     let samples = Samples {
         width: width as u32,
         height: height as u32,
@@ -768,13 +778,16 @@ pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         north_up: grid.y.step < 0.0,
         heights,
         sample: |band: usize, cell: usize| {
-            let cell = if west {
-                let (row, column) = (cell / width, cell % width);
-                row * width + (width - 1 - column)
+            let (row, mut column) = (cell / width, cell % width);
+            if west {
+                column = width - 1 - column;
+            }
+            let stored = if transposed {
+                column * height + row
             } else {
-                cell
+                row * width + column
             };
-            values[band][cell]
+            values[band][stored]
         },
     };
     sidecar_bands::map(path, name, geo, samples, &masks)

@@ -20,10 +20,10 @@ gridded variable's bands in the file's order, named by their variable):
   lie on the poles), as CAMS regions come (0–360° longitudes cut across Greenwich) and
   as Daymet comes (a Lambert grid in km).
 
-Also, by hand: the same grid with longitudes running west and east and with its
-coordinates packed as int32 micro-degrees (read alike), and
-files a reader must refuse: uneven latitudes, no gridded variable, an Esri ASCII grid
-named `.grd`, a variable lying (lon, lat), a rotated-pole grid mapping with no WKT. Prints one JSON line."""
+Also, by hand: the same grid with longitudes running west and east, with its
+coordinates packed as int32 micro-degrees, and lying (lat, lon) and (lon, lat) (read
+alike), and files a reader must refuse: uneven latitudes, no gridded variable, an Esri
+ASCII grid named `.grd`, a rotated-pole grid mapping with no WKT. Prints one JSON line."""
 
 import json
 import os
@@ -312,9 +312,11 @@ def lat_lon_file(name, lat_values, dims=("lat", "lon"), mapping=None):
     return path_of(name)
 
 
+# The same grid stored (lat, lon) and (lon, lat), as NASA's TRMM subsets lie.
+lat_lon = lat_lon_file("lat_lon.nc", np.arange(60) * 0.5)
+lon_lat = lat_lon_file("lon_lat.nc", np.arange(60) * 0.5, dims=("lon", "lat"))
 refused = {
     "uneven": lat_lon_file("uneven.nc", np.sin(np.linspace(-1.2, 1.2, 60)) * 80),
-    "transposed": lat_lon_file("transposed.nc", np.arange(60) * 0.5, dims=("lon", "lat")),
     "no_wkt": lat_lon_file("no_wkt.nc", np.arange(60) * 0.5, mapping="rotated_latitude_pole"),
 }
 with netCDF4.Dataset(path_of("points.nc"), "w", format="NETCDF4") as ds:
@@ -326,5 +328,6 @@ with open(path_of("ascii_grid.grd"), "w") as f:
 refused["neither"] = path_of("ascii_grid.grd")
 
 print(json.dumps({"pairs": pairs, "east": east, "west": west, "packed": packed,
+                  "lat_lon": lat_lon, "lon_lat": lon_lat,
                   "refused": refused,
                   "classes": [xarray_utm, h5netcdf_utm]}))

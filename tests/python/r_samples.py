@@ -12,8 +12,10 @@ to. Prints one JSON line:
   longitudes cut across Greenwich, sea-surface temperatures, climate projections;
   xarray-spatial's Sentinel-2 bands, written by legacy xarray with the CRS as a `crs`
   attribute and an attribute named in Latin-1);
+- and NASA's TRMM subset, which lies (lon, lat), beside a twin written from its values
+  transposed (GDAL does not georeference it);
 - `refused`: files imitate refuses, by what is wrong: a rotated GeoTIFF, stations
-  rather than a grid, grids of 2-D latitudes and longitudes, x before y.
+  rather than a grid, grids of 2-D latitudes and longitudes.
 """
 
 import glob
@@ -23,7 +25,10 @@ import shutil
 import sys
 import warnings
 
+import netCDF4
+import numpy as np
 import rasterio
+from rasterio.transform import from_origin
 
 from gdal_twin import twin
 
@@ -59,10 +64,22 @@ for name in ["lcc_km.nc", "test_adaptor.cams_regional_fc.nc", "reduced.nc",
             if dst.crs is None:
                 dst.crs = given_crs.get(name, "EPSG:4326")
         variables.append([tif, at(name), variable])
+# NASA's TRMM subset lies (lon, lat), which GDAL does not georeference: its twin is
+# written from NetCDF4-python's reading, transposed, rows from the north.
+trmm = at("3B42_Daily.19991231.7.test.nc")
+with netCDF4.Dataset(trmm) as ds:
+    lon, lat = ds["lon"][:].astype(float), ds["lat"][:].astype(float)
+    values = np.ma.filled(ds["precipitation"][:].astype("float32"), np.nan).T[::-1]
+with rasterio.open(trmm + ".tif", "w", driver="GTiff", width=len(lon), height=len(lat),
+                   count=1, dtype="float32", crs="EPSG:4326", nodata=float("nan"),
+                   transform=from_origin(lon[0] - 0.125, lat[-1] + 0.125, 0.25, 0.25)) as dst:
+    dst.write(values, 1)
+    dst.descriptions = ["precipitation"]
+    dst.units = ["mm"]
+pairs.append([trmm + ".tif", trmm])
 refused = {
     "rotated": at("geomatrix.tif"),
     "stations": at("timeseries.nc"),
     "curvilinear": at("test_stageiv_xyt.nc"),
-    "transposed": at("3B42_Daily.19991231.7.test.nc"),
 }
 print(json.dumps({"pairs": pairs, "variables": variables, "refused": refused}))
