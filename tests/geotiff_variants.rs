@@ -2039,6 +2039,10 @@ fn zarr_stores_read_as_gdal_and_xarray_read_them() {
     for store in ["v2_default.zarr", "v3_gzip.zarr", "v3_sharded.zarr"] {
         assert!(damage_store(&dir.path().join(store), 8) >= 100);
     }
+    // Our own decoders' streams: BloscLZ's matches, bit-shuffled blocks.
+    for store in ["v2_blosclz_far.zarr", "v2_bitshuffle.zarr"] {
+        assert!(damage_store(&dir.path().join(store), 8) >= 40);
+    }
 }
 
 /// SAGA grids as GDAL writes them (every sample type it writes, named by the `.sdat` or
