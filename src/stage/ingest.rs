@@ -59,8 +59,8 @@ pub struct IngestParams {
     /// (.bil, .bip, .bsq, GridFloat .flt: EarthExplorer's SRTM and GTOPO30 tiles), a
     /// DTED tile (.dt0, .dt1, .dt2; layer elevation), gridded XYZ text (.xyz, as LiDAR
     /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD), an ENVI raster
-    /// (.img, .dat, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes), a
-    /// netCDF grid (.nc, .nc4, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
+    /// (.img, .dat, .envi, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes), a
+    /// netCDF grid (.nc, .nc4, .cdf, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
     /// gridded variable and time step), a Surfer grid (.grd), an R raster (.grd beside
     /// its .gri: R's `raster` package), a GeoPackage raster
     /// (.gpkg: imagery tiles or a gridded coverage), an MBTiles package or PMTiles archive
