@@ -2006,6 +2006,40 @@ fn example_rasters_of_r_and_python_packages_read_as_gdal_reads_them() {
     );
 }
 
+/// USGS ASCII DEMs as GDAL's USGSDEM driver writes them (degrees on NAD83 with voids,
+/// UTM on NAD83, UTM on WGS 84 in tenths of a metre) and a GTOPO30-style `.dem` beside
+/// its `.hdr`: each reads to the grid, CRS, values and voids GDAL reads it to; damaged,
+/// each is read or refused naming the file, never a panic. A `.dem` that is neither is
+/// refused, naming the file.
+#[test]
+fn usgs_dems_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("usgs_dems.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    for pair in info["pairs"].as_array().unwrap() {
+        let (file, gdal, ours) = read_twins_nearly(pair);
+        assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let gdal_named = imitate::grid::Layer {
+                name: b.name.clone(),
+                ..a.clone()
+            };
+            let (worst, _) = differences_from_gdal(&file, &gdal_named, b);
+            assert!(worst <= 1e-4, "{file} {}: {worst}", b.name);
+        }
+    }
+    plans_across(dir.path(), "utm.dem", "5,5", "50,40");
+    let pairs = info["pairs"].as_array().unwrap();
+    assert!(damage_pairs(&pairs[..3], &dir.path().join("damaged.dem"), 60) >= 60);
+    assert_refused(
+        dir.path(),
+        &info["refused"],
+        &[("neither", &["grid.dem", ".hdr"][..])],
+    );
+}
+
 /// Zarr stores as xarray writes them: version 2 (zarr's default Blosc with LZ4 and byte
 /// shuffle, Blosc's Zstandard, zlib and BloscLZ, Blosc with bit shuffle, Zstandard,
 /// zlib and gzip alone, uncompressed, `/` between chunk indices) read as GDAL reads them, and

@@ -34,6 +34,7 @@ mod sidecar_bands;
 mod sqlite_tiles;
 pub mod surfer;
 pub mod tables;
+pub mod usgs_dem;
 pub mod vrt;
 pub mod xyz;
 pub mod zarr;
@@ -49,15 +50,16 @@ use crate::grid::Map;
 
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
-/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat), DTED tiles, gridded XYZ,
+/// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat, GTOPO30's `.dem`), USGS
+/// ASCII DEMs (`.dem`), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.envi`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`, Ferret's `.cdf`), Surfer grids (`.grd`), GeoPackage
 /// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
 /// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders).
-pub const RASTER_EXTENSIONS: [&str; 33] = [
+pub const RASTER_EXTENSIONS: [&str; 34] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
-    "bsq", "flt", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "cdf", "grd",
-    "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
+    "bsq", "flt", "dem", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "cdf",
+    "grd", "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -101,7 +103,10 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "bil" | "bip" | "bsq" | "flt" | "img" | "dat" if envi::envi_header(path).is_some() => {
             envi::read_envi_rows(path, name)
         }
-        "bil" | "bip" | "bsq" | "flt" => ehdr::read_ehdr_rows(path, name),
+        "dem" if usgs_dem::is_usgs_dem(path) => {
+            usgs_dem::read_usgs_dem(path, name).map(|map| (map, true))
+        }
+        "bil" | "bip" | "bsq" | "flt" | "dem" => ehdr::read_ehdr_rows(path, name),
         "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
         "xyz" => xyz::read_xyz_rows(path, name),
         "img" => hfa::read_hfa_rows(path, name),
@@ -121,7 +126,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                 "rasters are GeoTIFFs (.tif, .tiff), Esri ASCII grids (.asc), SRTM tiles \
                  (.hgt, .hgt.zip), GDAL virtual rasters (.vrt), JPEG 2000 (.jp2), \
                  georeferenced PNG or JPEG images (.png, .jpg) or raw rasters with an ESRI \
-                 header (.bil, .bip, .bsq, .flt), DTED tiles (.dt0, .dt1, .dt2), gridded \
+                 header (.bil, .bip, .bsq, .flt, GTOPO30's .dem), USGS DEMs (.dem), DTED \
+                 tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat, .envi \
                  with an ENVI .hdr), netCDF grids (.nc, .nc4, .cdf, GMT's .grd), Surfer \
                  grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
@@ -142,7 +148,8 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "bil" | "bip" | "bsq" | "flt" | "img" | "dat" if envi::envi_header(path).is_some() => {
             envi::envi_sidecars(path)
         }
-        "bil" | "bip" | "bsq" | "flt" => ehdr::ehdr_sidecars(path),
+        "dem" if usgs_dem::is_usgs_dem(path) => Vec::new(),
+        "bil" | "bip" | "bsq" | "flt" | "dem" => ehdr::ehdr_sidecars(path),
         "img" | "dat" => hfa::hfa_sidecars(path),
         "envi" => envi::envi_sidecars(path),
         "sdat" | "sgrd" => saga::saga_sidecars(path),

@@ -57,7 +57,8 @@ pub struct IngestParams {
     /// JPEG 2000 raster (.jp2: Sentinel-2's bands), a georeferenced PNG or JPEG (.png,
     /// .jpg: by its .aux.xml sidecar or world file), a raw raster with an ESRI header
     /// (.bil, .bip, .bsq, GridFloat .flt: EarthExplorer's SRTM and GTOPO30 tiles), a
-    /// DTED tile (.dt0, .dt1, .dt2; layer elevation), gridded XYZ text (.xyz, as LiDAR
+    /// DTED tile (.dt0, .dt1, .dt2; layer elevation), a USGS ASCII DEM or GTOPO30 tile
+    /// (.dem; layer elevation), gridded XYZ text (.xyz, as LiDAR
     /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD), an ENVI raster
     /// (.img, .dat, .envi, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes), a
     /// netCDF grid (.nc, .nc4, .cdf, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
@@ -203,7 +204,7 @@ fn load_map(path: &Path) -> Result<Map> {
                 "maps are .parquet, .tif/.tiff (GeoTIFF), .asc (Esri ASCII grid), .hgt \
                  (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .png/.jpg \
                  (georeferenced image), .bil/.bip/.bsq/.flt (raw raster with an ESRI .hdr), \
-                 .dt0/.dt1/.dt2 (DTED), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
+                 .dt0/.dt1/.dt2 (DTED), .dem (USGS DEM, GTOPO30), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
                  .dat/.envi (ENVI), .nc/.nc4/.cdf/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
                  .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
                  .zarr (Zarr store), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
