@@ -2169,6 +2169,10 @@ fn netcdf_rasters_read_as_gdal_reads_them() {
     let (lat_lon, lon_lat) = (read("lat_lon"), read("lon_lat"));
     assert_eq!(lat_lon.geo, lon_lat.geo);
     assert_eq!(lat_lon.layers[0].values, lon_lat.layers[0].values);
+    // h5netcdf's file named .h5 reads as the same file named .nc.
+    let (h5, h5_twin) = (read("h5"), read("h5_twin"));
+    assert_eq!(h5.geo, h5_twin.geo);
+    assert_eq!(h5.layers, h5_twin.layers);
     let refusals = [
         ("uneven", "not evenly spaced"),
         ("no_wkt", "gives no WKT"),

@@ -53,13 +53,13 @@ use crate::grid::Map;
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat, GTOPO30's `.dem`), USGS
 /// ASCII DEMs (`.dem`), DTED tiles, gridded XYZ,
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.envi`...),
-/// netCDF (classic and netCDF-4; GMT's `.grd`, Ferret's `.cdf`), Surfer grids (`.grd`), GeoPackage
-/// rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
+/// netCDF (classic and netCDF-4; GMT's `.grd`, Ferret's `.cdf`, h5netcdf's `.h5`),
+/// Surfer grids (`.grd`), GeoPackage rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
 /// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders).
-pub const RASTER_EXTENSIONS: [&str; 34] = [
+pub const RASTER_EXTENSIONS: [&str; 36] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dem", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "cdf",
-    "grd", "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
+    "h5", "hdf5", "grd", "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
 ];
 
 fn extension_of(path: &Path) -> String {
@@ -113,7 +113,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "dat" | "envi" => envi::read_envi_rows(path, name),
         "grd" if surfer::is_surfer(path) => surfer::read_surfer_rows(path, name),
         "grd" if rraster::is_rraster(path) => rraster::read_rraster_rows(path, name),
-        "nc" | "nc4" | "cdf" | "grd" => netcdf::read_netcdf_rows(path, name),
+        "nc" | "nc4" | "cdf" | "h5" | "hdf5" | "grd" => netcdf::read_netcdf_rows(path, name),
         "gpkg" => geopackage::read_geopackage_rows(path, name),
         "mbtiles" => mbtiles::read_mbtiles_rows(path, name),
         "pmtiles" => pmtiles::read_pmtiles_rows(path, name),
@@ -129,7 +129,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  header (.bil, .bip, .bsq, .flt, GTOPO30's .dem), USGS DEMs (.dem), DTED \
                  tiles (.dt0, .dt1, .dt2), gridded \
                  XYZ text (.xyz), ERDAS Imagine files (.img), ENVI rasters (.img, .dat, .envi \
-                 with an ENVI .hdr), netCDF grids (.nc, .nc4, .cdf, GMT's .grd), Surfer \
+                 with an ENVI .hdr), netCDF grids (.nc, .nc4, .cdf, GMT's .grd; .h5 as h5netcdf \
+                 writes it), Surfer \
                  grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
                  MBTiles (.mbtiles), PMTiles (.pmtiles), SAGA grids (.sdat, .sgrd, \
                  .sg-grd-z) or Zarr stores (.zarr), not '.{other}'"
@@ -155,7 +156,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "sdat" | "sgrd" => saga::saga_sidecars(path),
         "grd" if rraster::is_rraster(path) => rraster::rraster_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.
-        "nc" | "nc4" | "cdf" | "grd" => ascii_grid::ascii_grid_sidecars(path),
+        "nc" | "nc4" | "cdf" | "h5" | "hdf5" | "grd" => ascii_grid::ascii_grid_sidecars(path),
         // A Zarr store is a folder: digested whole as an input.
         "hgt" | "zip" | "dt0" | "dt1" | "dt2" | "zarr" => Vec::new(),
         _ => geotiff::sidecars(path),

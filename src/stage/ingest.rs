@@ -61,7 +61,7 @@ pub struct IngestParams {
     /// (.dem; layer elevation), gridded XYZ text (.xyz, as LiDAR
     /// DEMs come), an ERDAS Imagine file (.img: the USGS's NED and NLCD), an ENVI raster
     /// (.img, .dat, .envi, .bsq... beside its ENVI .hdr: hyperspectral and SAR scenes), a
-    /// netCDF grid (.nc, .nc4, .cdf, GMT's .grd: GEBCO, ETOPO, reanalyses; a layer per
+    /// netCDF grid (.nc, .nc4, .cdf, GMT's .grd, h5netcdf's .h5: GEBCO, ETOPO, reanalyses; a layer per
     /// gridded variable and time step), a Surfer grid (.grd), an R raster (.grd beside
     /// its .gri: R's `raster` package), a GeoPackage raster
     /// (.gpkg: imagery tiles or a gridded coverage), an MBTiles package or PMTiles archive
@@ -205,7 +205,7 @@ fn load_map(path: &Path) -> Result<Map> {
                  (SRTM tile), .hgt.zip, .vrt (GDAL virtual raster), .jp2 (JPEG 2000), .png/.jpg \
                  (georeferenced image), .bil/.bip/.bsq/.flt (raw raster with an ESRI .hdr), \
                  .dt0/.dt1/.dt2 (DTED), .dem (USGS DEM, GTOPO30), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
-                 .dat/.envi (ENVI), .nc/.nc4/.cdf/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
+                 .dat/.envi (ENVI), .nc/.nc4/.cdf/.h5/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
                  .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
                  .zarr (Zarr store), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
             ),

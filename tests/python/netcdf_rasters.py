@@ -21,8 +21,8 @@ gridded variable's bands in the file's order, named by their variable):
   as Daymet comes (a Lambert grid in km).
 
 Also, by hand: the same grid with longitudes running west and east, with its
-coordinates packed as int32 micro-degrees, and lying (lat, lon) and (lon, lat) (read
-alike), and files a reader must refuse: uneven latitudes, no gridded variable, an Esri
+coordinates packed as int32 micro-degrees, lying (lat, lon) and (lon, lat), and named
+`.nc` and `.h5` (read alike), and files a reader must refuse: uneven latitudes, no gridded variable, an Esri
 ASCII grid named `.grd`, a rotated-pole grid mapping with no WKT. Prints one JSON line."""
 
 import json
@@ -199,6 +199,11 @@ dataset.to_netcdf(h5netcdf_utm, engine="h5netcdf", encoding={
     "land_cover": {"_FillValue": None},
     "height": {"zlib": True, "complevel": 4, "chunksizes": (16, 32)}})
 files.append(h5netcdf_utm)
+# The same named .h5, as h5netcdf users name their files.
+h5_named = path_of("h5netcdf_utm.h5")
+dataset.to_netcdf(h5_named, engine="h5netcdf", encoding={
+    "land_cover": {"_FillValue": None},
+    "height": {"zlib": True, "complevel": 4, "chunksizes": (16, 32)}})
 
 
 def cf_projected(name, mapping):
@@ -328,6 +333,7 @@ with open(path_of("ascii_grid.grd"), "w") as f:
 refused["neither"] = path_of("ascii_grid.grd")
 
 print(json.dumps({"pairs": pairs, "east": east, "west": west, "packed": packed,
-                  "lat_lon": lat_lon, "lon_lat": lon_lat,
+                  "lat_lon": lat_lon, "lon_lat": lon_lat, "h5": h5_named,
+                  "h5_twin": h5netcdf_utm,
                   "refused": refused,
                   "classes": [xarray_utm, h5netcdf_utm]}))
