@@ -1759,6 +1759,41 @@ fn assert_read_exactly_as_twins(pairs: &[serde_json::Value]) {
     }
 }
 
+/// Holds each pair's file to its twin on nearly its grid ([`read_twins_nearly`]) and
+/// its bands to the twin's ([`assert_layers_near`]).
+fn assert_read_nearly_as_twins(pairs: &[serde_json::Value], worst_allowed: f32, same_names: bool) {
+    for pair in pairs {
+        let (file, gdal, ours) = read_twins_nearly(pair);
+        let ours: Vec<_> = ours.layers.iter().collect();
+        assert_layers_near(&file, &gdal.layers, &ours, worst_allowed, same_names);
+    }
+}
+
+/// As many layers as GDAL's, each's values within `worst_allowed` and its nodata cells
+/// the same; their names too where `same_names` (else GDAL's are taken as ours: a twin
+/// that numbers its bands, or a variable's steps).
+fn assert_layers_near(
+    file: &str,
+    gdal: &[imitate::grid::Layer],
+    ours: &[&imitate::grid::Layer],
+    worst_allowed: f32,
+    same_names: bool,
+) {
+    assert_eq!(gdal.len(), ours.len(), "{file}");
+    for (a, b) in gdal.iter().zip(ours) {
+        let named = imitate::grid::Layer {
+            name: if same_names {
+                a.name.clone()
+            } else {
+                b.name.clone()
+            },
+            ..a.clone()
+        };
+        let (worst, _) = differences_from_gdal(file, &named, b);
+        assert!(worst <= worst_allowed, "{file} {}: {worst}", b.name);
+    }
+}
+
 /// Holds our reading of `file` to GDAL's: the same values, or for lossy tiles
 /// (`peer`: the largest and mean difference of libjpeg-turbo's or libwebp's decoding
 /// from GDAL's, over every band) as close to GDAL's as that other decoder is, within a
@@ -1964,32 +1999,17 @@ fn example_rasters_of_r_and_python_packages_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    for pair in info["pairs"].as_array().unwrap() {
-        let (file, gdal, ours) = read_twins_nearly(pair);
-        assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let (worst, _) = differences_from_gdal(&file, a, b);
-            assert_eq!(worst, 0.0, "{file} {}", b.name);
-        }
-    }
+    assert_read_nearly_as_twins(info["pairs"].as_array().unwrap(), 0.0, true);
     for variable in info["variables"].as_array().unwrap() {
         let (file, gdal, ours) = read_twins_nearly(variable);
         let name = variable[2].as_str().unwrap();
+        // GDAL numbers a variable's steps as bands; ours are named by the variable.
         let ours: Vec<_> = ours
             .layers
             .iter()
             .filter(|l| l.name == name || l.name.starts_with(&format!("{name}_")))
             .collect();
-        assert_eq!(gdal.layers.len(), ours.len(), "{file} {name}");
-        for (a, b) in gdal.layers.iter().zip(ours) {
-            // GDAL numbers a variable's steps as bands; ours are named by the variable.
-            let gdal_step = imitate::grid::Layer {
-                name: b.name.clone(),
-                ..a.clone()
-            };
-            let (worst, _) = differences_from_gdal(&file, &gdal_step, b);
-            assert_eq!(worst, 0.0, "{file} {}", b.name);
-        }
+        assert_layers_near(&file, &gdal.layers, &ours, 0.0, false);
     }
     plans_across(dir.path(), "test.grd", "20,20", "90,60");
     assert_refused(
@@ -2018,18 +2038,7 @@ fn usgs_dems_read_as_gdal_reads_them() {
         return;
     };
     let info = &written[0];
-    for pair in info["pairs"].as_array().unwrap() {
-        let (file, gdal, ours) = read_twins_nearly(pair);
-        assert_eq!(gdal.layers.len(), ours.layers.len(), "{file}");
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let gdal_named = imitate::grid::Layer {
-                name: b.name.clone(),
-                ..a.clone()
-            };
-            let (worst, _) = differences_from_gdal(&file, &gdal_named, b);
-            assert!(worst <= 1e-4, "{file} {}: {worst}", b.name);
-        }
-    }
+    assert_read_nearly_as_twins(info["pairs"].as_array().unwrap(), 1e-4, false);
     plans_across(dir.path(), "utm.dem", "5,5", "50,40");
     let pairs = info["pairs"].as_array().unwrap();
     assert!(damage_pairs(&pairs[..3], &dir.path().join("damaged.dem"), 60) >= 60);
@@ -2056,14 +2065,7 @@ fn zarr_stores_read_as_gdal_and_xarray_read_them() {
         return;
     };
     let info = &written[0];
-    for pair in info["pairs"].as_array().unwrap() {
-        let (store, gdal, ours) = read_twins_nearly(pair);
-        assert_eq!(gdal.layers.len(), ours.layers.len(), "{store}");
-        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
-            let (worst, _) = differences_from_gdal(&store, a, b);
-            assert_eq!(worst, 0.0, "{store} {}", b.name);
-        }
-    }
+    assert_read_nearly_as_twins(info["pairs"].as_array().unwrap(), 0.0, true);
     plans_across(dir.path(), "v2_default.zarr", "30,2", "2,60");
     assert_refused(
         dir.path(),
