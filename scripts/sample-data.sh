@@ -4,8 +4,8 @@
 # scene and DEMs, netCDF files of climate and ocean products, the GeoTIFF project's
 # State Plane samples, an ENVI classification, a VRT over a raw file), from Debian's
 # packages of them, and xarray-spatial's Sentinel-2 bands, from its wheel, into
-# target/sample-data/<package>/. The tests that read them skip where apt
-# cannot fetch them.
+# target/sample-data/<package>/. The test that reads them skips where they cannot be
+# fetched; a package a Debian release lacks is left out, and the test with it.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 out=target/sample-data
@@ -18,20 +18,35 @@ fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 packages=(r-cran-raster r-cran-terra r-cran-stars r-cran-rgdal)
-fetch() { (cd "$work" && apt-get download -qq "${packages[@]}" 2>/dev/null); }
-if ! fetch && ! { apt-get update -qq 2>/dev/null && fetch; }; then
-    echo "sample-data: apt could not fetch ${packages[*]}; the tests that read R's" \
-        "sample rasters will skip" >&2
+fetch() { (cd "$work" && apt-get download -qq "$1" 2>/dev/null); }
+fetch "${packages[0]}" || apt-get update -qq 2>/dev/null || true
+for package in "${packages[@]}"; do
+    fetch "$package" || echo "sample-data: apt could not fetch $package; its files are" \
+        "left out" >&2
+done
+if ! compgen -G "$work/*.deb" >/dev/null; then
+    echo "sample-data: apt fetched none of ${packages[*]}; the test that reads R's sample" \
+        "rasters will skip" >&2
     exit 0
 fi
 for deb in "$work"/*.deb; do dpkg-deb -x "$deb" "$work/tree"; done
 library="$work/tree/usr/lib/R/site-library"
 rm -rf "$out"
-mkdir -p "$out/raster" "$out/terra" "$out/stars" "$out/rgdal"
-cp "$library"/raster/external/*.gr[di] "$out/raster/"
-cp "$library"/terra/ex/*.tif "$library"/terra/ex/*.gr[di] "$out/terra/"
-cp "$library"/stars/tif/*.tif "$library"/stars/nc/*.nc "$out/stars/"
-cp "$library"/rgdal/pictures/*.{TIF,tif,asc,envi,hdr,vrt,dat} "$out/rgdal/"
+# Copies the files of `from` matching the patterns into `$out/<to>`.
+take() {
+    local to=$1 from=$2
+    shift 2
+    mkdir -p "$out/$to"
+    [ -d "$library/$from" ] || return 0
+    for pattern in "$@"; do
+        find "$library/$from" -maxdepth 1 -type f -name "$pattern" -exec cp {} "$out/$to/" \;
+    done
+}
+take raster raster/external '*.grd' '*.gri'
+take terra terra/ex '*.tif' '*.grd' '*.gri'
+take stars stars/tif '*.tif'
+take stars stars/nc '*.nc'
+take rgdal rgdal/pictures '*.TIF' '*.tif' '*.asc' '*.envi' '*.hdr' '*.vrt' '*.dat'
 # xarray-spatial's Sentinel-2 bands: netCDF as legacy xarray wrote it (the CRS a `crs`
 # attribute, an attribute name in Latin-1).
 if python3 -m pip download --no-deps -q -d "$work/wheels" xarray-spatial==0.5.3 2>/dev/null; then

@@ -2011,19 +2011,23 @@ fn example_rasters_of_r_and_python_packages_read_as_gdal_reads_them() {
             .collect();
         assert_layers_near(&file, &gdal.layers, &ours, 0.0, false);
     }
-    plans_across(dir.path(), "test.grd", "20,20", "90,60");
-    assert_refused(
-        dir.path(),
-        &info["refused"],
-        &[
-            ("rotated", &["geomatrix.tif", "rotated"][..]),
-            ("stations", &["timeseries.nc", "station"]),
-            (
-                "curvilinear",
-                &["test_stageiv_xyt.nc", "no coordinate variables"],
-            ),
-        ],
-    );
+    // A Debian release may lack one of the packages: only what was fetched is held.
+    if dir.path().join("test.grd").is_file() {
+        plans_across(dir.path(), "test.grd", "20,20", "90,60");
+    }
+    let refusals: [(&str, &[&str]); 3] = [
+        ("rotated", &["geomatrix.tif", "rotated"]),
+        ("stations", &["timeseries.nc", "station"]),
+        (
+            "curvilinear",
+            &["test_stageiv_xyt.nc", "no coordinate variables"],
+        ),
+    ];
+    let fetched: Vec<_> = refusals
+        .into_iter()
+        .filter(|(key, _)| info["refused"].get(key).is_some())
+        .collect();
+    assert_refused(dir.path(), &info["refused"], &fetched);
 }
 
 /// USGS ASCII DEMs as GDAL's USGSDEM driver writes them (degrees on NAD83 with voids,
