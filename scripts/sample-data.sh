@@ -6,8 +6,40 @@
 # packages of them, and xarray-spatial's Sentinel-2 bands, from its wheel, into
 # target/sample-data/<package>/. The test that reads them skips where they cannot be
 # fetched; a package a Debian release lacks is left out, and the test with it.
+# And the TIFFs Rust's TIFF crates test themselves on (the `geotiff` and `async-tiff`
+# crates from crates.io: a Swiss DEM, user-defined Mercator, tie-point and
+# PixelIsPoint variants, CMYK, min-is-white, old-style LZW, half floats, BigTIFF in
+# either byte order...), into target/crate-tiffs/.
 set -euo pipefail
 cd "$(dirname "$0")/.."
+crate_tiffs=target/crate-tiffs
+if [ ! -f "$crate_tiffs/.complete" ]; then
+    rm -rf "$crate_tiffs"
+    mkdir -p "$crate_tiffs"
+    if python3 - "$crate_tiffs" <<'PY'; then touch "$crate_tiffs/.complete"; fi
+import io, os, sys, tarfile, urllib.request
+into = sys.argv[1]
+# Each crate's TIFFs: its version and the folders that hold them.
+crates = {"geotiff": ("0.1.0", ["resources/"]),
+          "async-tiff": ("0.4.0", ["fixtures/image-tiff/", "fixtures/other/"])}
+try:
+    for name, (version, folders) in crates.items():
+        url = f"https://static.crates.io/crates/{name}/{name}-{version}.crate"
+        with urllib.request.urlopen(url, timeout=60) as response:
+            archive = tarfile.open(fileobj=io.BytesIO(response.read()), mode="r:gz")
+        prefix = f"{name}-{version}/"
+        for member in archive.getmembers():
+            path = member.name[len(prefix):]
+            if (member.isfile() and path.lower().endswith((".tif", ".tiff"))
+                    and any(path.startswith(folder) for folder in folders)):
+                with open(os.path.join(into, os.path.basename(path)), "wb") as f:
+                    f.write(archive.extractfile(member).read())
+except OSError as error:
+    print(f"sample-data: could not fetch the TIFF crates' test files ({error}); the "
+          "test that reads them will skip", file=sys.stderr)
+    sys.exit(1)
+PY
+fi
 out=target/sample-data
 [ -f "$out/.complete" ] && exit 0
 if ! command -v apt-get >/dev/null || ! command -v dpkg-deb >/dev/null; then

@@ -1851,6 +1851,45 @@ fn assert_refused(dir: &Path, refused: &serde_json::Value, refusals: &[(&str, &[
     }
 }
 
+#[test]
+fn tiffs_the_rust_tiff_crates_test_on_read_as_gdal_reads_them() {
+    let crate_tiffs = common::repo().join("target/crate-tiffs");
+    if !crate_tiffs.join(".complete").is_file() {
+        eprintln!("skipped: the TIFF crates' test files not fetched (run scripts/sample-data.sh)");
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("crate_tiffs.py", &[&crate_tiffs, dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    let pairs = info["pairs"].as_array().unwrap();
+    assert!(pairs.len() >= 50, "{}", pairs.len());
+    assert_read_nearly_as_twins(pairs, 0.0, true);
+    // JPEG tiles: another decoder's rounding and chroma upsampling, no more.
+    for pair in info["lossy"].as_array().unwrap() {
+        let (file, gdal, ours) = read_twins_nearly(pair);
+        for (a, b) in gdal.layers.iter().zip(&ours.layers) {
+            let (_, mean, same_nodata) = differences(&a.values, &b.values);
+            assert!(same_nodata && mean < 1.5, "{file} {}: {mean}", b.name);
+        }
+    }
+    // A user-defined Mercator GDAL names no CRS for, measured as PROJ measures it.
+    let (merc, proj_ground) = (&info["mercator"][0], info["mercator"][1].as_f64().unwrap());
+    let map = imitate::io::read_raster(Path::new(merc.as_str().unwrap()), "a").unwrap();
+    let ground = map.geo.ground_scale.expect("measured").per_axis();
+    assert!(
+        ground.iter().all(|g| (g / proj_ground - 1.0).abs() < 1e-5),
+        "{ground:?} against PROJ's {proj_ground}"
+    );
+    let refusals: [(&str, &[&str]); 3] = [
+        ("control points", &["ground control points"]),
+        ("no georeference", &["no georeference"]),
+        ("photometric", &["photometric"]),
+    ];
+    assert_refused(dir.path(), &info["refused"], &refusals);
+}
+
 /// `damage_files` on the second file of each pair the Python writers print.
 fn damage_pairs(pairs: &[serde_json::Value], damaged: &Path, per_file: usize) -> usize {
     let files: Vec<PathBuf> = pairs

@@ -148,27 +148,7 @@ impl ProjCrs {
             Some("carthage") => "clrk80ign",
             _ => self.value("ellps").unwrap_or("WGS84"),
         };
-        let (a, rf) = match name {
-            "GRS80" => (6_378_137.0, 298.257_222_101),
-            "clrk66" => (6_378_206.4, 294.978_698_213_898),
-            "airy" => (6_377_563.396, 299.324_964_6),
-            "mod_airy" => (6_377_340.189, 299.324_964_6),
-            "bessel" => (6_377_397.155, 299.152_812_8),
-            "bess_nam" => (6_377_483.865, 299.152_812_8),
-            "intl" => (6_378_388.0, 297.0),
-            "krass" => (6_378_245.0, 298.3),
-            "clrk80" => (6_378_249.145, 293.465),
-            "clrk80ign" => (6_378_249.2, 293.466_021_293_627),
-            "WGS72" => (6_378_135.0, 298.26),
-            "WGS66" => (6_378_145.0, 298.25),
-            "GRS67" => (6_378_160.0, 298.247_167_427),
-            "aust_SA" => (6_378_160.0, 298.25),
-            "helmert" => (6_378_200.0, 298.3),
-            "evrstSS" => (6_377_298.556, 300.8017),
-            "sphere" => (6_370_997.0, 0.0),
-            _ => (6_378_137.0, 298.257_223_563),
-        };
-        (a, rf)
+        named_ellipsoid_axes(name)
     }
 
     /// The projection, where it is one whose scale the reader measures: Transverse
@@ -210,11 +190,12 @@ impl ProjCrs {
                 return Some(Projection::polar_stereographic(polar_scale, false_origin));
             }
             "merc" => {
-                // Mercator on the ellipsoid true to scale on the equator, from the
-                // equator; not Web Mercator's sphere, which the reader measures apart.
+                // Mercator on the ellipsoid, true to scale on `lat_ts` or scaled `k`;
+                // not Web Mercator's sphere, which the reader measures apart.
                 let spherical = ellipsoid.e2 == 0.0 || self.has("nadgrids");
-                let standard = or_zero("lat_ts") == 0.0 && scale == 1.0 && false_origin[1] == 0.0;
-                return (standard && !spherical).then(Projection::world_mercator);
+                return (!spherical).then(|| {
+                    Projection::mercator(ellipsoid, degrees("lat_ts"), scale, false_origin[1])
+                });
             }
             "aea" => EqualArea::Albers {
                 ellipsoid,
@@ -247,6 +228,54 @@ impl ProjCrs {
         };
         Some(Projection::equal_area(equal_area))
     }
+}
+
+/// The semi-major axis and inverse flattening (0: a sphere) of an ellipsoid by its
+/// PROJ name (`+ellps=`); WGS 84's for a name not listed.
+pub fn named_ellipsoid_axes(name: &str) -> (f64, f64) {
+    match name {
+        "GRS80" => (6_378_137.0, 298.257_222_101),
+        "clrk66" => (6_378_206.4, 294.978_698_213_898),
+        "airy" => (6_377_563.396, 299.324_964_6),
+        "mod_airy" => (6_377_340.189, 299.324_964_6),
+        "bessel" => (6_377_397.155, 299.152_812_8),
+        "bess_nam" => (6_377_483.865, 299.152_812_8),
+        "intl" => (6_378_388.0, 297.0),
+        "krass" => (6_378_245.0, 298.3),
+        "clrk80" => (6_378_249.145, 293.465),
+        "clrk80ign" => (6_378_249.2, 293.466_021_293_627),
+        "WGS72" => (6_378_135.0, 298.26),
+        "WGS66" => (6_378_145.0, 298.25),
+        "GRS67" => (6_378_160.0, 298.247_167_427),
+        "aust_SA" => (6_378_160.0, 298.25),
+        "helmert" => (6_378_200.0, 298.3),
+        "evrstSS" => (6_377_298.556, 300.8017),
+        "sphere" => (6_370_997.0, 0.0),
+        _ => (6_378_137.0, 298.257_223_563),
+    }
+}
+
+/// The PROJ name of the ellipsoid of an EPSG ellipsoid code (GeoTIFF's
+/// GeogEllipsoidGeoKey) or of a geodetic datum code (GeogGeodeticDatumGeoKey) that
+/// fixes one.
+pub fn epsg_ellipsoid_name(code: u16) -> Option<&'static str> {
+    Some(match code {
+        7001 | 6277 => "airy",
+        7002 | 6299 => "mod_airy",
+        7003 | 6618 => "aust_SA",
+        7004 | 6314 | 6312 => "bessel",
+        7008 | 6267 => "clrk66",
+        7011 => "clrk80ign",
+        7012 => "clrk80",
+        7019 | 6269 | 6258 | 6283 | 6167 => "GRS80",
+        7020 => "helmert",
+        7022 | 6230 | 6272 => "intl",
+        7024 | 6284 => "krass",
+        7030 | 6326 => "WGS84",
+        7036 => "GRS67",
+        7043 | 6322 => "WGS72",
+        _ => return None,
+    })
 }
 
 #[cfg(test)]

@@ -51,7 +51,7 @@ impl Ellipsoid {
     }
 
     /// m(φ) = cos φ / √(1 − e² sin² φ): the parallel's radius over a.
-    fn m(&self, phi: f64) -> f64 {
+    pub(crate) fn m(&self, phi: f64) -> f64 {
         phi.cos() / (1.0 - self.e2 * phi.sin().powi(2)).sqrt()
     }
 

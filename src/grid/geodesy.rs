@@ -77,8 +77,10 @@ pub const TRUE_SCALE_TOLERANCE: f64 = 1e-3;
 
 /// A conformal projection on WGS 84 whose point scale the reader corrects for.
 enum Conformal {
-    /// Mercator on the ellipsoid (EPSG:3395).
-    WorldMercator,
+    /// Mercator on the ellipsoid, scaled `k0` on the equator (1: World Mercator,
+    /// EPSG:3395; m(φ) of its latitude of true scale otherwise), the equator at the
+    /// false northing.
+    Mercator { k0: f64, false_northing: f64 },
     /// Polar stereographic about either pole (its scale depends only on the distance
     /// from it), true to scale on a latitude (variant B, NSIDC's and the Antarctic
     /// grids) or scaled by k0 at the pole (variant A, UPS), from a false origin.
@@ -116,7 +118,10 @@ impl Conformal {
         };
         let lambert = Conformal::lambert_conic;
         Some(match code {
-            3395 => Conformal::WorldMercator,
+            3395 => Conformal::Mercator {
+                k0: 1.0,
+                false_northing: 0.0,
+            },
             3413 => polar(TrueLatitude(70.0), [0.0; 2]), // NSIDC Sea Ice Polar Stereographic North
             3995 => polar(TrueLatitude(71.0), [0.0; 2]), // Arctic Polar Stereographic
             3031 => polar(TrueLatitude(71.0), [0.0; 2]), // Antarctic Polar Stereographic
@@ -187,7 +192,11 @@ impl Conformal {
     fn ground_per_unit(&self, x: f64, y: f64) -> f64 {
         let e = eccentricity();
         match self {
-            Conformal::WorldMercator => m(latitude_of_t((-y.abs() / A).exp())),
+            Conformal::Mercator { k0, false_northing } => {
+                // y = A·k0·ln(1/t(φ)), and k = k0 / m(φ).
+                let y = (y - false_northing).abs() / (A * k0);
+                m(latitude_of_t((-y).exp())) / k0
+            }
             Conformal::PolarStereographic {
                 scale,
                 false_origin,
@@ -293,9 +302,17 @@ impl Projection {
         Projection::polar_stereographic(PolarScale::AtPole(k0), false_origin)
     }
 
-    /// Mercator on WGS 84, true to scale on the equator (EPSG:3395).
-    pub(crate) fn world_mercator() -> Projection {
-        Projection(Kind::Conformal(Conformal::WorldMercator))
+    /// Mercator true to scale on a latitude (degrees; 0 for World Mercator, EPSG:3395)
+    /// of `ellipsoid`, or on the equator scaled by `k0` where no latitude is given; the
+    /// equator at the false northing (metres). Measured on WGS 84 from there.
+    pub fn mercator(
+        ellipsoid: Ellipsoid,
+        true_latitude: Option<f64>,
+        k0: f64,
+        false_northing: f64,
+    ) -> Projection {
+        let k0 = true_latitude.map_or(k0, |latitude| ellipsoid.m(latitude.to_radians()));
+        Projection(Kind::Conformal(Conformal::Mercator { k0, false_northing }))
     }
 
     /// An equal-area projection the GeoKeys define by its parameters.
@@ -393,6 +410,34 @@ mod tests {
         let y60 = A * (75f64.to_radians().tan() * ((1.0 - s60) / (1.0 + s60)).powf(e / 2.0)).ln();
         assert!((scale(3395, 0.0, y60) - m(60.0)).abs() < 1e-12);
         assert!((scale(3395, 0.0, -y60) - m(60.0)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn mercator_is_measured_from_its_latitude_of_true_scale() {
+        // PROJ's inverse of `+proj=merc +lat_ts=41 +datum=WGS84` at 10 m steps east
+        // (rasterio.warp.transform), measured as chords on WGS 84: ground metres per
+        // projected metre at 41° N (1), at the equator and at 60° N.
+        let mercator_41 = Projection::mercator(Ellipsoid::WGS84, Some(41.0), 1.0, 0.0);
+        let ground = |y: f64| mercator_41.axis_scales(0.0, y).0[0];
+        let k0 = m(41f64.to_radians());
+        let s41 = eccentricity() * 41f64.to_radians().sin();
+        let y41 = A
+            * k0
+            * (65.5f64.to_radians().tan() * ((1.0 - s41) / (1.0 + s41)).powf(eccentricity() / 2.0))
+                .ln();
+        assert!((ground(y41) - 1.0).abs() < 1e-12);
+        assert!((ground(-y41) - 1.0).abs() < 1e-12);
+        assert!((ground(0.0) - 1.0 / k0).abs() < 1e-12);
+        assert!((ground(0.0) - 1.323_102_7).abs() < 1e-6, "{}", ground(0.0));
+        // One parallel's scale given as k0 is the same projection.
+        let scaled = Projection::mercator(Ellipsoid::WGS84, None, k0, 0.0);
+        assert_eq!(
+            scaled.axis_scales(0.0, y41),
+            mercator_41.axis_scales(0.0, y41)
+        );
+        // A false northing moves the equator.
+        let moved = Projection::mercator(Ellipsoid::WGS84, Some(41.0), 1.0, 1.0e6);
+        assert_eq!(moved.axis_scales(0.0, 1.0e6 + y41).0, [ground(y41); 2]);
     }
 
     #[test]

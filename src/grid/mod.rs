@@ -20,7 +20,9 @@ mod resample;
 
 pub use coarsen::{Edges, coarsened, factor_for_cells, factor_for_metres};
 pub use demo::{Demonstration, Pose};
-pub use epsg::{ProjCrs, epsg_crs, metres_per_epsg_unit};
+pub use epsg::{
+    ProjCrs, epsg_crs, epsg_ellipsoid_name, metres_per_epsg_unit, named_ellipsoid_axes,
+};
 pub use equal_area::{Ellipsoid, EqualArea};
 pub use geodesy::{Projection, TRUE_SCALE_TOLERANCE, metres_per_degree};
 

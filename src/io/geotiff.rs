@@ -204,7 +204,7 @@ pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> 
         planar,
         fill: nodata_sample.unwrap_or(0.0),
     };
-    let values: Vec<f32> = if compression == LERC {
+    let mut values: Vec<f32> = if compression == LERC {
         lerc::read(&mut decoder, &image)
             .map_err(|e| problem(format!("LERC (tag Compression = {compression}): {e}")))?
     } else if compression == webp::WEBP {
@@ -230,6 +230,12 @@ pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> 
             ))
         })?
     };
+    samples::cmyk_as_gdal_reads(
+        &mut decoder,
+        &mut values,
+        planar == PlanarConfiguration::Planar,
+    )
+    .map_err(|e| problem(format!("not a readable TIFF: {e}")))?;
     let cells = width as usize * height as usize;
     if cells == 0 || !values.len().is_multiple_of(cells) {
         return Err(problem(format!(

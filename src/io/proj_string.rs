@@ -161,10 +161,15 @@ fn esri_wkt_of(crs: &ProjCrs) -> Option<String> {
         "stere" => ("Stereographic", origin_scale()),
         "sterea" => ("Double_Stereographic", origin_scale()),
         "merc" => {
-            // ESRI's Mercator is true to scale on a parallel; a scale on the equator
-            // is the parallel where the sphere's scale is 1 (k0 = cos φ).
-            let true_scale =
-                number("lat_ts").unwrap_or_else(|| scale.clamp(-1.0, 1.0).acos().to_degrees());
+            // ESRI's Mercator is true to scale on a parallel; a scale k0 on the
+            // equator is the parallel whose m(φ) = cos φ / √(1 − e² sin² φ) is k0:
+            // sin² φ = (1 − k0²) / (1 − e² k0²).
+            let true_scale = number("lat_ts").unwrap_or_else(|| {
+                let (_, rf) = axes;
+                let e2 = if rf > 0.0 { (2.0 - 1.0 / rf) / rf } else { 0.0 };
+                let k2 = scale.clamp(0.0, 1.0).powi(2);
+                ((1.0 - k2) / (1.0 - e2 * k2)).sqrt().asin().to_degrees()
+            });
             (
                 "Mercator",
                 vec![

@@ -1,12 +1,14 @@
-//! Palette and mask images read as grey. Palette (colour-mapped) GeoTIFFs are how
+//! Palette, mask and WhiteIsZero images read as grey. Palette (colour-mapped) GeoTIFFs are how
 //! land-cover and classification rasters come (NLCD, ESA WorldCover, CORINE): their
 //! samples are class codes and the colour map only draws them, so a layer holds the
 //! codes. GDAL's internal nodata masks are images flagged as transparency masks. The
-//! `tiff` crate refuses to decode either, so every image of the file is relabelled grey
+//! `tiff` crate refuses to decode either, and inverts WhiteIsZero samples where GDAL
+//! reads them as stored, so every such image of the file is relabelled grey
 //! (BlackIsZero) in our copy of its bytes before decoding: the samples are the same.
 
 /// TIFF tag PhotometricInterpretation and the values it takes here.
 const PHOTOMETRIC: u16 = 262;
+const WHITE_IS_ZERO: u16 = 0;
 const BLACK_IS_ZERO: u16 = 1;
 const PALETTE: u16 = 3;
 const TRANSPARENCY_MASK: u16 = 4;
@@ -14,7 +16,7 @@ const TRANSPARENCY_MASK: u16 = 4;
 /// Directories followed at most (a COG has two per overview level).
 const MAX_IMAGES: usize = 4096;
 
-/// Relabels every palette or mask image of `file` grey; whether its first image was a
+/// Relabels every palette, mask or WhiteIsZero image of `file` grey; whether its first image was a
 /// palette image. Files that are not TIFFs, or malformed ones, are left as they are
 /// from where they stop making sense (the decoder then says what is wrong).
 pub(super) fn relabel_grey(file: &mut [u8]) -> bool {
@@ -35,7 +37,10 @@ pub(super) fn relabel_grey(file: &mut [u8]) -> bool {
             .map(|e| e + layout.value_offset)
         {
             let value = layout.u16(file, value_at);
-            if value == Some(PALETTE) || value == Some(TRANSPARENCY_MASK) {
+            if value == Some(PALETTE)
+                || value == Some(TRANSPARENCY_MASK)
+                || value == Some(WHITE_IS_ZERO)
+            {
                 first_was_palette |= image == 0 && value == Some(PALETTE);
                 let bytes = if layout.big_endian {
                     BLACK_IS_ZERO.to_be_bytes()

@@ -11,7 +11,9 @@ use crate::grid::{Ellipsoid, EqualArea, GeoRef, GroundScale, Projection, TRUE_SC
 
 const PROJECTED_CRS: u16 = 3072;
 const GEOGRAPHIC_CRS: u16 = 2048;
+const GEOG_DATUM: u16 = 2050;
 const GEOG_ANGULAR_UNITS: u16 = 2054;
+const GEOG_ELLIPSOID: u16 = 2056;
 const SEMI_MAJOR_AXIS: u16 = 2057;
 const SEMI_MINOR_AXIS: u16 = 2058;
 const INVERSE_FLATTENING: u16 = 2059;
@@ -45,7 +47,6 @@ const SINUSOIDAL: u16 = 24;
 const CYLINDRICAL_EQUAL_AREA: u16 = 28;
 #[cfg(test)]
 const ANGULAR_RADIAN: u16 = 9101;
-const NAD27: u16 = 4267;
 
 /// The GeoKeys a reader looks up: short values, double parameters, and the ASCII
 /// citations (GeoAsciiParams, where GDAL writes the ESRI PE string of a projection
@@ -120,6 +121,16 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
                     either(metres(FALSE_ORIGIN_EASTING), metres(FALSE_EASTING)),
                     either(metres(FALSE_ORIGIN_NORTHING), metres(FALSE_NORTHING)),
                 ],
+            ));
+        }
+        MERCATOR => {
+            // GDAL writes Mercator (2SP)'s latitude of true scale as the first
+            // standard parallel, and (1SP)'s scale at the natural origin.
+            return Some(Projection::mercator(
+                ellipsoid,
+                degrees(STANDARD_PARALLEL_1),
+                double(SCALE_AT_NATURAL_ORIGIN).unwrap_or(1.0),
+                false_easting_northing[1],
             ));
         }
         POLAR_STEREOGRAPHIC => {
@@ -417,13 +428,10 @@ pub(super) fn of_wkt_citation(
         }
         "mercator" | "mercator_1sp" | "mercator_2sp" | "mercator_variant_a"
         | "mercator_variant_b" => {
-            // On the ellipsoid, true to scale on the equator, from it (World Mercator);
-            // a sphere's is Web Mercator's, measured apart; other parallels are not.
-            let standard = first_parallel.unwrap_or(0.0) == 0.0
-                && scale == 1.0
-                && false_origin[1] == 0.0
-                && ellipsoid.e2 > 0.0;
-            return standard.then(Projection::world_mercator);
+            // On the ellipsoid, true to scale on a parallel or scaled on the equator;
+            // a sphere's is Web Mercator's, measured apart.
+            return (ellipsoid.e2 > 0.0)
+                .then(|| Projection::mercator(ellipsoid, first_parallel, scale, false_origin[1]));
         }
         "mollweide" => EqualArea::Mollweide {
             radius: ellipsoid.a,
@@ -468,15 +476,20 @@ pub(super) fn of_wkt_citation(
     Some(Projection::equal_area(equal_area))
 }
 
-/// The ellipsoid the keys give (its axes, or NAD27's geographic CRS); WGS 84 otherwise
-/// (GRS 80, NAD83's and ETRS89's, is the same to our precision).
+/// The ellipsoid the keys give: its axes, else its EPSG code, its datum's, or its
+/// geographic CRS's (whose classic codes are their datum's less 2000); WGS 84
+/// otherwise (GRS 80, NAD83's and ETRS89's, is the same to our precision).
 fn ellipsoid_of(keys: &GeoKeys) -> Ellipsoid {
     let Some(a) = (keys.double)(SEMI_MAJOR_AXIS).filter(|a| *a > 0.0) else {
-        return if (keys.short)(GEOGRAPHIC_CRS) == Some(NAD27) {
-            Ellipsoid::CLARKE_1866
-        } else {
-            Ellipsoid::WGS84
-        };
+        let named = [GEOG_ELLIPSOID, GEOG_DATUM]
+            .into_iter()
+            .filter_map(|key| (keys.short)(key))
+            .chain((keys.short)(GEOGRAPHIC_CRS).and_then(|crs| crs.checked_add(2000)))
+            .find_map(crate::grid::epsg_ellipsoid_name);
+        return named.map_or(Ellipsoid::WGS84, |name| {
+            let (a, inverse_flattening) = crate::grid::named_ellipsoid_axes(name);
+            Ellipsoid::from_inverse_flattening(a, inverse_flattening)
+        });
     };
     match (
         (keys.double)(INVERSE_FLATTENING),
@@ -745,7 +758,7 @@ mod tests {
         let ([sx, _], _) = tm.axis_scales(1.5e6, 0.0);
         assert!((sx - 0.988_219_404_8).abs() < 1e-4, "{sx}");
         // An unknown transformation is not measured.
-        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(7);
+        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(25);
         let keys = GeoKeys {
             short: &short_key,
             double: &|_| None,

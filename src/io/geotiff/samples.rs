@@ -35,6 +35,52 @@ pub(super) fn read<R: Read + Seek>(
     Ok(values)
 }
 
+/// Turns 8-bit CMYK samples, however they were decoded, into the RGBA GDAL reads them
+/// to (`cmyk_to_rgba`).
+pub(super) fn cmyk_as_gdal_reads<R: Read + Seek>(
+    decoder: &mut Decoder<R>,
+    values: &mut [f32],
+    band_interleaved: bool,
+) -> Result<(), String> {
+    let photometric = decoder
+        .find_tag_unsigned::<u16>(Tag::PhotometricInterpretation)
+        .map_err(|e| e.to_string())?;
+    let bits = decoder
+        .find_tag_unsigned_vec::<u16>(Tag::BitsPerSample)
+        .map_err(|e| e.to_string())?
+        .unwrap_or_default();
+    if photometric == Some(CMYK) && bits == [8; 4] {
+        cmyk_to_rgba(values, band_interleaved);
+    }
+    Ok(())
+}
+
+/// TIFF PhotometricInterpretation of ink separations (`PHOTOMETRIC=CMYK`).
+const CMYK: u16 = 5;
+
+/// 8-bit CMYK samples as the RGBA GDAL reads them to (libtiff's RGBA interface:
+/// each colour (255 − ink)·(255 − black) / 255, rounded down, and an opaque alpha),
+/// pixel- or band-interleaved; the bytes read as unsigned whatever their SampleFormat.
+fn cmyk_to_rgba(values: &mut [f32], band_interleaved: bool) {
+    let pixels = values.len() / 4;
+    let at = |pixel: usize, sample: usize| {
+        if band_interleaved {
+            sample * pixels + pixel
+        } else {
+            4 * pixel + sample
+        }
+    };
+    let byte = |v: f32| if v < 0.0 { v + 256.0 } else { v };
+    for pixel in 0..pixels {
+        let black = 255.0 - byte(values[at(pixel, 3)]);
+        for ink in 0..3 {
+            let i = at(pixel, ink);
+            values[i] = ((255.0 - byte(values[i])) * black / 255.0).floor();
+        }
+        values[at(pixel, 3)] = 255.0;
+    }
+}
+
 /// TIFF PhotometricInterpretation of YCbCr images (GDAL's JPEG imagery, `PHOTOMETRIC=YCBCR`).
 const YCBCR: u16 = 6;
 
@@ -172,6 +218,33 @@ pub(super) fn unpack(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn cmyk_reads_as_libtiffs_rgba_either_interleave() {
+        // No ink is white; full black is black whatever the inks; half cyan under a
+        // quarter black: (255 − 128)·(255 − 64) / 255 = 95.01 → 95.
+        let pixels = [
+            [0.0, 0.0, 0.0, 0.0],
+            [10.0, 200.0, 30.0, 255.0],
+            [128.0, 0.0, 0.0, 64.0],
+        ];
+        let rgba = [
+            [255.0; 4],
+            [0.0, 0.0, 0.0, 255.0],
+            [95.0, 191.0, 191.0, 255.0],
+        ];
+        let mut interleaved: Vec<f32> = pixels.concat();
+        cmyk_to_rgba(&mut interleaved, false);
+        assert_eq!(interleaved, rgba.concat());
+        let mut by_band: Vec<f32> = (0..4).flat_map(|b| pixels.map(|p| p[b])).collect();
+        cmyk_to_rgba(&mut by_band, true);
+        let expected: Vec<f32> = (0..4).flat_map(|b| rgba.map(|p| p[b])).collect();
+        assert_eq!(by_band, expected);
+        // Signed bytes (SampleFormat 2) are the same bytes: −128 is 128.
+        let mut signed = vec![-128.0, 0.0, 0.0, 64.0];
+        cmyk_to_rgba(&mut signed, false);
+        assert_eq!(signed, rgba[2]);
+    }
 
     #[test]
     fn packed_samples_unpack_most_significant_bits_first() {

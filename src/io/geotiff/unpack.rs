@@ -167,9 +167,17 @@ fn packbits(stream: &[u8], expected: usize) -> Vec<u8> {
 }
 
 /// `expected` bytes of a TIFF LZW stream (most significant bits first, code widths
-/// switching one code early). Like libtiff, stops once it has them.
+/// switching one code early), or of the old-style LZW of TIFFs written before
+/// libtiff 5 (least significant bits first, widths switching on time, as GIF's), which
+/// libtiff tells by their first clear code: a zero byte, then one whose lowest bit is
+/// set. Like libtiff, stops once it has them.
 fn lzw(stream: &[u8], expected: usize) -> Result<Vec<u8>, String> {
-    let mut decoder = weezl::decode::Decoder::with_tiff_size_switch(weezl::BitOrder::Msb, 8);
+    let old_style = stream.len() >= 2 && stream[0] == 0 && stream[1] & 1 == 1;
+    let mut decoder = if old_style {
+        weezl::decode::Decoder::new(weezl::BitOrder::Lsb, 8)
+    } else {
+        weezl::decode::Decoder::with_tiff_size_switch(weezl::BitOrder::Msb, 8)
+    };
     let mut out = vec![0u8; expected];
     let (mut read, mut written) = (0, 0);
     // weezl may return without progress while it settles its state; a few such calls
@@ -670,6 +678,23 @@ mod tests {
         // Too short a stream, or garbage: an error, not a panic.
         assert!(lzw(&stream[..stream.len() / 2], pixels.len()).is_err());
         assert!(lzw(&[0xFF; 64], pixels.len()).is_err());
+    }
+
+    #[test]
+    fn old_style_lzw_streams_decode_as_libtiff_reads_them() {
+        // Before libtiff 5: codes least significant bits first, widths switching on
+        // time (GIF's LZW), told by the first clear code's bytes 0x00, 0bxxxxxxx1.
+        let pixels: Vec<u8> = (0..5000u32).map(|i| (i * i % 251) as u8).collect();
+        let stream = weezl::encode::Encoder::new(weezl::BitOrder::Lsb, 8)
+            .encode(&pixels)
+            .unwrap();
+        assert_eq!((stream[0], stream[1] & 1), (0, 1));
+        assert_eq!(lzw(&stream, pixels.len()).unwrap(), pixels);
+        // A new-style stream starts 0x80: the clear code's top bit first.
+        let new_style = weezl::encode::Encoder::with_tiff_size_switch(weezl::BitOrder::Msb, 8)
+            .encode(&pixels)
+            .unwrap();
+        assert_eq!(new_style[0], 0x80);
     }
 
     #[test]
