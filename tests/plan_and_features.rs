@@ -943,3 +943,60 @@ fn method_result<'a>(report: &'a serde_json::Value, method: &str) -> &'a serde_j
     (results.iter().find(|r| r["method"] == method))
         .unwrap_or_else(|| panic!("{method} in {report}"))
 }
+
+#[test]
+fn inspect_shows_a_raster_as_imitate_reads_it_in_ground_metres() {
+    // An Esri ASCII grid in degrees at 60° N (its CRS in the .prj beside it): a cell of
+    // 0.01° spans about 558 m east and 1117 m north on the ground.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("north.asc"),
+        "ncols 4\nnrows 2\nxllcorner 10\nyllcorner 59.99\ncellsize 0.01\n\
+         NODATA_value -9999\n1.5 2 3 -9999\n4 5 6 7\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("north.prj"),
+        r#"GEOGCS["WGS 84",DATUM["WGS_1984",SPHEROID["WGS 84",6378137,298.257223563]],PRIMEM["Greenwich",0],UNIT["degree",0.0174532925199433],AUTHORITY["EPSG","4326"]]"#,
+    )
+    .unwrap();
+    let out = imitate(dir.path(), &["inspect", "north.asc", "--json"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(
+        (report["width"].as_u64(), report["height"].as_u64()),
+        (Some(4), Some(2))
+    );
+    assert_eq!(report["units"], "degrees");
+    let [east, north] = imitate::grid::metres_per_degree(60.0).map(|m| 0.01 * m);
+    let metres = &report["cell_metres"];
+    assert!((metres[0].as_f64().unwrap() - east).abs() < 0.5, "{metres}");
+    assert!(
+        (metres[1].as_f64().unwrap() - north).abs() < 0.5,
+        "{metres}"
+    );
+    let layer = &report["layers"][0];
+    assert_eq!(
+        (layer["cells"].as_u64(), layer["nodata"].as_u64()),
+        (Some(7), Some(1))
+    );
+    assert_eq!(
+        (layer["min"].as_f64(), layer["max"].as_f64()),
+        (Some(1.5), Some(7.0))
+    );
+    assert_eq!(layer["kind"], "values", "1.5 is not a class code");
+    // As text, the same facts; a file that is not a raster is exit 2, named.
+    let text = imitate(dir.path(), &["inspect", "north.asc"]);
+    let text = String::from_utf8_lossy(&text.stdout);
+    assert!(
+        text.contains("4 × 2 cells") && text.contains("degrees"),
+        "{text}"
+    );
+    std::fs::write(dir.path().join("broken.tif"), b"II*\0junk").unwrap();
+    let out = imitate(dir.path(), &["inspect", "broken.tif"]);
+    assert_input_error(&out, &["broken.tif"]);
+}

@@ -1,4 +1,5 @@
-//! `imitate inspect FILE.mcap` and `imitate cat FILE.mcap`.
+//! `imitate inspect FILE.mcap` (or a raster, an artifact or a DAgger dataset folder)
+//! and `imitate cat FILE.mcap`.
 
 use std::collections::BTreeSet;
 use std::io::Write;
@@ -13,7 +14,9 @@ use crate::io::mcap::{Decoders, Value};
 
 #[derive(Debug, clap::Args)]
 pub struct InspectArgs {
-    /// An MCAP file, or an artifact or DAgger dataset folder.
+    /// An MCAP file, a raster (any map file `ingest` reads: its grid, CRS, cell size
+    /// on the ground and each layer's range as imitate reads them), or an artifact or
+    /// DAgger dataset folder.
     pub file: PathBuf,
     /// Print the report as JSON.
     #[arg(long)]
@@ -47,17 +50,13 @@ pub struct CatArgs {
 }
 
 pub fn inspect_command(args: InspectArgs) -> Result<()> {
-    let mut out = std::io::stdout().lock();
+    if crate::io::is_raster(&args.file) {
+        let report = crate::io::raster_report::describe(&args.file)?;
+        return print_report(&report, args.json, crate::io::raster_report::render);
+    }
     if args.file.is_dir() {
         let report = super::inspect_artifact::inspect_folder(&args.file)?;
-        let written = if args.json {
-            serde_json::to_writer_pretty(&mut out, &report)
-                .map_err(std::io::Error::from)
-                .and_then(|()| writeln!(out))
-        } else {
-            out.write_all(super::inspect_artifact::render(&report).as_bytes())
-        };
-        return written.map_err(|e| Error::io("writing to stdout", e));
+        return print_report(&report, args.json, super::inspect_artifact::render);
     }
     let report = inspect(
         &args.file,
@@ -68,12 +67,18 @@ pub fn inspect_command(args: InspectArgs) -> Result<()> {
         },
         args.allow_truncated,
     )?;
-    let written = if args.json {
-        serde_json::to_writer_pretty(&mut out, &report)
+    print_report(&report, args.json, render_report)
+}
+
+/// Prints a report to stdout as pretty JSON or as `render` writes it.
+fn print_report<T: Serialize>(report: &T, json: bool, render: fn(&T) -> String) -> Result<()> {
+    let mut out = std::io::stdout().lock();
+    let written = if json {
+        serde_json::to_writer_pretty(&mut out, report)
             .map_err(std::io::Error::from)
             .and_then(|()| writeln!(out))
     } else {
-        out.write_all(render_report(&report).as_bytes())
+        out.write_all(render(report).as_bytes())
     };
     written.map_err(|e| Error::io("writing to stdout", e))
 }

@@ -85,8 +85,9 @@ pub enum Command {
     Ioc(ioc::IocParams),
     /// The stored versions of an artifact, with what changed between them.
     Log(log::LogArgs),
-    /// What an MCAP file holds (channels, schemas, counts, time range, chunks), or an
-    /// artifact or DAgger dataset folder (kind, digest, lineage, metrics, rounds).
+    /// What an MCAP file holds (channels, schemas, counts, time range, chunks), a raster
+    /// as imitate reads it (grid, CRS, ground cell size, layers' ranges), or an artifact
+    /// or DAgger dataset folder (kind, digest, lineage, metrics, rounds).
     Inspect(mcap::InspectArgs),
     /// Decoded messages of an MCAP file (ROS 2 CDR, JSON, protobuf), one per line.
     Cat(mcap::CatArgs),

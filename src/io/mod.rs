@@ -28,6 +28,7 @@ pub mod picture;
 pub mod pmtiles;
 pub mod png;
 mod proj_string;
+pub mod raster_report;
 pub mod rraster;
 pub mod saga;
 mod sidecar_bands;
@@ -61,6 +62,11 @@ pub const RASTER_EXTENSIONS: [&str; 36] = [
     "bsq", "flt", "dem", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "cdf",
     "h5", "hdf5", "grd", "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
 ];
+
+/// Whether `path` names a raster file by its extension (one of [`RASTER_EXTENSIONS`]).
+pub fn is_raster(path: &Path) -> bool {
+    RASTER_EXTENSIONS.contains(&extension_of(path).as_str())
+}
 
 fn extension_of(path: &Path) -> String {
     path.extension()
