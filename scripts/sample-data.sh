@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
-# Real rasters as R users have them: the example files of R's raster, terra, stars and
-# rgdal packages (R-written .grd grids whose CRS is a PROJ string, GeoTIFFs of a Landsat
-# scene and DEMs, netCDF files of climate and ocean products, the GeoTIFF project's
-# State Plane samples, an ENVI classification, a VRT over a raw file), from Debian's
+# Real rasters as R users have them: the example files of R's raster, terra, stars,
+# rgdal and ncmeta packages (R-written .grd grids whose CRS is a PROJ string,
+# GeoTIFFs of a Landsat scene and DEMs, netCDF files of climate and ocean products,
+# the GeoTIFF project's State Plane samples, an ENVI classification, a VRT over a raw
+# file), from Debian's
 # packages of them, and xarray-spatial's Sentinel-2 bands, from its wheel, into
 # target/sample-data/<package>/. The test that reads them skips where they cannot be
 # fetched; a package a Debian release lacks is left out, and the test with it.
@@ -49,7 +50,7 @@ if ! command -v apt-get >/dev/null || ! command -v dpkg-deb >/dev/null; then
 fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
-packages=(r-cran-raster r-cran-terra r-cran-stars r-cran-rgdal)
+packages=(r-cran-raster r-cran-terra r-cran-stars r-cran-rgdal r-cran-ncmeta)
 fetch() { (cd "$work" && apt-get download -qq "$1" 2>/dev/null); }
 fetch "${packages[0]}" || apt-get update -qq 2>/dev/null || true
 for package in "${packages[@]}"; do
@@ -78,6 +79,7 @@ take raster raster/external '*.grd' '*.gri'
 take terra terra/ex '*.tif' '*.grd' '*.gri'
 take stars stars/tif '*.tif'
 take stars stars/nc '*.nc'
+take ncmeta ncmeta/extdata 'S2008001.L3m_*.nc'
 take rgdal rgdal/pictures '*.TIF' '*.tif' '*.asc' '*.envi' '*.hdr' '*.vrt' '*.dat'
 # xarray-spatial's Sentinel-2 bands: netCDF as legacy xarray wrote it (the CRS a `crs`
 # attribute, an attribute name in Latin-1).

@@ -9,7 +9,8 @@ to. Prints one JSON line:
   string as its SRS, scales and offsets;
 - `variables` (GeoTIFF twin, netCDF file, variable): each variable GDAL reads of the
   netCDF files it georeferences, its steps as bands (a Lambert grid in km, 0–360°
-  longitudes cut across Greenwich, sea-surface temperatures, climate projections;
+  longitudes cut across Greenwich, sea-surface temperatures, climate projections,
+  NASA's global 9 km chlorophyll map, nearly all of it nodata;
   xarray-spatial's Sentinel-2 bands, written by legacy xarray with the CRS as a `crs`
   attribute and an attribute named in Latin-1);
 - and NASA's TRMM subset, which lies (lon, lat), beside a twin written from its values
@@ -57,11 +58,16 @@ variables = []
 # and longitudes with no grid mapping.
 given_crs = {"red_band.nc": "EPSG:32719", "nir_band.nc": "EPSG:32719"}
 for name in present(["lcc_km.nc", "test_adaptor.cams_regional_fc.nc", "reduced.nc",
-                      "bcsd_obs_1999.nc", "sub.nc", "red_band.nc", "nir_band.nc"]):
+                      "bcsd_obs_1999.nc", "sub.nc", "red_band.nc", "nir_band.nc",
+                      "S2008001.L3m_DAY_CHL_chlor_a_9km.nc"]):
     with rasterio.open(at(name)) as src:
         datasets = src.subdatasets or [at(name)]
     for dataset in datasets:
         variable = dataset.split(":")[-1] if dataset.startswith("netcdf:") else None
+        # NASA's ocean-colour product keeps its colour table as a (rgb, colour)
+        # variable of no grid, which GDAL lists and imitate rightly leaves out.
+        if variable == "palette":
+            continue
         with rasterio.open(dataset) as src:
             variable = variable or src.tags(1).get("NETCDF_VARNAME")
         tif = twin(dataset, at(f"{name}.{variable}.tif"))[0]
