@@ -1888,6 +1888,23 @@ fn tiffs_the_rust_tiff_crates_test_on_read_as_gdal_reads_them() {
         ("photometric", &["photometric"]),
     ];
     assert_refused(dir.path(), &info["refused"], &refusals);
+    // Damaged copies of those read through the paths added for them (CMYK, min-is-white,
+    // old-style LZW) and of a few others: errors naming the file, never a panic. The
+    // damaged copy has a world file beside it, as its plain original had.
+    std::fs::write(dir.path().join("damaged.tfw"), "1\n0\n0\n-1\n0.5\n1000.5\n").unwrap();
+    let damaged: Vec<PathBuf> = [
+        "tiled-cmyk-i8.tif",
+        "cmyk-3c-8b.tiff",
+        "miniswhite-1c-1b.tiff",
+        "quad-lzw-compat.tiff",
+        "random-fp16-pred3.tiff",
+        "BigTIFFMotorola.tif",
+        "palette-1c-4b.tiff",
+    ]
+    .iter()
+    .map(|name| dir.path().join(name))
+    .collect();
+    assert!(damage_files(&damaged, &dir.path().join("damaged.tif"), 40) >= 40);
 }
 
 /// `damage_files` on the second file of each pair the Python writers print.
