@@ -190,10 +190,10 @@ impl ProjCrs {
                 return Some(Projection::polar_stereographic(polar_scale, false_origin));
             }
             "merc" => {
-                // Mercator on the ellipsoid, true to scale on `lat_ts` or scaled `k`;
-                // not Web Mercator's sphere, which the reader measures apart.
-                let spherical = ellipsoid.e2 == 0.0 || self.has("nadgrids");
-                return (!spherical).then(|| {
+                // Mercator on the ellipsoid or a sphere, true to scale on `lat_ts` or
+                // scaled `k`; not Web Mercator (`+nadgrids=@null`), which the reader
+                // measures apart, row by row.
+                return (!self.has("nadgrids")).then(|| {
                     Projection::mercator(ellipsoid, degrees("lat_ts"), scale, false_origin[1])
                 });
             }

@@ -77,10 +77,14 @@ pub const TRUE_SCALE_TOLERANCE: f64 = 1e-3;
 
 /// A conformal projection on WGS 84 whose point scale the reader corrects for.
 enum Conformal {
-    /// Mercator on the ellipsoid, scaled `k0` on the equator (1: World Mercator,
-    /// EPSG:3395; m(φ) of its latitude of true scale otherwise), the equator at the
-    /// false northing.
-    Mercator { k0: f64, false_northing: f64 },
+    /// Mercator on WGS 84, or on a sphere of the radius given, scaled `k0` on the
+    /// equator (1: World Mercator, EPSG:3395; m(φ) of its latitude of true scale
+    /// otherwise), the equator at the false northing.
+    Mercator {
+        k0: f64,
+        false_northing: f64,
+        sphere: Option<f64>,
+    },
     /// Polar stereographic about either pole (its scale depends only on the distance
     /// from it), true to scale on a latitude (variant B, NSIDC's and the Antarctic
     /// grids) or scaled by k0 at the pole (variant A, UPS), from a false origin.
@@ -121,6 +125,7 @@ impl Conformal {
             3395 => Conformal::Mercator {
                 k0: 1.0,
                 false_northing: 0.0,
+                sphere: None,
             },
             3413 => polar(TrueLatitude(70.0), [0.0; 2]), // NSIDC Sea Ice Polar Stereographic North
             3995 => polar(TrueLatitude(71.0), [0.0; 2]), // Arctic Polar Stereographic
@@ -192,11 +197,19 @@ impl Conformal {
     fn ground_per_unit(&self, x: f64, y: f64) -> f64 {
         let e = eccentricity();
         match self {
-            Conformal::Mercator { k0, false_northing } => {
-                // y = A·k0·ln(1/t(φ)), and k = k0 / m(φ).
-                let y = (y - false_northing).abs() / (A * k0);
-                m(latitude_of_t((-y).exp())) / k0
-            }
+            Conformal::Mercator {
+                k0,
+                false_northing,
+                sphere,
+            } => match sphere {
+                // y = A·k0·ln(1/t(φ)), and k = k0 / m(φ)...
+                None => {
+                    let y = (y - false_northing).abs() / (A * k0);
+                    m(latitude_of_t((-y).exp())) / k0
+                }
+                // ...on a sphere, y = R·k0·asinh(tan φ), and k = k0 / cos φ.
+                Some(radius) => ((y - false_northing) / (radius * k0)).sinh().atan().cos() / k0,
+            },
             Conformal::PolarStereographic {
                 scale,
                 false_origin,
@@ -304,7 +317,8 @@ impl Projection {
 
     /// Mercator true to scale on a latitude (degrees; 0 for World Mercator, EPSG:3395)
     /// of `ellipsoid`, or on the equator scaled by `k0` where no latitude is given; the
-    /// equator at the false northing (metres). Measured on WGS 84 from there.
+    /// equator at the false northing (metres). Measured on WGS 84 from there, or on
+    /// the sphere where `ellipsoid` is one.
     pub fn mercator(
         ellipsoid: Ellipsoid,
         true_latitude: Option<f64>,
@@ -312,7 +326,12 @@ impl Projection {
         false_northing: f64,
     ) -> Projection {
         let k0 = true_latitude.map_or(k0, |latitude| ellipsoid.m(latitude.to_radians()));
-        Projection(Kind::Conformal(Conformal::Mercator { k0, false_northing }))
+        let sphere = (ellipsoid.e2 == 0.0).then_some(ellipsoid.a);
+        Projection(Kind::Conformal(Conformal::Mercator {
+            k0,
+            false_northing,
+            sphere,
+        }))
     }
 
     /// An equal-area projection the GeoKeys define by its parameters.
@@ -438,6 +457,12 @@ mod tests {
         // A false northing moves the equator.
         let moved = Projection::mercator(Ellipsoid::WGS84, Some(41.0), 1.0, 1.0e6);
         assert_eq!(moved.axis_scales(0.0, 1.0e6 + y41).0, [ground(y41); 2]);
+        // On a sphere of 6371 km (`+proj=merc +R=6371000`), 2500 m south of 60° N's
+        // northing, PROJ's chord measures 0.500170 ground metres per metre.
+        let sphere = Projection::mercator(Ellipsoid::sphere(6.371e6), None, 1.0, 0.0);
+        let y60 = 6.371e6 * 75f64.to_radians().tan().ln();
+        let [east, _] = sphere.axis_scales(30.0, y60 - 2500.0).0;
+        assert!((east - 0.500_169_9).abs() < 1e-6, "{east}");
     }
 
     #[test]

@@ -428,10 +428,14 @@ pub(super) fn of_wkt_citation(
         }
         "mercator" | "mercator_1sp" | "mercator_2sp" | "mercator_variant_a"
         | "mercator_variant_b" => {
-            // On the ellipsoid, true to scale on a parallel or scaled on the equator;
-            // a sphere's is Web Mercator's, measured apart.
-            return (ellipsoid.e2 > 0.0)
-                .then(|| Projection::mercator(ellipsoid, first_parallel, scale, false_origin[1]));
+            // True to scale on a parallel or scaled on the equator, on the ellipsoid
+            // or the sphere (Web Mercator by its code is measured apart, row by row).
+            return Some(Projection::mercator(
+                ellipsoid,
+                first_parallel,
+                scale,
+                false_origin[1],
+            ));
         }
         "mollweide" => EqualArea::Mollweide {
             radius: ellipsoid.a,
