@@ -1907,6 +1907,29 @@ fn tiffs_the_rust_tiff_crates_test_on_read_as_gdal_reads_them() {
     assert!(damage_files(&damaged, &dir.path().join("damaged.tif"), 40) >= 40);
 }
 
+#[test]
+fn projections_with_no_formula_here_are_measured_as_proj_measures_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("projected_scales.py", &[dir.path()]) else {
+        return;
+    };
+    let grids = written[0].as_array().unwrap();
+    assert_eq!(grids.len(), 8);
+    for grid in grids {
+        let file = grid[0].as_str().unwrap();
+        let map = imitate::io::read_raster(Path::new(file), "a").unwrap();
+        let ours = map.geo.cell_metres().map(|m| m / 100.0);
+        for (axis, ours) in ours.iter().enumerate() {
+            let proj = grid[1][axis].as_f64().unwrap();
+            // Far from true scale (2 % to 30 %), so being right is being measured.
+            assert!(
+                (ours / proj - 1.0).abs() < 1e-4,
+                "{file} axis {axis}: {ours} against PROJ's {proj}"
+            );
+        }
+    }
+}
+
 /// `damage_files` on the second file of each pair the Python writers print.
 fn damage_pairs(pairs: &[serde_json::Value], damaged: &Path, per_file: usize) -> usize {
     let files: Vec<PathBuf> = pairs

