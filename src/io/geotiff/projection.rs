@@ -223,7 +223,9 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
 /// EPSG code: a geographic CRS, or a projection of the methods GeoTIFF codes that
 /// PROJ carries (Transverse Mercator, Lambert conformal of one or two parallels,
 /// Albers, Lambert azimuthal, Mercator, polar stereographic, sinusoidal, cylindrical
-/// equal-area), on the keys' ellipsoid. Coordinates in the CRS's linear unit
+/// equal-area, azimuthal equidistant, equidistant conic and cylindrical, stereographic
+/// and oblique stereographic, Cassini, gnomonic, orthographic, polyconic, Robinson),
+/// on the keys' ellipsoid. Coordinates in the CRS's linear unit
 /// (`metres_per_unit`), as the frame keeps them. `None` for any other method.
 pub(super) fn proj_string(
     keys: &GeoKeys,
