@@ -4,7 +4,8 @@
 //! single-band files as the bands of one raster. The raster's size, `<SRS>` and
 //! `<GeoTransform>` are the VRT's; each `<VRTRasterBand>` is a layer filled from its
 //! `<SimpleSource>`s and `<ComplexSource>`s in order, each source's `<SrcRect>` of its
-//! file's band placed on the `<DstRect>` (nearest cell where the two differ in size),
+//! file's band placed on the `<DstRect>` (nearest cell where the two differ in size, or
+//! the mean of the cells under each where the source averages),
 //! as GDAL reads them. Sources are read as this tool reads them alone (GeoTIFF, ASCII
 //! grid, SRTM tile, another VRT); their nodata is transparent, so a later tile's void
 //! does not hide an earlier tile's ground. Cells no source covers are nodata, even
@@ -200,8 +201,27 @@ struct Source {
     /// A ComplexSource's linear scaling: value × ratio + offset.
     ratio: f64,
     offset: f64,
-    /// Other than nearest: allowed only where the windows are the same size.
+    /// Other than nearest: allowed only where the windows are the same size, but for
+    /// averaging ([`Averaging`]).
     resampling: Option<String>,
+    /// How GDAL averages this kind of source where its window is shrunk.
+    averaging: Averaging,
+}
+
+/// How GDAL averages a source's cells onto a smaller place (`resampling="average"`), as
+/// measured against GDAL 3.10 through rasterio: a `<ComplexSource>` weighs each source
+/// cell by the share of the VRT cell it covers and leaves its voids out; a
+/// `<SimpleSource>` or `<AveragedSource>` takes the plain mean of whole cells between
+/// the span's ends rounded to the nearest cell. GDAL's plain mean counts the source's
+/// nodata value as a number there (an elevation of −9999 in the mean); voids are left
+/// out here, as everywhere else. Where a source has overviews (a COG) GDAL averages the
+/// overview nearest the VRT's scale instead of its full-resolution cells, which is
+/// what this tool averages: its means are the cells' own, GDAL's those of whatever the
+/// overviews were built with.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Averaging {
+    AreaWeighted,
+    WholeCells,
 }
 
 /// One `<VRTRasterBand>`.
@@ -530,6 +550,10 @@ fn parse_source(source: &Element, folder: &Path) -> std::result::Result<Source, 
         ratio: scalar("ScaleRatio", 1.0)?,
         offset: scalar("ScaleOffset", 0.0)?,
         resampling,
+        averaging: match source.name.as_str() {
+            "ComplexSource" => Averaging::AreaWeighted,
+            _ => Averaging::WholeCells,
+        },
     })
 }
 
@@ -685,7 +709,7 @@ impl SourceCells<'_> {
 
 /// Places `source`'s window of `file` on its place in `cells` (the VRT's rows as its file
 /// counts them): each cell whose centre the place covers takes the source cell under
-/// it, unless that cell is nodata.
+/// it (or, averaging, the mean of the source cells it spans), unless that is nodata.
 fn place(
     cells: &mut [f32],
     [width, height]: [u32; 2],
@@ -701,14 +725,19 @@ fn place(
     let window = source.window.unwrap_or(whole);
     let place = source.place.unwrap_or(window);
     let [sx, sy] = [window.width / place.width, window.height / place.height];
-    if let Some(resampling) = &source.resampling
-        && (sx != 1.0 || sy != 1.0)
-    {
-        return Err(format!(
-            "its resampling '{resampling}' is not read: this tool places sources cell by \
-             nearest cell (build the VRT with -r nearest, or gdalwarp it to a GeoTIFF)"
-        ));
-    }
+    let averaging = match &source.resampling {
+        Some(resampling) if sx != 1.0 || sy != 1.0 => {
+            if resampling != "average" {
+                return Err(format!(
+                    "its resampling '{resampling}' is not read: this tool places sources \
+                     by nearest cell or by average (build the VRT with -r nearest or -r \
+                     average, or gdalwarp it to a GeoTIFF)"
+                ));
+            }
+            Some(source.averaging)
+        }
+        _ => None,
+    };
     // The source cell under a VRT cell's centre, per axis; `None` outside the window or
     // the file.
     let along = |centre: f64, place_off: f64, place_size: f64, off: f64, scale: f64, size: f64| {
@@ -721,6 +750,17 @@ fn place(
         (at >= off.max(0.0) && cell < size && at < off + place_size * scale)
             .then_some(cell as usize)
     };
+    if let Some(averaging) = averaging {
+        average_onto(
+            cells,
+            [width, height],
+            source,
+            file,
+            [window, place],
+            averaging,
+        );
+        return Ok(());
+    }
     let columns: Vec<Option<usize>> = (0..width as usize)
         .map(|col| {
             along(
@@ -758,6 +798,85 @@ fn place(
         }
     }
     Ok(())
+}
+
+/// Places the averages of `source`'s window of `file` on its place in `cells` (see
+/// [`place`]); `[window, place]` in the file's and the VRT's cells.
+fn average_onto(
+    cells: &mut [f32],
+    [width, height]: [u32; 2],
+    source: &Source,
+    file: &SourceCells,
+    [window, place]: [Rect; 2],
+    averaging: Averaging,
+) {
+    // The source cells and their weights under each VRT cell, per axis; empty outside
+    // the place or the file.
+    let spans = |count: u32, place_off: f64, place_size: f64, off: f64, size: f64, file: usize| {
+        let scale = size / place_size;
+        let last = (off + size).min(file as f64);
+        (0..count as usize)
+            .map(|cell| {
+                let centre = cell as f64 + 0.5 - place_off;
+                if centre < 0.0 || centre >= place_size {
+                    return Vec::new();
+                }
+                let start = off + (cell as f64 - place_off) * scale;
+                let end = start + scale;
+                match averaging {
+                    Averaging::AreaWeighted => {
+                        let (from, to) = (start.max(off).max(0.0), end.min(last));
+                        (from.floor() as usize..to.ceil().max(0.0) as usize)
+                            .map(|i| (i, to.min(i as f64 + 1.0) - from.max(i as f64)))
+                            .filter(|&(_, w)| w > 0.0)
+                            .collect()
+                    }
+                    Averaging::WholeCells => {
+                        let round = |v: f64| (v + 0.5).floor().max(0.0) as usize;
+                        let from = round(start);
+                        let to = round(end).max(from + 1).min(file);
+                        (from..to).map(|i| (i, 1.0)).collect()
+                    }
+                }
+            })
+            .collect::<Vec<Vec<(usize, f64)>>>()
+    };
+    let columns = spans(
+        width,
+        place.x,
+        place.width,
+        window.x,
+        window.width,
+        file.width,
+    );
+    let rows = spans(
+        height,
+        place.y,
+        place.height,
+        window.y,
+        window.height,
+        file.height,
+    );
+    for (row, row_span) in rows.iter().enumerate() {
+        let cells = &mut cells[row * width as usize..][..width as usize];
+        for (cell, column_span) in cells.iter_mut().zip(&columns) {
+            let (mut sum, mut weights) = (0.0, 0.0);
+            for &(source_row, row_weight) in row_span {
+                for &(source_col, col_weight) in column_span {
+                    let value = file.at(source_col, source_row);
+                    let void =
+                        value.is_nan() || source.nodata.is_some_and(|n| f64::from(value) == n);
+                    if !void {
+                        sum += row_weight * col_weight * f64::from(value);
+                        weights += row_weight * col_weight;
+                    }
+                }
+            }
+            if weights > 0.0 {
+                *cell = (sum / weights * source.ratio + source.offset) as f32;
+            }
+        }
+    }
 }
 
 /// `value` as the band's data type holds it: integers rounded to the nearest and held
@@ -902,6 +1021,7 @@ mod tests {
             ratio: 1.0,
             offset: 0.0,
             resampling: None,
+            averaging: Averaging::WholeCells,
         }
     }
 
@@ -933,18 +1053,59 @@ mod tests {
         let spread = rect(0.0, 0.0, 4.0, 2.0);
         place_source(&mut cells, &a_source(None, Some(spread)), &values);
         assert_eq!(cells, [1.0, 1.0, 2.0, 2.0, 3.0, 3.0, 4.0, 4.0]);
-        let averaged = Source {
-            resampling: Some("average".into()),
+        let bilinear = Source {
+            resampling: Some("bilinear".into()),
             ..a_source(None, Some(spread))
         };
-        let why = place(&mut cells, [4, 2], &averaged, &source(&values)).unwrap_err();
-        assert!(why.contains("'average'"), "{why}");
+        let why = place(&mut cells, [4, 2], &bilinear, &source(&values)).unwrap_err();
+        assert!(why.contains("'bilinear'"), "{why}");
         // A window reaching past the file takes only the file's cells.
         let mut cells = vec![0.0; 8];
         let window = rect(1.0, 0.0, 2.0, 2.0);
         let past = a_source(Some(window), Some(Rect { x: 0.0, ..window }));
         place_source(&mut cells, &past, &values);
         assert_eq!(cells, [2.0, 0.0, 0.0, 0.0, 4.0, 0.0, 0.0, 0.0]);
+    }
+
+    #[test]
+    fn a_shrunk_window_is_averaged_as_gdal_averages_its_kind_of_source() {
+        // File rows from the north: [1, 2, 3] over [4, NaN, 6]; ours from the south.
+        let values = [4.0, f32::NAN, 6.0, 1.0, 2.0, 3.0];
+        let file = SourceCells {
+            values: &values,
+            width: 3,
+            height: 2,
+            north_up: true,
+        };
+        // Three columns onto two cells of one row: 1.5 source cells each.
+        let onto = |averaging| {
+            let source = Source {
+                resampling: Some("average".into()),
+                averaging,
+                ..a_source(None, Some(rect(0.0, 0.0, 2.0, 1.0)))
+            };
+            let mut cells = vec![0.0f32; 2];
+            place(&mut cells, [2, 1], &source, &file).unwrap();
+            cells
+        };
+        // Shares of the cells covered, the void left out: (1 + 0.5·2 + 4) / 2.5 and
+        // (0.5·2 + 3 + 6) / 2.5.
+        assert_eq!(onto(Averaging::AreaWeighted), [2.4, 4.0]);
+        // Whole cells between rounded ends: columns 0–1 and 2 (1.5 rounds up).
+        assert_eq!(onto(Averaging::WholeCells), [7.0 / 3.0, 4.5]);
+        // A span of voids leaves its cell as it was.
+        let voids = [f32::NAN; 6];
+        let file = SourceCells {
+            values: &voids,
+            ..file
+        };
+        let source = Source {
+            resampling: Some("average".into()),
+            ..a_source(None, Some(rect(0.0, 0.0, 1.0, 1.0)))
+        };
+        let mut cells = vec![9.0f32];
+        place(&mut cells, [1, 1], &source, &file).unwrap();
+        assert_eq!(cells, [9.0]);
     }
 
     fn place_source(cells: &mut [f32], source_: &Source, values: &[f32]) {

@@ -6,7 +6,10 @@ it to:
   (its voids must not hide the first's ground) and the fourth missing (nodata there);
 - two SRTM tiles side by side (.hgt, 1201 x 1201, their shared edge column twice);
 - three single-band files of three types stacked as bands (-separate);
-- the mosaic at twice its cell size (-tr, nearest);
+- the mosaic at twice its cell size (-tr, nearest), and at 2.5 times it averaged
+  (-r average: ComplexSources, voids left out);
+- a float and an integer band shrunk to 40 % by gdal_translate -of VRT -r average
+  (SimpleSources);
 - a VRT of the mosaic's VRT;
 - a raw file described by hand-written `VRTRawRasterBand`s (strides, byte orders, an
   EPSG code as its SRS).
@@ -39,6 +42,14 @@ gdal.GDALBuildVRT.argtypes = [ctypes.c_char_p, ctypes.c_int, ctypes.c_void_p,
                               ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p]
 gdal.GDALBuildVRTOptionsFree.argtypes = [ctypes.c_void_p]
 gdal.GDALClose.argtypes = [ctypes.c_void_p]
+gdal.GDALOpen.restype = ctypes.c_void_p
+gdal.GDALOpen.argtypes = [ctypes.c_char_p, ctypes.c_int]
+gdal.GDALTranslateOptionsNew.restype = ctypes.c_void_p
+gdal.GDALTranslateOptionsNew.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+gdal.GDALTranslate.restype = ctypes.c_void_p
+gdal.GDALTranslate.argtypes = [ctypes.c_char_p, ctypes.c_void_p, ctypes.c_void_p,
+                               ctypes.c_void_p]
+gdal.GDALTranslateOptionsFree.argtypes = [ctypes.c_void_p]
 
 
 def strings(items):
@@ -54,6 +65,20 @@ def buildvrt(name, sources, *args):
     gdal.GDALBuildVRTOptionsFree(options)
     assert dataset and not error.value, f"GDALBuildVRT failed for {name}"
     gdal.GDALClose(dataset)
+    return path
+
+
+def translate(name, source, *args):
+    """gdal_translate's own code (GDALTranslate) from `source` to `name`."""
+    path = os.path.join(out, name)
+    opened = gdal.GDALOpen(source.encode(), 0)
+    options = gdal.GDALTranslateOptionsNew(strings(list(args)), None)
+    error = ctypes.c_int(0)
+    dataset = gdal.GDALTranslate(path.encode(), opened, options, ctypes.byref(error))
+    gdal.GDALTranslateOptionsFree(options)
+    assert dataset and not error.value, f"GDALTranslate failed for {name}"
+    gdal.GDALClose(dataset)
+    gdal.GDALClose(opened)
     return path
 
 
@@ -106,6 +131,14 @@ for i, dtype in enumerate(["uint8", "uint16", "float32"]):
                          from_origin(500000, 5000000, 10, 10), None))
 stack = buildvrt("stack.vrt", bands, "-separate")
 coarse = buildvrt("coarse.vrt", tiles, "-tr", "20", "20")
+averaged = buildvrt("averaged.vrt", tiles, "-tr", "25", "25", "-r", "average")
+shrunk = [translate(f"shrunk{i}.vrt", bands[i], "-of", "VRT", "-outsize", "40%", "40%",
+                    "-r", "average") for i in (0, 2)]
+for vrt, kind in [(averaged, "ComplexSource"), (shrunk[0], "SimpleSource"),
+                  (shrunk[1], "SimpleSource")]:
+    with open(vrt) as f:
+        text = f.read()
+    assert f'<{kind} resampling="average"' in text, (vrt, text)
 nested = buildvrt("nested.vrt", [mosaic])
 
 # A raw file with no header of its own, described by a VRT written by hand (as SAR
@@ -144,5 +177,9 @@ with open(raw_vrt, "w") as f:
             + raw_band(3, "Float32", 100 + 30 * line, 4, 160, "LSB")
             + "</VRTDataset>")
 
-pairs = [[as_gdal_reads(v), v] for v in (mosaic, srtm_vrt, stack, coarse, nested, raw_vrt)]
+# Each pair with the relative difference allowed: none where GDAL copies cells, a float's
+# last bit where it averages them (its sums in another order than ours).
+pairs = [[as_gdal_reads(v), v, 0.0] for v in (mosaic, srtm_vrt, stack, coarse, nested,
+                                              raw_vrt, shrunk[0])]
+pairs += [[as_gdal_reads(v), v, 1e-6] for v in (averaged, shrunk[1])]
 print(json.dumps({"pairs": pairs, "tiles": os.path.join(out, "tiles")}))
