@@ -5,7 +5,8 @@
 //! `<GeoTransform>` are the VRT's; each `<VRTRasterBand>` is a layer filled from its
 //! `<SimpleSource>`s and `<ComplexSource>`s in order, each source's `<SrcRect>` of its
 //! file's band placed on the `<DstRect>` (nearest cell where the two differ in size, or
-//! the mean of the cells under each where the source averages),
+//! the mean of the cells under each, or their convolution, where the source averages
+//! or interpolates),
 //! as GDAL reads them. Sources are read as this tool reads them alone (GeoTIFF, ASCII
 //! grid, SRTM tile, another VRT); their nodata is transparent, so a later tile's void
 //! does not hide an earlier tile's ground. Cells no source covers are nodata, even
@@ -201,8 +202,8 @@ struct Source {
     /// A ComplexSource's linear scaling: value × ratio + offset.
     ratio: f64,
     offset: f64,
-    /// Other than nearest: allowed only where the windows are the same size, but for
-    /// averaging ([`Averaging`]).
+    /// Other than nearest: where the windows differ in size, an average
+    /// ([`Averaging`]) or a kernel ([`Kernel`]); other resamplings are refused.
     resampling: Option<String>,
     /// How GDAL averages this kind of source where its window is shrunk.
     averaging: Averaging,
@@ -222,6 +223,73 @@ struct Source {
 enum Averaging {
     AreaWeighted,
     WholeCells,
+}
+
+/// GDAL's interpolating resamplings (`-r bilinear`, `cubic`, `cubicspline`), as it
+/// convolves a source onto a place of another size: the kernel stretched by the
+/// shrink factor where the place is smaller, taps cut at the file's edges and their
+/// weights normalised; rows filtered first, each over its cells with data, then
+/// columns over the filtered rows with any. Where a kernel has negative lobes (cubic),
+/// a row or column whose longest run of taps with data is under half its taps is a
+/// void, as GDAL has it (lest the lobes' weights, renormalised over a few cells, throw
+/// the value far off). Measured against GDAL 3.10 through rasterio, the same for every
+/// kind of source.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Kernel {
+    Bilinear,
+    /// Keys' cubic convolution, a = −0.5.
+    Cubic,
+    /// The cubic B-spline (it smooths even an axis whose sizes agree).
+    CubicSpline,
+}
+
+impl Kernel {
+    fn named(name: &str) -> Option<Self> {
+        match name {
+            "bilinear" => Some(Self::Bilinear),
+            "cubic" => Some(Self::Cubic),
+            "cubicspline" => Some(Self::CubicSpline),
+            _ => None,
+        }
+    }
+
+    fn has_negative_lobes(self) -> bool {
+        self == Self::Cubic
+    }
+
+    /// Half the kernel's support, in source cells before any stretch.
+    fn radius(self) -> f64 {
+        match self {
+            Self::Bilinear => 1.0,
+            Self::Cubic | Self::CubicSpline => 2.0,
+        }
+    }
+
+    fn weight(self, x: f64) -> f64 {
+        let x = x.abs();
+        match self {
+            Self::Bilinear => (1.0 - x).max(0.0),
+            Self::Cubic => {
+                const A: f64 = -0.5;
+                if x < 1.0 {
+                    ((A + 2.0) * x - (A + 3.0)) * x * x + 1.0
+                } else if x < 2.0 {
+                    (((x - 5.0) * x + 8.0) * x - 4.0) * A
+                } else {
+                    0.0
+                }
+            }
+            Self::CubicSpline => {
+                if x < 1.0 {
+                    (4.0 - 6.0 * x * x + 3.0 * x * x * x) / 6.0
+                } else if x < 2.0 {
+                    (2.0 - x).powi(3) / 6.0
+                } else {
+                    0.0
+                }
+            }
+        }
+    }
 }
 
 /// One `<VRTRasterBand>`.
@@ -709,7 +777,8 @@ impl SourceCells<'_> {
 
 /// Places `source`'s window of `file` on its place in `cells` (the VRT's rows as its file
 /// counts them): each cell whose centre the place covers takes the source cell under
-/// it (or, averaging, the mean of the source cells it spans), unless that is nodata.
+/// it (or, averaging or interpolating, the mean or the kernel's sum of the source cells
+/// around it), unless that is nodata.
 fn place(
     cells: &mut [f32],
     [width, height]: [u32; 2],
@@ -725,19 +794,30 @@ fn place(
     let window = source.window.unwrap_or(whole);
     let place = source.place.unwrap_or(window);
     let [sx, sy] = [window.width / place.width, window.height / place.height];
-    let averaging = match &source.resampling {
-        Some(resampling) if sx != 1.0 || sy != 1.0 => {
-            if resampling != "average" {
-                return Err(format!(
-                    "its resampling '{resampling}' is not read: this tool places sources \
-                     by nearest cell or by average (build the VRT with -r nearest or -r \
-                     average, or gdalwarp it to a GeoTIFF)"
-                ));
-            }
-            Some(source.averaging)
+    if let Some(resampling) = &source.resampling
+        && (sx != 1.0 || sy != 1.0)
+    {
+        let places = [window, place];
+        if resampling == "average" {
+            average_onto(
+                cells,
+                [width, height],
+                source,
+                file,
+                places,
+                source.averaging,
+            );
+        } else if let Some(kernel) = Kernel::named(resampling) {
+            convolve_onto(cells, [width, height], source, file, places, kernel);
+        } else {
+            return Err(format!(
+                "its resampling '{resampling}' is not read: this tool places sources by \
+                 nearest cell, average, bilinear, cubic or cubicspline (build the VRT with \
+                 one of them, or gdalwarp it to a GeoTIFF)"
+            ));
         }
-        _ => None,
-    };
+        return Ok(());
+    }
     // The source cell under a VRT cell's centre, per axis; `None` outside the window or
     // the file.
     let along = |centre: f64, place_off: f64, place_size: f64, off: f64, scale: f64, size: f64| {
@@ -750,17 +830,6 @@ fn place(
         (at >= off.max(0.0) && cell < size && at < off + place_size * scale)
             .then_some(cell as usize)
     };
-    if let Some(averaging) = averaging {
-        average_onto(
-            cells,
-            [width, height],
-            source,
-            file,
-            [window, place],
-            averaging,
-        );
-        return Ok(());
-    }
     let columns: Vec<Option<usize>> = (0..width as usize)
         .map(|col| {
             along(
@@ -870,6 +939,105 @@ fn average_onto(
                         sum += row_weight * col_weight * f64::from(value);
                         weights += row_weight * col_weight;
                     }
+                }
+            }
+            if weights > 0.0 {
+                *cell = (sum / weights * source.ratio + source.offset) as f32;
+            }
+        }
+    }
+}
+
+/// Places `source`'s window of `file` on its place in `cells` through `kernel` (see
+/// [`Kernel`]); `[window, place]` in the file's and the VRT's cells.
+fn convolve_onto(
+    cells: &mut [f32],
+    [width, height]: [u32; 2],
+    source: &Source,
+    file: &SourceCells,
+    [window, place]: [Rect; 2],
+    kernel: Kernel,
+) {
+    // The source cells and their kernel weights for each VRT cell, per axis; empty
+    // outside the place.
+    let taps = |count: u32, place_off: f64, place_size: f64, off: f64, size: f64, file: usize| {
+        let ratio = size / place_size;
+        let stretch = (1.0 / ratio).min(1.0);
+        let reach = kernel.radius() / stretch;
+        (0..count as usize)
+            .map(|cell| {
+                let centre = cell as f64 + 0.5 - place_off;
+                if !(0.0..place_size).contains(&centre) {
+                    return Vec::new();
+                }
+                let at = off + centre * ratio;
+                let first = (at - reach + 0.5).floor().max(0.0) as usize;
+                let end = ((at + reach + 0.5).floor().max(0.0) as usize).min(file);
+                (first..end)
+                    .map(|j| (j, kernel.weight((j as f64 + 0.5 - at) * stretch)))
+                    .collect()
+            })
+            .collect::<Vec<Vec<(usize, f64)>>>()
+    };
+    let columns = taps(
+        width,
+        place.x,
+        place.width,
+        window.x,
+        window.width,
+        file.width,
+    );
+    let rows = taps(
+        height,
+        place.y,
+        place.height,
+        window.y,
+        window.height,
+        file.height,
+    );
+    let void = |value: f32| value.is_nan() || source.nodata.is_some_and(|n| f64::from(value) == n);
+    // Taps whose longest run with data is under half of them give no value, for a
+    // kernel with negative lobes.
+    let too_broken = |with_data: &[bool]| {
+        let mut longest = 0;
+        let mut run = 0;
+        for &has in with_data {
+            run = if has { run + 1 } else { 0 };
+            longest = longest.max(run);
+        }
+        kernel.has_negative_lobes() && longest < with_data.len() / 2
+    };
+    let mut filtered_rows: Vec<(Option<f64>, f64)> = Vec::new();
+    let mut with_data = Vec::new();
+    for (row, row_taps) in rows.iter().enumerate() {
+        let cells = &mut cells[row * width as usize..][..width as usize];
+        for (cell, column_taps) in cells.iter_mut().zip(&columns) {
+            // Each of the cell's source rows filtered along it: its value, if any.
+            filtered_rows.clear();
+            for &(source_row, row_weight) in row_taps {
+                with_data.clear();
+                let (mut sum, mut weights) = (0.0, 0.0);
+                for &(source_col, weight) in column_taps {
+                    let value = file.at(source_col, source_row);
+                    with_data.push(!void(value));
+                    if !void(value) {
+                        sum += weight * f64::from(value);
+                        weights += weight;
+                    }
+                }
+                let value = (weights > 0.0 && !too_broken(&with_data)).then(|| sum / weights);
+                filtered_rows.push((value, row_weight));
+            }
+            with_data.clear();
+            with_data.extend(filtered_rows.iter().map(|(v, _)| v.is_some()));
+            if too_broken(&with_data) {
+                continue;
+            }
+            let (mut sum, mut weights) = (0.0, 0.0);
+            for &(value, weight) in &filtered_rows {
+                if let Some(value) = value {
+                    sum += weight * value;
+                    weights += weight;
                 }
             }
             if weights > 0.0 {
@@ -1053,12 +1221,12 @@ mod tests {
         let spread = rect(0.0, 0.0, 4.0, 2.0);
         place_source(&mut cells, &a_source(None, Some(spread)), &values);
         assert_eq!(cells, [1.0, 1.0, 2.0, 2.0, 3.0, 3.0, 4.0, 4.0]);
-        let bilinear = Source {
-            resampling: Some("bilinear".into()),
+        let lanczos = Source {
+            resampling: Some("lanczos".into()),
             ..a_source(None, Some(spread))
         };
-        let why = place(&mut cells, [4, 2], &bilinear, &source(&values)).unwrap_err();
-        assert!(why.contains("'bilinear'"), "{why}");
+        let why = place(&mut cells, [4, 2], &lanczos, &source(&values)).unwrap_err();
+        assert!(why.contains("'lanczos'"), "{why}");
         // A window reaching past the file takes only the file's cells.
         let mut cells = vec![0.0; 8];
         let window = rect(1.0, 0.0, 2.0, 2.0);
@@ -1106,6 +1274,51 @@ mod tests {
         let mut cells = vec![9.0f32];
         place(&mut cells, [1, 1], &source, &file).unwrap();
         assert_eq!(cells, [9.0]);
+    }
+
+    #[test]
+    fn a_window_of_another_size_is_interpolated_as_gdal_convolves_it() {
+        // One row [0, 10] stretched over four cells: the textbook bilinear ramp, the
+        // taps past the file's edges cut and the rest normalised.
+        let values = [0.0, 10.0];
+        let file = SourceCells {
+            values: &values,
+            width: 2,
+            height: 1,
+            north_up: false,
+        };
+        let onto = |resampling: &str, file: &SourceCells| {
+            let source = Source {
+                resampling: Some(resampling.into()),
+                ..a_source(None, Some(rect(0.0, 0.0, 4.0, 1.0)))
+            };
+            let mut cells = vec![-1.0f32; 4];
+            place(&mut cells, [4, 1], &source, file).unwrap();
+            cells
+        };
+        assert_eq!(onto("bilinear", &file), [0.0, 2.5, 7.5, 10.0]);
+        // Keys' cubic overshoots past the ends: at the first cell's centre a quarter
+        // cell from the file's first, 10 × w(1.25) / (w(0.25) + w(1.25)) with
+        // w(0.25) = 0.8671875, w(1.25) = −0.0703125; the same mirrored at the other end.
+        let cubic = onto("cubic", &file);
+        assert!((cubic[0] + 0.882_352_9).abs() < 1e-5, "{cubic:?}");
+        for (a, b) in cubic.iter().zip(cubic.iter().rev()) {
+            assert!((a + b - 10.0).abs() < 1e-5, "{cubic:?}");
+        }
+        // A void takes no weight: the other cell alone.
+        let with_void = [f32::NAN, 10.0];
+        let file = SourceCells {
+            values: &with_void,
+            ..file
+        };
+        assert_eq!(onto("cubicspline", &file), [10.0; 4]);
+        // The kernels: one at 0 (but the B-spline's), none at their reach.
+        for kernel in [Kernel::Bilinear, Kernel::Cubic, Kernel::CubicSpline] {
+            assert_eq!(kernel.weight(kernel.radius()), 0.0, "{kernel:?}");
+        }
+        assert_eq!(Kernel::Cubic.weight(0.0), 1.0);
+        assert!((Kernel::CubicSpline.weight(0.0) - 2.0 / 3.0).abs() < 1e-12);
+        assert!((Kernel::CubicSpline.weight(1.0) - 1.0 / 6.0).abs() < 1e-12);
     }
 
     fn place_source(cells: &mut [f32], source_: &Source, values: &[f32]) {

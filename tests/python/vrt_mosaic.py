@@ -10,6 +10,8 @@ it to:
   (-r average: ComplexSources, voids left out);
 - a float and an integer band shrunk to 40 % by gdal_translate -of VRT -r average
   (SimpleSources);
+- the mosaic interpolated onto cells 2.5 times as small (-r bilinear) and 2.5 times as
+  large (-r cubic), and a float band grown to 170 % (-r cubicspline);
 - a VRT of the mosaic's VRT;
 - a raw file described by hand-written `VRTRawRasterBand`s (strides, byte orders, an
   EPSG code as its SRS).
@@ -134,6 +136,10 @@ coarse = buildvrt("coarse.vrt", tiles, "-tr", "20", "20")
 averaged = buildvrt("averaged.vrt", tiles, "-tr", "25", "25", "-r", "average")
 shrunk = [translate(f"shrunk{i}.vrt", bands[i], "-of", "VRT", "-outsize", "40%", "40%",
                     "-r", "average") for i in (0, 2)]
+finer = buildvrt("bilinear.vrt", tiles, "-tr", "4", "4", "-r", "bilinear")
+cubic = buildvrt("cubic.vrt", tiles, "-tr", "25", "25", "-r", "cubic")
+grown = translate("grown.vrt", bands[2], "-of", "VRT", "-outsize", "170%", "170%",
+                  "-r", "cubicspline")
 for vrt, kind in [(averaged, "ComplexSource"), (shrunk[0], "SimpleSource"),
                   (shrunk[1], "SimpleSource")]:
     with open(vrt) as f:
@@ -181,5 +187,5 @@ with open(raw_vrt, "w") as f:
 # last bit where it averages them (its sums in another order than ours).
 pairs = [[as_gdal_reads(v), v, 0.0] for v in (mosaic, srtm_vrt, stack, coarse, nested,
                                               raw_vrt, shrunk[0])]
-pairs += [[as_gdal_reads(v), v, 1e-6] for v in (averaged, shrunk[1])]
+pairs += [[as_gdal_reads(v), v, 1e-6] for v in (averaged, shrunk[1], finer, cubic, grown)]
 print(json.dumps({"pairs": pairs, "tiles": os.path.join(out, "tiles")}))
