@@ -1007,44 +1007,61 @@ fn convolve_onto(
         }
         kernel.has_negative_lobes() && longest < with_data.len() / 2
     };
-    let mut filtered_rows: Vec<(Option<f64>, f64)> = Vec::new();
-    let mut with_data = Vec::new();
-    for (row, row_taps) in rows.iter().enumerate() {
-        let cells = &mut cells[row * width as usize..][..width as usize];
-        for (cell, column_taps) in cells.iter_mut().zip(&columns) {
-            // Each of the cell's source rows filtered along it: its value, if any.
-            filtered_rows.clear();
-            for &(source_row, row_weight) in row_taps {
-                with_data.clear();
-                let (mut sum, mut weights) = (0.0, 0.0);
-                for &(source_col, weight) in column_taps {
-                    let value = file.at(source_col, source_row);
-                    with_data.push(!void(value));
-                    if !void(value) {
-                        sum += weight * f64::from(value);
-                        weights += weight;
-                    }
-                }
-                let value = (weights > 0.0 && !too_broken(&with_data)).then(|| sum / weights);
-                filtered_rows.push((value, row_weight));
-            }
+    // Each source row the cells' taps reach, filtered along it for every VRT column (its
+    // value, if any), then the columns: in blocks of rows, in parallel, the filtered
+    // rows computed once for the block.
+    let horizontal =
+        |source_row: usize, column_taps: &[(usize, f64)], with_data: &mut Vec<bool>| {
             with_data.clear();
-            with_data.extend(filtered_rows.iter().map(|(v, _)| v.is_some()));
-            if too_broken(&with_data) {
-                continue;
-            }
             let (mut sum, mut weights) = (0.0, 0.0);
-            for &(value, weight) in &filtered_rows {
-                if let Some(value) = value {
-                    sum += weight * value;
+            for &(source_col, weight) in column_taps {
+                let value = file.at(source_col, source_row);
+                with_data.push(!void(value));
+                if !void(value) {
+                    sum += weight * f64::from(value);
                     weights += weight;
                 }
             }
-            if weights > 0.0 {
-                *cell = (sum / weights * source.ratio + source.offset) as f32;
+            (weights > 0.0 && !too_broken(with_data)).then(|| sum / weights)
+        };
+    const BLOCK_ROWS: usize = 64;
+    let width = width as usize;
+    cells
+        .par_chunks_mut(BLOCK_ROWS * width)
+        .zip(rows.par_chunks(BLOCK_ROWS))
+        .for_each(|(block, block_rows)| {
+            let reached = block_rows.iter().flatten().map(|&(row, _)| row);
+            let (Some(first), Some(last)) = (reached.clone().min(), reached.max()) else {
+                return;
+            };
+            let mut with_data = Vec::new();
+            let mut filtered = Vec::with_capacity((last + 1 - first) * width);
+            for source_row in first..=last {
+                for column_taps in &columns {
+                    filtered.push(horizontal(source_row, column_taps, &mut with_data));
+                }
             }
-        }
-    }
+            for (cells, row_taps) in block.chunks_exact_mut(width).zip(block_rows) {
+                for (col, cell) in cells.iter_mut().enumerate() {
+                    let at = |source_row: usize| filtered[(source_row - first) * width + col];
+                    with_data.clear();
+                    with_data.extend(row_taps.iter().map(|&(row, _)| at(row).is_some()));
+                    if too_broken(&with_data) {
+                        continue;
+                    }
+                    let (mut sum, mut weights) = (0.0, 0.0);
+                    for &(source_row, weight) in row_taps {
+                        if let Some(value) = at(source_row) {
+                            sum += weight * value;
+                            weights += weight;
+                        }
+                    }
+                    if weights > 0.0 {
+                        *cell = (sum / weights * source.ratio + source.offset) as f32;
+                    }
+                }
+            }
+        });
 }
 
 /// `value` as the band's data type holds it: integers rounded to the nearest and held
