@@ -869,6 +869,69 @@ fn place(
     Ok(())
 }
 
+/// One axis of a source's window (in the file's cells) and of its place (in the VRT's).
+#[derive(Debug, Clone, Copy)]
+struct Axis {
+    /// The VRT's cells along the axis.
+    cells: usize,
+    place_off: f64,
+    place_size: f64,
+    window_off: f64,
+    window_size: f64,
+    /// The file's cells along the axis.
+    file_cells: usize,
+}
+
+impl Axis {
+    /// The columns' axis and the rows'.
+    fn both(
+        [width, height]: [u32; 2],
+        [window, place]: [Rect; 2],
+        file: &SourceCells,
+    ) -> [Axis; 2] {
+        [
+            Axis {
+                cells: width as usize,
+                place_off: place.x,
+                place_size: place.width,
+                window_off: window.x,
+                window_size: window.width,
+                file_cells: file.width,
+            },
+            Axis {
+                cells: height as usize,
+                place_off: place.y,
+                place_size: place.height,
+                window_off: window.y,
+                window_size: window.height,
+                file_cells: file.height,
+            },
+        ]
+    }
+
+    /// The file's cells per VRT cell.
+    fn ratio(&self) -> f64 {
+        self.window_size / self.place_size
+    }
+
+    /// For each VRT cell along the axis whose centre the place covers, the file's cells
+    /// and weights `taps(start, centre)` gives from where the cell starts and where its
+    /// centre falls in the file's cells; none for the others.
+    fn taps(&self, taps: impl Fn(f64, f64) -> Vec<(usize, f64)>) -> Vec<Vec<(usize, f64)>> {
+        (0..self.cells)
+            .map(|cell| {
+                let into = cell as f64 - self.place_off;
+                if !(0.0..self.place_size).contains(&(into + 0.5)) {
+                    return Vec::new();
+                }
+                let start = self.window_off + into * self.ratio();
+                let centre = self.window_off + (into + 0.5) * self.ratio();
+                taps(start, centre)
+            })
+            .collect()
+    }
+}
+
 /// Places the averages of `source`'s window of `file` on its place in `cells` (see
 /// [`place`]); `[window, place]` in the file's and the VRT's cells.
 fn average_onto(
@@ -879,53 +942,28 @@ fn average_onto(
     [window, place]: [Rect; 2],
     averaging: Averaging,
 ) {
-    // The source cells and their weights under each VRT cell, per axis; empty outside
-    // the place or the file.
-    let spans = |count: u32, place_off: f64, place_size: f64, off: f64, size: f64, file: usize| {
-        let scale = size / place_size;
-        let last = (off + size).min(file as f64);
-        (0..count as usize)
-            .map(|cell| {
-                let centre = cell as f64 + 0.5 - place_off;
-                if centre < 0.0 || centre >= place_size {
-                    return Vec::new();
+    // The source cells and their weights under each VRT cell, per axis.
+    let [columns, rows] = Axis::both([width, height], [window, place], file).map(|axis| {
+        let last = (axis.window_off + axis.window_size).min(axis.file_cells as f64);
+        axis.taps(|start, _| {
+            let end = start + axis.ratio();
+            match averaging {
+                Averaging::AreaWeighted => {
+                    let (from, to) = (start.max(axis.window_off).max(0.0), end.min(last));
+                    (from.floor() as usize..to.ceil().max(0.0) as usize)
+                        .map(|i| (i, to.min(i as f64 + 1.0) - from.max(i as f64)))
+                        .filter(|&(_, w)| w > 0.0)
+                        .collect()
                 }
-                let start = off + (cell as f64 - place_off) * scale;
-                let end = start + scale;
-                match averaging {
-                    Averaging::AreaWeighted => {
-                        let (from, to) = (start.max(off).max(0.0), end.min(last));
-                        (from.floor() as usize..to.ceil().max(0.0) as usize)
-                            .map(|i| (i, to.min(i as f64 + 1.0) - from.max(i as f64)))
-                            .filter(|&(_, w)| w > 0.0)
-                            .collect()
-                    }
-                    Averaging::WholeCells => {
-                        let round = |v: f64| (v + 0.5).floor().max(0.0) as usize;
-                        let from = round(start);
-                        let to = round(end).max(from + 1).min(file);
-                        (from..to).map(|i| (i, 1.0)).collect()
-                    }
+                Averaging::WholeCells => {
+                    let round = |v: f64| (v + 0.5).floor().max(0.0) as usize;
+                    let from = round(start);
+                    let to = round(end).max(from + 1).min(axis.file_cells);
+                    (from..to).map(|i| (i, 1.0)).collect()
                 }
-            })
-            .collect::<Vec<Vec<(usize, f64)>>>()
-    };
-    let columns = spans(
-        width,
-        place.x,
-        place.width,
-        window.x,
-        window.width,
-        file.width,
-    );
-    let rows = spans(
-        height,
-        place.y,
-        place.height,
-        window.y,
-        window.height,
-        file.height,
-    );
+            }
+        })
+    });
     for (row, row_span) in rows.iter().enumerate() {
         let cells = &mut cells[row * width as usize..][..width as usize];
         for (cell, column_span) in cells.iter_mut().zip(&columns) {
@@ -958,43 +996,18 @@ fn convolve_onto(
     [window, place]: [Rect; 2],
     kernel: Kernel,
 ) {
-    // The source cells and their kernel weights for each VRT cell, per axis; empty
-    // outside the place.
-    let taps = |count: u32, place_off: f64, place_size: f64, off: f64, size: f64, file: usize| {
-        let ratio = size / place_size;
-        let stretch = (1.0 / ratio).min(1.0);
+    // The source cells and their kernel weights for each VRT cell, per axis.
+    let [columns, rows] = Axis::both([width, height], [window, place], file).map(|axis| {
+        let stretch = (1.0 / axis.ratio()).min(1.0);
         let reach = kernel.radius() / stretch;
-        (0..count as usize)
-            .map(|cell| {
-                let centre = cell as f64 + 0.5 - place_off;
-                if !(0.0..place_size).contains(&centre) {
-                    return Vec::new();
-                }
-                let at = off + centre * ratio;
-                let first = (at - reach + 0.5).floor().max(0.0) as usize;
-                let end = ((at + reach + 0.5).floor().max(0.0) as usize).min(file);
-                (first..end)
-                    .map(|j| (j, kernel.weight((j as f64 + 0.5 - at) * stretch)))
-                    .collect()
-            })
-            .collect::<Vec<Vec<(usize, f64)>>>()
-    };
-    let columns = taps(
-        width,
-        place.x,
-        place.width,
-        window.x,
-        window.width,
-        file.width,
-    );
-    let rows = taps(
-        height,
-        place.y,
-        place.height,
-        window.y,
-        window.height,
-        file.height,
-    );
+        axis.taps(|_, at| {
+            let first = (at - reach + 0.5).floor().max(0.0) as usize;
+            let end = ((at + reach + 0.5).floor().max(0.0) as usize).min(axis.file_cells);
+            (first..end)
+                .map(|j| (j, kernel.weight((j as f64 + 0.5 - at) * stretch)))
+                .collect()
+        })
+    });
     let void = |value: f32| value.is_nan() || source.nodata.is_some_and(|n| f64::from(value) == n);
     // Taps whose longest run with data is under half of them give no value, for a
     // kernel with negative lobes.
