@@ -10,8 +10,9 @@ it to:
   (-r average: ComplexSources, voids left out);
 - a float and an integer band shrunk to 40 % by gdal_translate -of VRT -r average
   (SimpleSources);
-- the mosaic interpolated onto cells 2.5 times as small (-r bilinear) and 2.5 times as
-  large (-r cubic), and a float band grown to 170 % (-r cubicspline);
+- the mosaic interpolated onto cells 2.5 times as small (-r bilinear, -r lanczos) and
+  2.5 times as large (-r cubic, -r lanczos), and a float band grown to 170 %
+  (-r cubicspline);
 - a VRT of the mosaic's VRT;
 - a raw file described by hand-written `VRTRawRasterBand`s (strides, byte orders, an
   EPSG code as its SRS).
@@ -138,6 +139,8 @@ shrunk = [translate(f"shrunk{i}.vrt", bands[i], "-of", "VRT", "-outsize", "40%",
                     "-r", "average") for i in (0, 2)]
 finer = buildvrt("bilinear.vrt", tiles, "-tr", "4", "4", "-r", "bilinear")
 cubic = buildvrt("cubic.vrt", tiles, "-tr", "25", "25", "-r", "cubic")
+lanczos = [buildvrt(f"lanczos{res}.vrt", tiles, "-tr", res, res, "-r", "lanczos")
+           for res in ("4", "25")]
 grown = translate("grown.vrt", bands[2], "-of", "VRT", "-outsize", "170%", "170%",
                   "-r", "cubicspline")
 for vrt, kind in [(averaged, "ComplexSource"), (shrunk[0], "SimpleSource"),
@@ -187,5 +190,6 @@ with open(raw_vrt, "w") as f:
 # last bit where it averages them (its sums in another order than ours).
 pairs = [[as_gdal_reads(v), v, 0.0] for v in (mosaic, srtm_vrt, stack, coarse, nested,
                                               raw_vrt, shrunk[0])]
-pairs += [[as_gdal_reads(v), v, 1e-6] for v in (averaged, shrunk[1], finer, cubic, grown)]
+pairs += [[as_gdal_reads(v), v, 1e-6]
+          for v in (averaged, shrunk[1], finer, cubic, grown, *lanczos)]
 print(json.dumps({"pairs": pairs, "tiles": os.path.join(out, "tiles")}))
