@@ -613,6 +613,14 @@ fn equal_area_and_conic_cells_are_measured_on_the_ground_per_axis() {
         ("units--ease2-plane", [0.5781, 1.7299], true),
         ("units--mollweide-plane", [0.8602, 1.8113], false),
         ("units--equal-earth-plane", [0.7721, 1.5191], false),
+        // World maps on a sphere measured through their own inverse: Eckert IV,
+        // Van der Grinten, Winkel Tripel, Goode's homolosine (in its northern lobe on
+        // 100° W) and Kavrayskiy VII (from the PROJ string in GDAL's sidecar).
+        ("units--eckert-iv-plane", [0.7596, 1.5257], false),
+        ("units--van-der-grinten-plane", [0.5382, 0.5487], false),
+        ("units--winkel-tripel-plane", [0.8235, 1.2015], false),
+        ("units--goode-plane", [0.8602, 1.1948], false),
+        ("units--kavrayskiy-plane", [0.7087, 1.1250], false),
     ] {
         let map = read_geotiff(&dir.path().join(format!("{name}.tif")), "m").unwrap();
         let [sx, sy] = map.geo.ground_scale.unwrap().per_axis();

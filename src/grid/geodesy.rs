@@ -6,6 +6,7 @@
 //! (`equal_area`).
 
 use super::equal_area::{Ellipsoid, EqualArea};
+use super::world_sphere::WorldSphere;
 
 /// WGS 84 semi-major axis (m) and first eccentricity squared.
 const A: f64 = Ellipsoid::WGS84.a;
@@ -280,34 +281,51 @@ enum Kind {
     Numeric(Box<Numeric>),
 }
 
-/// A projection measured through PROJ's inverse (`proj4rs`): the projections with no
-/// formula here (equidistant cylindrical and conic, azimuthal equidistant, oblique and
-/// equatorial stereographic, orthographic, gnomonic, Robinson, Miller, polyconic,
-/// Cassini, Krovak...). Steps of a metre along x and y are carried back to longitude
-/// and latitude on the projection's own ellipsoid (no datum shift) and measured there.
+/// A projection measured through an inverse: PROJ's (`proj4rs`) for the projections
+/// with no formula here (equidistant cylindrical and conic, azimuthal equidistant,
+/// oblique and equatorial stereographic, orthographic, gnomonic, Robinson, Miller,
+/// polyconic, Cassini, Krovak...), and the world maps on a sphere that `proj4rs` lacks
+/// ([`WorldSphere`]: Eckert IV, Van der Grinten, Winkel Tripel...). Steps of a metre
+/// along x and y are carried back to longitude and latitude on the projection's own
+/// ellipsoid (no datum shift) and measured there.
 struct Numeric {
-    projection: proj4rs::proj::Proj,
-    geographic: proj4rs::proj::Proj,
+    inverse: Inverse,
     ellipsoid: Ellipsoid,
 }
 
+/// Where a [`Numeric`] projection's inverse comes from.
+enum Inverse {
+    Proj {
+        projection: Box<proj4rs::proj::Proj>,
+        geographic: Box<proj4rs::proj::Proj>,
+    },
+    World(WorldSphere),
+}
+
 impl Numeric {
-    /// From a PROJ string whose coordinates are metres; `None` where `proj4rs` does not
-    /// carry it, or carries it to nowhere near where it came from.
+    /// From a PROJ string whose coordinates are metres; `None` where neither `proj4rs`
+    /// nor [`WorldSphere`] carries it, or carries it to nowhere near where it came from.
     fn of(definition: &str) -> Option<Numeric> {
-        let projection = proj4rs::proj::Proj::from_proj_string(definition).ok()?;
-        if projection.is_latlong() {
-            return None;
-        }
         // The definition's ellipsoid: `proj4rs` gives spherical methods (equidistant
         // cylindrical, Robinson) a sphere, yet their latitudes are PROJ's geodetic ones.
         let ellipsoid = super::epsg::ProjCrs::parse(definition).ellipsoid();
+        let Ok(projection) = proj4rs::proj::Proj::from_proj_string(definition) else {
+            return WorldSphere::of(definition).map(|world| Numeric {
+                inverse: Inverse::World(world),
+                ellipsoid,
+            });
+        };
+        if projection.is_latlong() {
+            return None;
+        }
         let (a, b) = (ellipsoid.a, ellipsoid.a * (1.0 - ellipsoid.e2).sqrt());
         let geographic =
             proj4rs::proj::Proj::from_proj_string(&format!("+proj=longlat +a={a} +b={b}")).ok()?;
         Some(Numeric {
-            projection,
-            geographic,
+            inverse: Inverse::Proj {
+                projection: Box::new(projection),
+                geographic: Box::new(geographic),
+            },
             ellipsoid,
         })
     }
@@ -316,11 +334,18 @@ impl Numeric {
     /// back to within a millimetre.
     fn geographic_of(&self, x: f64, y: f64) -> Option<(f64, f64)> {
         use proj4rs::transform::transform;
+        let (projection, geographic) = match &self.inverse {
+            Inverse::Proj {
+                projection,
+                geographic,
+            } => (projection, geographic),
+            Inverse::World(world) => return world.inverse(x, y),
+        };
         let mut point = (x, y, 0.0);
-        transform(&self.projection, &self.geographic, &mut point).ok()?;
+        transform(projection, geographic, &mut point).ok()?;
         let (lon, lat) = (point.0, point.1);
         let mut back = (lon, lat, 0.0);
-        transform(&self.geographic, &self.projection, &mut back).ok()?;
+        transform(geographic, projection, &mut back).ok()?;
         let close = (back.0 - x).abs() < 1e-3 && (back.1 - y).abs() < 1e-3;
         (close && lon.is_finite() && lat.is_finite()).then_some((lon, lat))
     }

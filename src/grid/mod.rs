@@ -17,6 +17,7 @@ mod path;
 mod points;
 mod reproject;
 mod resample;
+mod world_sphere;
 
 pub use coarsen::{Edges, coarsened, factor_for_cells, factor_for_metres};
 pub use demo::{Demonstration, Pose};

@@ -236,6 +236,15 @@ warped_plane("units--modis-sinusoidal-plane",
 warped_plane("units--ease2-plane", "EPSG:6933")
 warped_plane("units--mollweide-plane", "ESRI:54009")
 warped_plane("units--equal-earth-plane", "EPSG:8857")
+# World maps on a sphere that PROJ carries and `proj4rs` does not: Eckert IV (ESRI's PE
+# string in the citation), Van der Grinten (GeoTIFF's CT 25 keys; GDAL's authalic
+# sphere), Winkel Tripel, Goode's interrupted homolosine as SoilGrids comes, and
+# Kavrayskiy VII, which GeoTIFF cannot say: GDAL leaves its PROJ string in the sidecar.
+warped_plane("units--eckert-iv-plane", "ESRI:54012")
+warped_plane("units--van-der-grinten-plane", "ESRI:54029")
+warped_plane("units--winkel-tripel-plane", "ESRI:54042")
+warped_plane("units--goode-plane", "ESRI:54052")
+warped_plane("units--kavrayskiy-plane", "+proj=kav7 +lon_0=0 +datum=WGS84 +units=m")
 # A Lambert conformal cone with its standard parallels at 35° and 45° N, by its
 # parameters: at 60° N its metre spans 0.936 ground metres both ways.
 warped_plane("units--lcc-plane",

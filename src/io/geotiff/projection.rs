@@ -54,6 +54,7 @@ const ORTHOGRAPHIC: u16 = 21;
 const POLYCONIC: u16 = 22;
 const ROBINSON: u16 = 23;
 const SINUSOIDAL: u16 = 24;
+const VAN_DER_GRINTEN: u16 = 25;
 const CYLINDRICAL_EQUAL_AREA: u16 = 28;
 #[cfg(test)]
 const ANGULAR_RADIAN: u16 = 9101;
@@ -224,7 +225,8 @@ pub(super) fn of_keys(keys: &GeoKeys, metres_per_unit: f64) -> Option<Projection
 /// PROJ carries (Transverse Mercator, Lambert conformal of one or two parallels,
 /// Albers, Lambert azimuthal, Mercator, polar stereographic, sinusoidal, cylindrical
 /// equal-area, azimuthal equidistant, equidistant conic and cylindrical, stereographic
-/// and oblique stereographic, Cassini, gnomonic, orthographic, polyconic, Robinson),
+/// and oblique stereographic, Cassini, gnomonic, orthographic, polyconic, Robinson,
+/// Van der Grinten),
 /// on the keys' ellipsoid. Coordinates in the CRS's linear unit
 /// (`metres_per_unit`), as the frame keeps them. `None` for any other method.
 pub(super) fn proj_string(
@@ -321,6 +323,7 @@ pub(super) fn proj_string(
         ORTHOGRAPHIC => format!("+proj=ortho +lat_0={lat_0} +lon_0={lon_0}"),
         POLYCONIC => format!("+proj=poly +lat_0={lat_0} +lon_0={lon_0}"),
         ROBINSON => format!("+proj=robin +lon_0={lon_0}"),
+        VAN_DER_GRINTEN => format!("+proj=vandg +lon_0={lon_0}"),
         CYLINDRICAL_EQUAL_AREA => format!(
             "+proj=cea +lat_ts={} +lon_0={lon_0}",
             degrees(STANDARD_PARALLEL_1).unwrap_or(0.0)
@@ -368,10 +371,24 @@ pub(super) fn of_wkt_citation(
             })
             .collect()
     };
-    let (projection, _) = elements("PROJECTION")
+    // ESRI's world CRSs that GDAL writes by name alone (`World_Van_der_Grinten_I`,
+    // ESRI:54029: no PE string), centred on Greenwich.
+    let esri_world = || {
+        let name = citations.split('|').next()?.trim().strip_prefix("World_")?;
+        Some(normal(name))
+    };
+    let projection = elements("PROJECTION")
         .into_iter()
         .chain(elements("METHOD"))
-        .next()?;
+        .map(|(name, _)| name)
+        .next()
+        .or_else(esri_world)?;
+    // GDAL's WKT 1 for a CRS it has no name for holds its PROJ string.
+    if projection == "custom_proj4" {
+        let key = "EXTENSION[\"PROJ4\",\"";
+        let rest = &citations[citations.find(key)? + key.len()..];
+        return Projection::numeric(&rest[..rest.find('"')?]);
+    }
     let parameters = elements("PARAMETER");
     // A parameter's value and, in WKT 2, its own unit's factor (to radians or metres).
     let parameter = |names: &[&str]| {
@@ -527,7 +544,39 @@ pub(super) fn of_wkt_citation(
                 "polyconic" => "poly".to_string(),
                 "robinson" => "robin".to_string(),
                 "miller_cylindrical" => "mill".to_string(),
-                _ => return None,
+                // World maps on a sphere, as GDAL names them in WKT 1, WKT 2 and ESRI's.
+                "eckert_i" => "eck1".to_string(),
+                "eckert_ii" => "eck2".to_string(),
+                "eckert_iii" => "eck3".to_string(),
+                "eckert_iv" => "eck4".to_string(),
+                "eckert_v" => "eck5".to_string(),
+                "eckert_vi" => "eck6".to_string(),
+                "wagner_iv" => "wag4".to_string(),
+                "vandergrinten" | "van_der_grinten" | "van_der_grinten_i" => "vandg".to_string(),
+                "winkel_i" => format!("wink1 +lat_ts={}", first_parallel.unwrap_or(0.0)),
+                "interrupted_goode_homolosine" => "igh".to_string(),
+                // ESRI's option 1 is the land's interruptions, 2 the oceans'.
+                "goode_homolosine" => match parameter(&["option"]).map(|(o, _)| o) {
+                    Some(1.0) => "igh".to_string(),
+                    Some(o) if o != 0.0 => return None,
+                    _ => "goode".to_string(),
+                },
+                "winkel_tripel" => format!("wintri +lat_1={}", first_parallel.unwrap_or(50.467)),
+                "aitoff" => "aitoff".to_string(),
+                "hammer_aitoff" => "hammer".to_string(),
+                "craster_parabolic" => "crast".to_string(),
+                "natural_earth" => "natearth".to_string(),
+                "kavrayskiy_vii" => "kav7".to_string(),
+                "patterson" => "patterson".to_string(),
+                "times" => "times".to_string(),
+                "gall_stereographic" => "gall".to_string(),
+                // WKT 2's and ESRI's names for a PROJ method with no other (`PROJ kav7`).
+                other => match other.strip_prefix("proj_") {
+                    Some(method) if method.chars().all(|c| c.is_ascii_alphanumeric()) => {
+                        method.to_string()
+                    }
+                    _ => return None,
+                },
             };
             let b = ellipsoid.a * (1.0 - ellipsoid.e2).sqrt();
             return Projection::numeric(&format!(
@@ -821,8 +870,9 @@ mod tests {
         );
         let ([sx, _], _) = tm.axis_scales(1.5e6, 0.0);
         assert!((sx - 0.988_219_404_8).abs() < 1e-4, "{sx}");
-        // An unknown transformation is not measured.
-        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(25);
+        // A transformation with no reader here (the New Zealand Map Grid, CT 26) is
+        // not measured.
+        let short_key = |id: u16| (id == COORDINATE_TRANSFORMATION).then_some(26);
         let keys = GeoKeys {
             short: &short_key,
             double: &|_| None,
