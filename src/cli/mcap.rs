@@ -58,6 +58,19 @@ pub fn inspect_command(args: InspectArgs) -> Result<()> {
         let report = super::inspect_artifact::inspect_folder(&args.file)?;
         return print_report(&report, args.json, super::inspect_artifact::render);
     }
+    if !is_mcap(&args.file)? {
+        return Err(Error::input(
+            &args.file,
+            format!(
+                "is not a file `inspect` reads: neither an MCAP log (it does not start with \
+                 MCAP's magic bytes) nor a raster by its extension ({}), an artifact or a \
+                 DAgger dataset folder",
+                crate::io::RASTER_EXTENSIONS
+                    .map(|e| format!(".{e}"))
+                    .join(", ")
+            ),
+        ));
+    }
     let report = inspect(
         &args.file,
         if args.scan {
@@ -68,6 +81,21 @@ pub fn inspect_command(args: InspectArgs) -> Result<()> {
         args.allow_truncated,
     )?;
     print_report(&report, args.json, render_report)
+}
+
+/// Whether `path` is named `.mcap` or starts with MCAP's magic bytes (a log under
+/// another name): what `inspect` reads as a log, and reports the damage of.
+fn is_mcap(path: &std::path::Path) -> Result<bool> {
+    use std::io::Read;
+    let named = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+    let mut start = Vec::new();
+    crate::error::open_input(path)?
+        .take(mcap::MAGIC.len() as u64)
+        .read_to_end(&mut start)
+        .map_err(|e| Error::io(format!("reading {}", path.display()), e))?;
+    Ok(named || start == mcap::MAGIC)
 }
 
 /// Prints a report to stdout as pretty JSON or as `render` writes it.
