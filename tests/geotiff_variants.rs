@@ -2068,6 +2068,36 @@ fn r_raster_grids_read_as_gdal_reads_them() {
     );
 }
 
+/// ER Mapper rasters as GDAL's ERS driver writes them (each CRS family ER Mapper names,
+/// and CRSs it has none for as GDAL's `EPSG:n`; every sample type) and as ER Mapper
+/// writes them (big-endian, registered in degrees at a cell's centre, a `DataFile` and a
+/// header offset) read as GDAL reads them; degrees on GDA94, which GDAL reads with no
+/// CRS, are read on EPSG:4283; a rotation, a projection not read here and missing
+/// samples are refused by name.
+#[test]
+fn er_mapper_rasters_read_as_gdal_reads_them() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("ers_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let info = &written[0];
+    assert_read_exactly_as_twins(info["pairs"].as_array().unwrap());
+    let gda94 =
+        imitate::io::read_raster(Path::new(info["gda94_degrees"].as_str().unwrap()), "m").unwrap();
+    assert_eq!(gda94.geo.frame, "EPSG:4283");
+    assert!(gda94.geo.degrees);
+    plans_across(dir.path(), "ermapper.ers", "2,2", "50,70");
+    assert_refused(
+        dir.path(),
+        &info["refused"],
+        &[
+            ("rotated", &["rotated.ers", "rotated"][..]),
+            ("projection", &["tmamg.ers", "TMAMG"]),
+            ("headless", &["no_samples.ers", "no_samples", "data file"]),
+        ],
+    );
+}
+
 /// The example rasters R users load (R's raster, terra, stars and rgdal packages, as
 /// Debian ships them: `scripts/sample-data.sh`): R-written grids whose CRS is a PROJ
 /// string (the Dutch RD grid, Mercator), GeoTIFFs (a Landsat 7 scene, DEMs, a land

@@ -6,6 +6,7 @@ pub mod demo_tables;
 pub mod dted;
 pub mod ehdr;
 pub mod envi;
+pub mod ers;
 pub mod fs;
 pub mod geojson;
 pub mod geopackage;
@@ -56,11 +57,12 @@ use crate::grid::Map;
 /// ERDAS Imagine, ENVI (raw samples beside an ENVI header: `.img`, `.dat`, `.envi`...),
 /// netCDF (classic and netCDF-4; GMT's `.grd`, Ferret's `.cdf`, h5netcdf's `.h5`),
 /// Surfer grids (`.grd`), GeoPackage rasters (`.gpkg`), MBTiles and PMTiles, SAGA grids (`.sdat`, `.sgrd`, `.sg-grd-z`),
-/// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders).
-pub const RASTER_EXTENSIONS: [&str; 36] = [
+/// R's raster grids (`.grd` beside `.gri`), Zarr stores (`.zarr` folders), ER Mapper
+/// rasters (`.ers`).
+pub const RASTER_EXTENSIONS: [&str; 37] = [
     "tif", "tiff", "asc", "hgt", "vrt", "zip", "jp2", "j2k", "png", "jpg", "jpeg", "bil", "bip",
     "bsq", "flt", "dem", "dt0", "dt1", "dt2", "xyz", "img", "dat", "envi", "nc", "nc4", "cdf",
-    "h5", "hdf5", "grd", "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr",
+    "h5", "hdf5", "grd", "gpkg", "mbtiles", "pmtiles", "sdat", "sgrd", "sg-grd-z", "zarr", "ers",
 ];
 
 /// Whether `path` names a raster file by its extension (one of [`RASTER_EXTENSIONS`]).
@@ -126,6 +128,7 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         "sdat" | "sgrd" => saga::read_saga_rows(path, name),
         "sg-grd-z" => saga::read_saga_zip_rows(path, name),
         "zarr" => zarr::read_zarr_rows(path, name),
+        "ers" => ers::read_ers_rows(path, name),
         other => Err(Error::input(
             path,
             format!(
@@ -139,7 +142,8 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
                  writes it), Surfer \
                  grids (.grd), R rasters (.grd beside .gri), GeoPackage rasters (.gpkg), \
                  MBTiles (.mbtiles), PMTiles (.pmtiles), SAGA grids (.sdat, .sgrd, \
-                 .sg-grd-z) or Zarr stores (.zarr), not '.{other}'"
+                 .sg-grd-z), Zarr stores (.zarr) or ER Mapper rasters (.ers), not \
+                 '.{other}'"
             ),
         )),
     }
@@ -160,6 +164,7 @@ pub fn raster_sidecars(path: &Path) -> Vec<std::path::PathBuf> {
         "img" | "dat" => hfa::hfa_sidecars(path),
         "envi" => envi::envi_sidecars(path),
         "sdat" | "sgrd" => saga::saga_sidecars(path),
+        "ers" => ers::ers_sidecars(path),
         "grd" if rraster::is_rraster(path) => rraster::rraster_sidecars(path),
         // netCDF and Surfer grids take their CRS where an ASCII grid does.
         "nc" | "nc4" | "cdf" | "h5" | "hdf5" | "grd" => ascii_grid::ascii_grid_sidecars(path),

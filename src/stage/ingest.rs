@@ -67,8 +67,8 @@ pub struct IngestParams {
     /// (.gpkg: imagery tiles or a gridded coverage), an MBTiles package or PMTiles archive
     /// (.mbtiles, .pmtiles: Web Mercator imagery tiles), a SAGA grid (.sdat or .sgrd,
     /// compressed .sg-grd-z: SAGA's and QGIS's terrain tools), a Zarr store (a .zarr
-    /// folder, version 2 or 3, as xarray writes it) or a MovingAI .map (layer
-    /// `blocked`);
+    /// folder, version 2 or 3, as xarray writes it), an ER Mapper raster (.ers beside its
+    /// samples: Geoscience Australia's grids) or a MovingAI .map (layer `blocked`);
     /// several after one --map (as a shell glob gives them) or --map repeated. Maps from files other than tables are named after their file.
     #[arg(long = "map", value_name = "FILE", num_args = 1..)]
     #[serde(default)]
@@ -207,7 +207,8 @@ fn load_map(path: &Path) -> Result<Map> {
                  .dt0/.dt1/.dt2 (DTED), .dem (USGS DEM, GTOPO30), .xyz (gridded XYZ), .img (ERDAS Imagine or ENVI), \
                  .dat/.envi (ENVI), .nc/.nc4/.cdf/.h5/.grd (netCDF, Surfer, R raster), .gpkg (GeoPackage raster), \
                  .mbtiles (MBTiles), .pmtiles (PMTiles), .sdat/.sgrd/.sg-grd-z (SAGA grid), \
-                 .zarr (Zarr store), .map (MovingAI) or .yaml (Nav2) files, not '.{other}'"
+                 .zarr (Zarr store), .ers (ER Mapper), .map (MovingAI) or .yaml (Nav2) files, \
+                 not '.{other}'"
             ),
         )),
     }

@@ -7,6 +7,18 @@ import numpy as np
 import rasterio
 
 
+def write_bands(path, driver, values, crs, transform, names=None, **options):
+    """Writes `values` (bands, rows, columns) with GDAL's `driver` at `path`, its bands
+    described by `names` where given; returns `path`."""
+    with rasterio.open(path, "w", driver=driver, width=values.shape[2],
+                       height=values.shape[1], count=values.shape[0], dtype=values.dtype,
+                       crs=crs, transform=transform, **options) as dst:
+        dst.write(values)
+        if names:
+            dst.descriptions = names
+    return path
+
+
 def twin(path, to=None):
     """Writes `to` (by default `path`.tif), GDAL's reading of `path`; returns [twin,
     path]."""

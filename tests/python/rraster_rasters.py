@@ -21,7 +21,7 @@ import numpy as np
 import rasterio
 from rasterio.transform import from_origin
 
-from gdal_twin import twin
+from gdal_twin import twin, write_bands
 
 out = sys.argv[1]
 rng = np.random.default_rng(9)
@@ -33,13 +33,7 @@ def path_of(name):
 
 
 def write(name, values, crs, transform, names=None, **options):
-    with rasterio.open(path_of(name), "w", driver="RRASTER", width=values.shape[2],
-                       height=values.shape[1], count=values.shape[0], dtype=values.dtype,
-                       crs=crs, transform=transform, **options) as dst:
-        dst.write(values)
-        if names:
-            dst.descriptions = names
-    return path_of(name)
+    return write_bands(path_of(name), "RRASTER", values, crs, transform, names, **options)
 
 
 utm = from_origin(400020.0, 5200010.0, 10, 10)
