@@ -1,7 +1,7 @@
-//! Parquet as users' tools write it: a demonstrations table from pyarrow (every codec),
-//! pandas and polars (zstd, its default, and its other codecs), and a map table with
-//! the codecs GDAL-era pipelines choose, each ingested to the same dataset as the
-//! original. The files come from `tests/python/parquet_writers.py`.
+//! Tables as users' tools write them: a demonstrations table from pyarrow (every codec),
+//! pandas and polars (zstd, its default, and its other codecs; and as their CSV), and a
+//! map table with the codecs GDAL-era pipelines choose, each ingested to the same
+//! dataset as the original. The files come from `tests/python/parquet_writers.py`.
 
 mod common;
 
@@ -101,4 +101,89 @@ fn maps_follow_one_flag_as_a_shell_glob_gives_them() {
         stdout(&globbed).trim().split('\t').nth(2).unwrap(),
         repeated
     );
+}
+
+/// A track exported to CSV as ROS bag exporters write it (bagpy: one file a topic, a
+/// `Time` column and the message's fields by their dotted names, no episode or map
+/// column) is one episode on the default map; malformed CSV is an input error naming
+/// the file and the line.
+#[test]
+fn a_track_exported_to_csv_is_one_episode() {
+    let ws = quickstart_workspace();
+    let mut text =
+        String::from("Time,header.seq,header.frame_id,pose.pose.position.x,pose.pose.position.y\n");
+    for i in 0..20 {
+        let x = 5.0 + f64::from(i);
+        text += &format!("{}.25,{i},odom,{x},{}\n", 100 + i, 3.0 + 0.5 * f64::from(i));
+    }
+    std::fs::write(ws.path().join("odom.csv"), text).unwrap();
+    let out = imitate(
+        ws.path(),
+        &[
+            "ingest",
+            "--demonstrations",
+            "odom.csv",
+            "--column",
+            "t=Time",
+            "--column",
+            "x=pose.pose.position.x",
+            "--column",
+            "y=pose.pose.position.y",
+            "--map",
+            "testdata/world/maps/terrain-000.parquet",
+            "--out",
+            "track",
+        ],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let demos = imitate::io::demo_tables::read_demonstrations(
+        &ws.path().join("track/demonstrations.parquet"),
+    )
+    .unwrap();
+    assert_eq!(demos.len(), 1);
+    assert_eq!(
+        (demos[0].episode.as_str(), demos[0].map.as_str()),
+        ("odom", "terrain-000")
+    );
+    assert_eq!(demos[0].poses.len(), 20);
+    assert_eq!((demos[0].poses[3].t, demos[0].poses[3].x), (103.25, 8.0));
+
+    std::fs::write(
+        ws.path().join("ragged.csv"),
+        "episode,t,x,y\na,0,1,1\na,1,2\n",
+    )
+    .unwrap();
+    std::fs::write(
+        ws.path().join("words.csv"),
+        "episode,t,x,y\na,0,1,1\na,soon,2,2\n",
+    )
+    .unwrap();
+    for (file, needles) in [
+        (
+            "ragged.csv",
+            &["ragged.csv", "not a readable CSV", "line 3"][..],
+        ),
+        (
+            "words.csv",
+            &["words.csv", "column 't'", "expected numbers"],
+        ),
+    ] {
+        let out = imitate(
+            ws.path(),
+            &[
+                "ingest",
+                "--demonstrations",
+                file,
+                "--map",
+                "testdata/world/maps/terrain-000.parquet",
+                "--out",
+                "bad",
+            ],
+        );
+        assert_input_error(&out, needles);
+        assert!(
+            !ws.path().join("bad").exists(),
+            "{file}: nothing is written"
+        );
+    }
 }

@@ -440,7 +440,16 @@ pub fn demonstrations_from_rows(
     default_map: Option<&str>,
     prefix: &str,
 ) -> Result<Vec<Demonstration>> {
-    let episodes = labels(path, batch, &columns.episode)?;
+    // A table with no episode column of the default name (one track exported to CSV)
+    // is one episode, named after its file.
+    let whole_file = columns.episode == Column::named("episode")
+        && batch.column_by_name(&columns.episode.name).is_none();
+    let episodes = if whole_file {
+        let stem = path.file_stem().unwrap_or_default().to_string_lossy();
+        vec![stem.into_owned(); batch.num_rows()]
+    } else {
+        labels(path, batch, &columns.episode)?
+    };
     // A map column that is named but absent falls back to the default map, if any.
     let map_column = columns
         .map
@@ -544,8 +553,37 @@ pub fn read_demonstrations_table(
     columns: &Columns,
     default_map: Option<&str>,
 ) -> Result<Vec<Demonstration>> {
-    let table = read_table(path, Table::DEMONSTRATIONS, true)?;
-    demonstrations_from_rows(path, &table.batch, columns, default_map, "")
+    let is_csv = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("csv"));
+    let batch = if is_csv {
+        read_csv(path)?
+    } else {
+        read_table(path, Table::DEMONSTRATIONS, true)?.batch
+    };
+    demonstrations_from_rows(path, &batch, columns, default_map, "")
+}
+
+/// A CSV file with a header row (as pandas' `to_csv`, polars' `write_csv`, spreadsheets
+/// and ROS bag exporters write them) as one record batch, each column's type inferred
+/// from its values as Arrow infers them (integers, floats, text; empty fields null).
+fn read_csv(path: &Path) -> Result<RecordBatch> {
+    use arrow::csv::reader::{Format, ReaderBuilder};
+    let problem =
+        |e: arrow::error::ArrowError| Error::input(path, format!("not a readable CSV file: {e}"));
+    let bytes = read_input(path)?;
+    let format = Format::default().with_header(true);
+    let (schema, _) = format
+        .infer_schema(std::io::Cursor::new(&bytes), None)
+        .map_err(problem)?;
+    let schema = std::sync::Arc::new(schema);
+    let batches = ReaderBuilder::new(schema.clone())
+        .with_format(format)
+        .build(std::io::Cursor::new(&bytes))
+        .map_err(problem)?
+        .collect::<std::result::Result<Vec<_>, _>>()
+        .map_err(problem)?;
+    arrow::compute::concat_batches(&schema, &batches).map_err(problem)
 }
 
 /// Reads a `demonstrations/1` table (or any table with its column names).

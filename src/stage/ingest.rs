@@ -82,8 +82,10 @@ pub struct IngestParams {
     #[arg(long = "stack", value_name = "NAME=FILE,FILE")]
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub stacks: Vec<String>,
-    /// Demonstrations as a Parquet table (columns episode, map, t, x, y[, yaw], or as
-    /// --column renames them).
+    /// Demonstrations as a Parquet table, or a CSV file with a header row (as pandas,
+    /// polars, spreadsheets and ROS bag exporters write them; `.csv`): columns episode,
+    /// map, t, x, y[, yaw], or as --column renames them. With no episode column the file
+    /// is one episode named after it; with no map column every row is on the default map.
     #[arg(long, value_name = "FILE")]
     #[serde(default)]
     pub demonstrations: Option<PathBuf>,

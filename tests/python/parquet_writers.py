@@ -1,6 +1,6 @@
 """Writes one demonstrations table and one map table the way users' tools write them:
 pyarrow with every codec, pandas' to_parquet, polars' write_parquet (zstd, its default)
-and its other codecs. Prints one JSON line per file: {"file", "writer", "table"}.
+and its other codecs, and the demonstrations as pandas' and polars' CSV. Prints one JSON line per file: {"file", "writer", "table"}.
 
 usage: parquet_writers.py DEMONSTRATIONS.parquet MAP.parquet OUT_DIR
 """
@@ -45,6 +45,15 @@ for codec in ["lz4", "gzip", "brotli", "snappy", "uncompressed"]:
     path = out / f"demos-polars-{codec}.parquet"
     polars_frame.write_parquet(path, compression=codec)
     emit(path, f"polars {codec}", "demonstrations")
+
+# The same table as CSV, as pandas and polars write it (floats in their shortest
+# round-trip form): read to the same dataset.
+path = out / "demos-pandas.csv"
+frame.to_csv(path, index=False)
+emit(path, "pandas to_csv", "demonstrations")
+path = out / "demos-polars.csv"
+polars_frame.write_csv(path)
+emit(path, "polars write_csv", "demonstrations")
 
 # A map/1 table keeps its metadata (the georeference); only the codec changes.
 grid = pq.read_table(map_table)
