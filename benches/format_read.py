@@ -7,7 +7,7 @@ GPKG driver) with the DEM as a gridded coverage and the cover as imagery, both i
 16's Web Mercator grid (so that GDAL writes its cells as they are), and that package as
 a PMTiles archive (Protomaps' converter; GDAL, which reads no raster PMTiles, is timed
 on the package); SAGA (its SAGA driver) with the DEM as a grid, and zipped as SAGA's
-compressed grid (`.sg-grd-z`, Deflate); Zarr (xarray's `to_zarr`) with the DEM in 512²
+compressed grid (`.sg-grd-z`, Deflate); ER Mapper (its ERS driver) with the DEM; Zarr (xarray's `to_zarr`) with the DEM in 512²
 chunks, version 2 (Blosc with LZ4, with BloscLZ, with LZ4 bit-shuffled) and 3
 (Zstandard); each beside an
 uncompressed GeoTIFF twin of the same values. Times `imitate plan` on each (it reads
@@ -95,7 +95,10 @@ def write(path, values, driver, mercator=False, **options):
 
 
 def size_of(path):
-    """The bytes of a file, or of every file in a folder (a Zarr store)."""
+    """The bytes of a file (with its samples beside an ER Mapper header), or of every
+    file in a folder (a Zarr store)."""
+    if path.endswith(".ers"):
+        return os.path.getsize(path) + os.path.getsize(path[:-4])
     if not os.path.isdir(path):
         return os.path.getsize(path)
     return sum(os.path.getsize(os.path.join(folder, name))
@@ -146,6 +149,7 @@ def main():
              ("SAGA: DEM", "dem.sdat", dem, "SAGA", {}),
              ("SAGA: DEM, compressed (.sg-grd-z)", "dem_zipped.sg-grd-z", dem,
               "SAGA compressed", {}),
+             ("ER Mapper: DEM", "dem.ers", dem, "ERS", {}),
              ("Zarr v2: DEM, Blosc LZ4, 512² chunks", "dem_v2.zarr", dem, "Zarr 2", {}),
              ("Zarr v2: DEM, Blosc BloscLZ, 512² chunks", "dem_v2_blosclz.zarr", dem,
               "Zarr 2", {"compressor": Blosc(cname="blosclz", shuffle=Blosc.SHUFFLE)}),

@@ -81,6 +81,7 @@ def copies(source, out, wanted=lambda label: True):
     # Its own name: an ENVI header is x.hdr, as the BIL's is.
     copy("ENVI", stem + "_envi.dat", "ENVI", INTERLEAVE="BIP")
     copy("netCDF-4", stem + ".nc", "netCDF", FORMAT="NC4", COMPRESS="DEFLATE")
+    copy("ER Mapper", stem + ".ers", "ERS")
     # Zarr, as xarray writes a raster's bands (version 2: Blosc with LZ4; 3: Zstandard).
     for version in (2, 3):
         label = f"Zarr v{version}"
@@ -163,7 +164,9 @@ def main():
             mean = sum(f[0] for f in figures) / len(figures)
             within = sum(f[1] for f in figures) / len(figures)
             good = sum(f[0] <= 1.03 for f in figures)
-            size = os.path.getsize(path)
+            # An ER Mapper header's samples lie beside it.
+            size = os.path.getsize(path) + (
+                os.path.getsize(path[:-4]) if path.endswith(".ers") else 0)
             print(f"| {name} | {label} | {size:,} | {mean:.4f} | {good} of {len(figures)} | "
                   f"{within:.1%} | {'yes' if figures == reference else 'no'} |", flush=True)
 

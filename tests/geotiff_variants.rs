@@ -2068,6 +2068,22 @@ fn r_raster_grids_read_as_gdal_reads_them() {
     );
 }
 
+/// Rasters whose columns run west (a negative x step: GeoTIFFs north-up and south-up, a
+/// tiled 2-band one with nodata, an Imagine file, a BIL, a PNG beside its world file and
+/// GDAL's VRT of one) read to the grid and cells of GDAL's reading turned east by
+/// NumPy, every value and nodata cell the same.
+#[test]
+fn rasters_whose_columns_run_west_read_as_gdal_reads_them_turned_east() {
+    let dir = tempfile::tempdir().unwrap();
+    let Some(written) = python_script("westward_rasters.py", &[dir.path()]) else {
+        return;
+    };
+    let pairs = written[0]["pairs"].as_array().unwrap();
+    assert_eq!(pairs.len(), 7);
+    assert_read_exactly_as_twins(pairs);
+    plans_across(dir.path(), "west.tif", "2,2", "45,65");
+}
+
 /// ER Mapper rasters as GDAL's ERS driver writes them (each CRS family ER Mapper names,
 /// and CRSs it has none for as GDAL's `EPSG:n`; every sample type) and as ER Mapper
 /// writes them (big-endian, registered in degrees at a cell's centre, a `DataFile` and a

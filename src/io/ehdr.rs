@@ -11,6 +11,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::FileOrder;
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference, sidecar};
@@ -217,7 +218,7 @@ impl Layout {
 }
 
 /// The raw raster at `path` as map `name`, with whether its rows ran from the north.
-pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_ehdr_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let header = header_path(path);
     let text = std::fs::read_to_string(&header).map_err(|e| {
@@ -325,7 +326,7 @@ pub(super) fn read_raw(
     name: &str,
     header: &Path,
     raster: RawRaster,
-) -> Result<(Map, bool)> {
+) -> Result<(Map, FileOrder)> {
     let bytes = read_input(path)?;
     read_raw_bytes(path, &bytes, name, header, raster)
 }
@@ -356,7 +357,7 @@ pub(super) fn read_raw_bytes(
     name: &str,
     header: &Path,
     raster: RawRaster,
-) -> Result<(Map, bool)> {
+) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     check_cells(path, header, &raster.layout)?;
     let RawRaster {
@@ -398,13 +399,13 @@ pub(super) fn read_raw_bytes(
         height,
         Georeferencing::of_grid(transform, &keys, ascii),
     )?;
-    let north_up = transform[4] < 0.0;
+    let order = FileOrder::of_transform(&transform);
     let nodata = layout.nodata.map(|n| n as f32);
     let samples = Samples {
         width,
         height,
         bands: layout.bands,
-        north_up,
+        order,
         heights,
         sample: |band: usize, cell: usize| {
             let at = layout.offset(band, cell);
@@ -531,7 +532,8 @@ fn read_header(text: &str, grid_float: bool) -> std::result::Result<Layout, Stri
         }
         _ => None,
     };
-    if !(dx.is_finite() && dy.is_finite() && dx > 0.0 && dy > 0.0) {
+    // A negative XDIM steps west and a negative YDIM north, as GDAL reads them.
+    if !(dx.is_finite() && dy.is_finite() && dx != 0.0 && dy != 0.0) {
         return Err(format!("its cells of {dx} × {dy} are not a size"));
     }
     let nodata = match number("nodata")? {
@@ -632,7 +634,7 @@ mod tests {
             ("NROWS 2\nNCOLS 3\nBYTEORDER Q\n", "BYTEORDER"),
             ("NROWS 2\nNCOLS 3\nLAYOUT ZZZ\n", "LAYOUT"),
             ("NROWS 0\nNCOLS 3\n", "0 cells"),
-            ("NROWS 2\nNCOLS 3\nXDIM -1\nYDIM 1\n", "not a size"),
+            ("NROWS 2\nNCOLS 3\nXDIM 0\nYDIM 1\n", "not a size"),
         ] {
             let error = read_header(text, false).unwrap_err();
             assert!(error.contains(needle), "{text:?}: {error}");

@@ -13,6 +13,7 @@
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use super::FileOrder;
 use super::ascii_grid::crs_keys;
 use super::ehdr::{Interleave, Layout, RawRaster, RawValues, Sample, read_raw};
 use super::geotiff::{sidecar, wkt_geokeys};
@@ -270,7 +271,7 @@ fn raster(text: &str, path: &Path) -> std::result::Result<RawRaster, String> {
 }
 
 /// The ENVI raster at `path` as map `name`, with whether its rows ran from the north.
-pub fn read_envi_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_envi_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let header = envi_header(path).ok_or_else(|| {
         problem(

@@ -11,6 +11,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::FileOrder;
 use super::ehdr::{Interleave, Layout, RawRaster, RawValues, Sample, read_raw_bytes};
 use super::geotiff::sidecar;
 use super::named_crs::{Named, epsg_geokeys, geokeys};
@@ -116,7 +117,7 @@ pub fn ers_sidecars(path: &Path) -> Vec<PathBuf> {
 
 /// The ER Mapper raster whose header is `path`, as map `name`, with whether its rows
 /// ran from the north.
-pub fn read_ers_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_ers_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
     let text = std::str::from_utf8(&bytes)

@@ -23,6 +23,7 @@ use std::path::Path;
 
 use rusqlite::{Connection, OptionalExtension};
 
+use super::FileOrder;
 use super::geotiff::metadata::metres_per_unit;
 use super::geotiff::{Georeferencing, georeference, wkt_geokeys};
 use super::picture::Picture;
@@ -67,7 +68,7 @@ struct Coverage {
 
 /// The GeoPackage raster at `path` as map `name`, with whether its rows ran from the
 /// north (always: tiles run from the north-west).
-pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let db = open_sqlite(path, "a GeoPackage")?;
     let table = raster_table(&db).map_err(&problem)?;
@@ -118,7 +119,7 @@ pub fn read_geopackage_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         width: width as u32,
         height: height as u32,
         bands,
-        north_up: true,
+        order: FileOrder::NORTH_UP,
         heights: unit.and_then(metres_per_unit).unwrap_or(heights),
         sample: |band: usize, cell: usize| values[cell * bands + band],
     };

@@ -26,6 +26,7 @@ use rayon::prelude::*;
 use tiff::decoder::{Decoder, Limits};
 use tiff::tags::{PlanarConfiguration, Tag};
 
+use super::FileOrder;
 use crate::error::{Error, Result, read_input};
 use crate::grid::{GeoRef, Layer, Map, TiffCrs, metres_per_epsg_unit};
 
@@ -142,7 +143,7 @@ pub fn read_geotiff(path: &Path, name: &str) -> Result<Map> {
 
 /// Reads the GeoTIFF at `path` as the map `name`, with whether the file's rows ran from
 /// the north (a north-up raster's: ours run from the south, so the reader turned them).
-pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let mut bytes = read_input(path)?;
     // A palette image's values are the codes of its colours' classes (land cover):
     // its layers are declared classes.
@@ -321,7 +322,7 @@ pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> 
             pixel_is_point_tags: from_tags,
         },
     )?;
-    let north_up = transform[4] < 0.0;
+    let order = FileOrder::of_transform(&transform);
 
     let is_nodata = |v: f32| match nodata_sample {
         Some(n) if n.is_nan() => v.is_nan(),
@@ -397,14 +398,11 @@ pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> 
                 .par_chunks_mut(width as usize)
                 .enumerate()
                 .for_each(|(row, cells)| {
-                    let source_row = if north_up {
-                        height as usize - 1 - row
-                    } else {
-                        row
-                    };
                     for (col, cell) in cells.iter_mut().enumerate() {
-                        let v = values[sample(band, source_row, col)];
-                        *cell = if is_nodata(v) || is_masked(band, source_row, col) {
+                        let (source_row, source_col) =
+                            order.file_cell(row, col, width as usize, height as usize);
+                        let v = values[sample(band, source_row, source_col)];
+                        *cell = if is_nodata(v) || is_masked(band, source_row, source_col) {
                             f32::NAN
                         } else {
                             physical(v)
@@ -444,7 +442,7 @@ pub(crate) fn read_geotiff_rows(path: &Path, name: &str) -> Result<(Map, bool)> 
         geo,
         layers,
     };
-    Ok((map, north_up))
+    Ok((map, order))
 }
 
 /// Where a raster's cells lie, as GDAL gives it: its geotransform and its CRS as
@@ -530,9 +528,10 @@ pub(crate) fn georeference(
              axis-aligned rasters are supported: warp it first (gdalwarp)"
         )));
     }
-    if !(a > 0.0 && e != 0.0 && a.is_finite() && e.is_finite()) {
+    if !(a != 0.0 && e != 0.0 && a.is_finite() && e.is_finite()) {
         return Err(problem(format!(
-            "cells of {a} × {} are not a valid size with x growing east",
+            "cells of {} × {} are not a valid size",
+            a.abs(),
             e.abs()
         )));
     }
@@ -542,7 +541,9 @@ pub(crate) fn georeference(
     } else {
         (c, f)
     };
-    let north_up = e < 0.0;
+    // A file's columns may run west (a negative x step): the readers turn them east
+    // (`FileOrder`), so the grid starts at its west edge.
+    let (north_up, columns_from_east) = (e < 0.0, a < 0.0);
     // Angles become degrees; a projected CRS keeps its coordinates in its own unit
     // (feet, as the user's other data in that CRS are), measured on the ground by
     // `ground_scale`.
@@ -551,14 +552,19 @@ pub(crate) fn georeference(
     } else {
         (1.0, units.scale)
     };
-    let (x_size, y_size) = (a * coordinates, e.abs() * coordinates);
+    let (x_size, y_size) = (a.abs() * coordinates, e.abs() * coordinates);
     let mut geo = GeoRef {
         width,
         height,
         resolution: x_size,
         resolution_y: (y_size != x_size).then_some(y_size),
         origin: [
-            c * coordinates,
+            coordinates
+                * if columns_from_east {
+                    c + a * f64::from(width)
+                } else {
+                    c
+                },
             coordinates
                 * if north_up {
                     f + e * f64::from(height)

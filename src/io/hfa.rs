@@ -26,6 +26,7 @@ use dictionary::{
     Dictionary, MAX_DEPTH, PixelType, TRUNCATED, Value, decode_object, parse_dictionary, u32_at,
 };
 
+use super::FileOrder;
 use super::MAX_MAP_CELLS as MAX_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference, pam_georeference, sidecar, wkt_geokeys};
@@ -591,7 +592,7 @@ fn parameter_keys(file: &Imagine, node: &Node) -> std::result::Result<Option<Vec
 }
 
 /// The Imagine raster at `path` as map `name`, with whether its rows ran from the north.
-pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let file = Imagine::parse(read_input(path)?).map_err(problem)?;
     let layers: Vec<&Node> = file
@@ -696,7 +697,7 @@ pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         height as u32,
         Georeferencing::of_grid(transform, &keys, ascii),
     )?;
-    let north_up = transform[4] < 0.0;
+    let order = FileOrder::of_transform(&transform);
     let values: Vec<Vec<f32>> = bands
         .iter()
         .map(|band| match (&spill, band.in_spill) {
@@ -709,7 +710,7 @@ pub fn read_hfa_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         width: width as u32,
         height: height as u32,
         bands: bands.len(),
-        north_up,
+        order,
         heights,
         sample: |band: usize, cell: usize| {
             let value = values[band][cell];
@@ -874,8 +875,8 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("small.img");
         std::fs::write(&path, small_file()).unwrap();
-        let (map, north_up) = read_hfa_rows(&path, "small").unwrap();
-        assert!(north_up);
+        let (map, order) = read_hfa_rows(&path, "small").unwrap();
+        assert_eq!(order, FileOrder::NORTH_UP);
         assert_eq!((map.geo.width, map.geo.height), (5, 3));
         assert_eq!(map.geo.resolution, 1.0);
         assert_eq!(map.geo.resolution_y, Some(2.0));

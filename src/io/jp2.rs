@@ -15,6 +15,7 @@ use quick_xml::events::Event;
 use quick_xml::reader::Reader;
 use rayon::prelude::*;
 
+use super::FileOrder;
 use super::geotiff::{Georeferencing, georeference, pam_georeference, tags_georeference};
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, read_input};
@@ -30,7 +31,7 @@ const CODESTREAM_START: [u8; 4] = [0xff, 0x4f, 0xff, 0x51];
 
 /// The JPEG 2000 raster at `path` as map `name`, with whether its rows ran from the
 /// north.
-pub fn read_jp2_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_jp2_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
     let file = parse_file(&bytes).map_err(problem)?;
@@ -63,13 +64,13 @@ pub fn read_jp2_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
             pixel_is_point_tags: false,
         },
     )?;
-    let north_up = transform[4] < 0.0;
+    let order = FileOrder::of_transform(&transform);
     // Bands named, scaled and given nodata by GDAL's sidecar, where there is one.
     let samples = Samples {
         width,
         height,
         bands: image.components.len(),
-        north_up,
+        order,
         heights,
         sample: |band: usize, cell: usize| image.components[band][cell] as f32,
     };

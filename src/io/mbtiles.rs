@@ -21,6 +21,7 @@ use std::path::Path;
 use rusqlite::types::Value;
 use rusqlite::{Connection, OptionalExtension};
 
+use super::FileOrder;
 use super::geotiff::{Georeferencing, georeference};
 use super::named_crs::epsg_geokeys;
 use super::sidecar_bands::{self, FileMasks, Samples};
@@ -40,7 +41,7 @@ pub(super) const MAX_ZOOM: i64 = 22;
 
 /// The MBTiles raster at `path` as map `name`, with whether its rows ran from the north
 /// (always: the grid runs from the north-west).
-pub fn read_mbtiles_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_mbtiles_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let db = open_sqlite(path, "an MBTiles file")?;
     let metadata = metadata(&db).map_err(&problem)?;
@@ -73,7 +74,7 @@ pub(super) fn tiles_map(
     matrix: &TileMatrix,
     window: &Window,
     tiles: Vec<Tile>,
-) -> Result<(Map, bool)> {
+) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let keys = epsg_geokeys(3857, true);
     let transform = [
@@ -103,7 +104,7 @@ pub(super) fn tiles_map(
         width: width as u32,
         height: height as u32,
         bands,
-        north_up: true,
+        order: FileOrder::NORTH_UP,
         heights,
         sample: |band: usize, cell: usize| values[cell * bands + band],
     };

@@ -50,6 +50,58 @@ use crate::error::{Error, Result};
 pub(crate) const MAX_MAP_CELLS: usize = 1 << 32;
 use crate::grid::Map;
 
+/// The order a file stores its cells in. The readers turn them to ours, rows from the
+/// south and columns from the west; a VRT's windows count in the file's own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct FileOrder {
+    /// Whether the file's rows run from the north (most rasters').
+    pub rows_from_north: bool,
+    /// Whether its columns run from the east (a geotransform stepping west).
+    pub columns_from_east: bool,
+}
+
+impl FileOrder {
+    /// Rows from the north, columns from the west: most rasters' order.
+    pub const NORTH_UP: FileOrder = FileOrder {
+        rows_from_north: true,
+        columns_from_east: false,
+    };
+
+    /// Rows from the north or the south, as `rows_from_north` says; columns from the west.
+    pub fn rows(rows_from_north: bool) -> FileOrder {
+        FileOrder {
+            rows_from_north,
+            columns_from_east: false,
+        }
+    }
+
+    /// The order of a file whose cells GDAL's geotransform `transform` places.
+    pub fn of_transform(transform: &[f64; 6]) -> FileOrder {
+        FileOrder {
+            rows_from_north: transform[4] < 0.0,
+            columns_from_east: transform[0] < 0.0,
+        }
+    }
+
+    /// The file's row and column (counted as it stores them) of our cell `row` (from the
+    /// south), `col` (from the west) on a `width` × `height` grid; and the reverse, the
+    /// turn being its own inverse.
+    pub fn file_cell(self, row: usize, col: usize, width: usize, height: usize) -> (usize, usize) {
+        (
+            if self.rows_from_north {
+                height - 1 - row
+            } else {
+                row
+            },
+            if self.columns_from_east {
+                width - 1 - col
+            } else {
+                col
+            },
+        )
+    }
+}
+
 /// The extensions of the raster files read as maps: GeoTIFF, Esri ASCII grid, SRTM tile,
 /// GDAL virtual raster, zipped SRTM tile, JPEG 2000, georeferenced PNG and JPEG, raw
 /// rasters with an ESRI `.hdr` (BIL, BIP, BSQ, GridFloat, GTOPO30's `.dem`), USGS
@@ -96,13 +148,13 @@ pub fn read_raster(path: &Path, name: &str) -> Result<Map> {
     read_raster_rows(path, name).map(|(map, _)| map)
 }
 
-/// The raster at `path` as map `name`, with whether the file's rows ran from the north
-/// (the readers turn them to run from the south): what a VRT's windows count in.
-fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+/// The raster at `path` as map `name`, with the order the file stored its cells in (the
+/// readers turn them to ours): what a VRT's windows count in.
+fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     match extension_of(path).as_str() {
-        "asc" => ascii_grid::read_ascii_grid(path, name).map(|map| (map, true)),
-        "hgt" => hgt::read_hgt(path, name).map(|map| (map, true)),
-        "zip" => hgt::read_hgt_zip(path, name).map(|map| (map, true)),
+        "asc" => ascii_grid::read_ascii_grid(path, name).map(|map| (map, FileOrder::NORTH_UP)),
+        "hgt" => hgt::read_hgt(path, name).map(|map| (map, FileOrder::NORTH_UP)),
+        "zip" => hgt::read_hgt_zip(path, name).map(|map| (map, FileOrder::NORTH_UP)),
         "tif" | "tiff" => geotiff::read_geotiff_rows(path, name),
         "vrt" => vrt::read_vrt_rows(path, name, 0),
         "jp2" | "j2k" => jp2::read_jp2_rows(path, name),
@@ -112,10 +164,10 @@ fn read_raster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
             envi::read_envi_rows(path, name)
         }
         "dem" if usgs_dem::is_usgs_dem(path) => {
-            usgs_dem::read_usgs_dem(path, name).map(|map| (map, true))
+            usgs_dem::read_usgs_dem(path, name).map(|map| (map, FileOrder::NORTH_UP))
         }
         "bil" | "bip" | "bsq" | "flt" | "dem" => ehdr::read_ehdr_rows(path, name),
-        "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, true)),
+        "dt0" | "dt1" | "dt2" => dted::read_dted(path, name).map(|map| (map, FileOrder::NORTH_UP)),
         "xyz" => xyz::read_xyz_rows(path, name),
         "img" => hfa::read_hfa_rows(path, name),
         "dat" | "envi" => envi::read_envi_rows(path, name),

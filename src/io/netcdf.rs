@@ -34,6 +34,7 @@ use rayon::prelude::*;
 
 mod classic_names;
 
+use super::FileOrder;
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::metadata::metres_per_unit;
@@ -704,7 +705,7 @@ fn band(
 }
 
 /// The netCDF raster at `path` as map `name`, with whether its rows ran from the north.
-pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     // Mapped, not read: a file is known too large to be a map from its header alone.
     open_input(path)?;
@@ -775,7 +776,7 @@ pub fn read_netcdf_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         width: width as u32,
         height: height as u32,
         bands,
-        north_up: grid.y.step < 0.0,
+        order: FileOrder::rows(grid.y.step < 0.0),
         heights,
         sample: |band: usize, cell: usize| {
             let (row, mut column) = (cell / width, cell % width);

@@ -15,6 +15,7 @@
 use std::io::{Cursor, Read};
 use std::path::Path;
 
+use super::FileOrder;
 use super::geotiff::{Georeferencing, georeference, pam_georeference, world_file_transform};
 use super::sidecar_bands::{self, FileMasks, Samples};
 use crate::error::{Error, Result, read_input};
@@ -25,7 +26,7 @@ const MAX_DECODED_BYTES: usize = 16 << 30;
 
 /// The georeferenced PNG or JPEG image at `path` as map `name`, with whether its rows
 /// ran from the north.
-pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
     let image = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
@@ -59,13 +60,13 @@ pub fn read_picture_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         height,
         Georeferencing::of_grid(transform, &keys, pam.citation),
     )?;
-    let north_up = transform[4] < 0.0;
+    let order = FileOrder::of_transform(&transform);
     let bands = image.bands;
     let samples = Samples {
         width,
         height,
         bands,
-        north_up,
+        order,
         heights,
         sample: |band: usize, cell: usize| image.samples[cell * bands + band],
     };

@@ -13,6 +13,7 @@ use std::fs::File;
 use std::io::{Read, Seek, SeekFrom};
 use std::path::Path;
 
+use super::FileOrder;
 use super::mbtiles::{
     HALF_WORLD, MAX_ZOOM, degrees_to_extent, tile_range_extent, tiles_map, web_mercator_matrix,
 };
@@ -401,7 +402,7 @@ impl Archive {
 
 /// The PMTiles archive at `path` as map `name`, with whether its rows ran from the
 /// north (always).
-pub fn read_pmtiles_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_pmtiles_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let mut archive = Archive::open(path)?;
     let zoom = archive.header.max_zoom;

@@ -14,6 +14,7 @@
 
 use std::path::{Path, PathBuf};
 
+use super::FileOrder;
 use super::ascii_grid::crs_keys;
 use super::ehdr::{Interleave, KeyValues, Layout, RawRaster, RawValues, Sample, read_raw_bytes};
 use super::geotiff::{sidecar, wkt_geokeys};
@@ -58,7 +59,7 @@ pub fn rraster_sidecars(path: &Path) -> Vec<PathBuf> {
 
 /// The R raster whose header is `path` as map `name`, with whether its rows ran from
 /// the north.
-pub fn read_rraster_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_rraster_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let text = std::fs::read_to_string(path)
         .map_err(|e| problem(format!("its header cannot be read as text ({e})")))?;

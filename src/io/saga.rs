@@ -17,6 +17,7 @@
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+use super::FileOrder;
 use super::ascii_grid::crs_keys;
 use super::ehdr::{
     Interleave, KeyValues, Layout, RawRaster, RawValues, Sample, check_cells, read_raw,
@@ -77,7 +78,7 @@ fn data_path(header: &Path, parsed: &Header) -> PathBuf {
 
 /// The grid at `path` (its `.sdat` or its `.sgrd`) as map `name`, with whether its rows
 /// ran from the north.
-pub fn read_saga_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_saga_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let header = header_path(path);
     let text = std::fs::read_to_string(&header).map_err(|e| {
@@ -99,7 +100,7 @@ pub fn read_saga_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
 
 /// The compressed grid at `path` (`.sg-grd-z`) as map `name`, with whether its rows ran
 /// from the north: read from the archive as it is, never unzipped to disk.
-pub fn read_saga_zip_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_saga_zip_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let unreadable =
         |e: zip::result::ZipError| problem(format!("is not a readable ZIP archive: {e}"));

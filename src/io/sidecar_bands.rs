@@ -10,6 +10,7 @@ use std::path::Path;
 
 use rayon::prelude::*;
 
+use super::FileOrder;
 use super::geotiff::metadata::{layer_names, metres_per_unit};
 use super::geotiff::{declared_class_bands, pam_bands};
 use crate::error::{Error, Result};
@@ -41,8 +42,8 @@ pub(crate) struct Samples<F> {
     pub width: u32,
     pub height: u32,
     pub bands: usize,
-    /// Whether the file's rows run from the north (ours run from the south).
-    pub north_up: bool,
+    /// The order the file stores its cells in (ours: rows from the south).
+    pub order: FileOrder,
     /// Metres per unit of the heights (the CRS's vertical unit), for bands whose
     /// sidecar names no unit of length.
     pub heights: f64,
@@ -51,25 +52,25 @@ pub(crate) struct Samples<F> {
 }
 
 /// The raster at `path` as map `name` on `geo`, its layers as [`layers`] gives them,
-/// with whether the file's rows ran from the north.
+/// with the order the file stored its cells in.
 pub(crate) fn map<F>(
     path: &Path,
     name: &str,
     geo: GeoRef,
     raster: Samples<F>,
     file: &FileMasks,
-) -> Result<(Map, bool)>
+) -> Result<(Map, FileOrder)>
 where
     F: Fn(usize, usize) -> f32 + Sync,
 {
-    let north_up = raster.north_up;
+    let order = raster.order;
     let layers = layers(path, raster, file)?;
     let map = Map {
         name: name.to_string(),
         geo,
         layers,
     };
-    Ok((map, north_up))
+    Ok((map, order))
 }
 
 /// The layers of the raster at `path`: named, scaled and masked as its sidecar and
@@ -84,7 +85,7 @@ where
         width,
         height,
         bands,
-        north_up,
+        order,
         heights,
         sample,
     } = raster;
@@ -143,9 +144,9 @@ where
             };
             let mut values = vec![0f32; row * height as usize];
             values.par_chunks_mut(row).enumerate().for_each(|(r, out)| {
-                let source_row = if north_up { height as usize - 1 - r } else { r };
                 for (c, value) in out.iter_mut().enumerate() {
-                    let cell = source_row * row + c;
+                    let (file_row, file_col) = order.file_cell(r, c, row, height as usize);
+                    let cell = file_row * row + file_col;
                     let v = sample(band, cell);
                     *value = if is_masked(band, cell, v) {
                         f32::NAN

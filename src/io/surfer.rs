@@ -7,6 +7,7 @@
 
 use std::path::Path;
 
+use super::FileOrder;
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference};
@@ -237,7 +238,7 @@ fn surfer7(bytes: &[u8]) -> std::result::Result<Grid, String> {
 
 /// The Surfer grid at `path` as map `name`, with whether its rows ran from the north
 /// (never: Surfer's run from the south).
-pub fn read_surfer_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_surfer_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
     let grid = match bytes.get(..4) {
@@ -267,7 +268,7 @@ pub fn read_surfer_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         width: grid.columns as u32,
         height: grid.rows as u32,
         bands: 1,
-        north_up: false,
+        order: FileOrder::rows(false),
         heights,
         sample: |_band: usize, cell: usize| grid.values[cell],
     };

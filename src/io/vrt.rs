@@ -22,6 +22,7 @@ use quick_xml::reader::Reader;
 
 use rayon::prelude::*;
 
+use super::FileOrder;
 use super::MAX_MAP_CELLS as MAX_CELLS;
 use super::ehdr::Sample;
 use super::geotiff::metadata::{BandMetadata, layer_names, metres_per_unit};
@@ -640,11 +641,10 @@ fn parse_source(source: &Element, folder: &Path) -> std::result::Result<Source, 
     })
 }
 
-/// A source file as read, with whether its rows ran from the north.
-type Read = (Map, bool);
+/// A source file as read, with the order it stored its cells in.
+type Read = (Map, FileOrder);
 
-/// The VRT at `path` as map `name`, with whether its rows ran from the north; `depth`
-/// VRTs deep.
+/// The VRT at `path` as map `name`, with the order its cells run in; `depth` VRTs deep.
 pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Read> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
@@ -671,7 +671,7 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
         height,
         Georeferencing::of_grid(transform, &keys, ascii),
     )?;
-    let north_up = transform[4] < 0.0;
+    let order = FileOrder::of_transform(&transform);
     let names = layer_names(
         &dataset
             .bands
@@ -706,7 +706,7 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
                 let read = read.map_err(|e| in_source(e.to_string()))?;
                 files.insert(source.file.clone(), read);
             }
-            let (map, file_north_up) = &files[&source.file];
+            let (map, file_order) = &files[&source.file];
             let layer = map.layers.get(source.band).ok_or_else(|| {
                 in_source(format!(
                     "{} has {} band(s), not band {}",
@@ -720,7 +720,7 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
                 values: &layer.values,
                 width: map.geo.width as usize,
                 height: map.geo.height as usize,
-                north_up: *file_north_up,
+                order: *file_order,
             };
             place(&mut cells, [width, height], source, &file).map_err(in_source)?;
         }
@@ -743,11 +743,13 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
                 ((stored * scale + offset) * heights) as f32
             };
         }
-        if north_up {
-            let row = width as usize;
-            let rows: Vec<f32> = cells.chunks_exact(row).rev().flatten().copied().collect();
-            cells = rows;
-        }
+        let (row, rows) = (width as usize, height as usize);
+        cells = (0..rows * row)
+            .map(|cell| {
+                let (r, c) = order.file_cell(cell / row, cell % row, row, rows);
+                cells[r * row + c]
+            })
+            .collect();
         let layer = Layer::new(names[index].clone(), cells);
         layers.push(if classes {
             layer.declared_classes()
@@ -766,27 +768,23 @@ pub(super) fn read_vrt_rows(path: &Path, name: &str, depth: usize) -> Result<Rea
         geo,
         layers,
     };
-    Ok((map, north_up))
+    Ok((map, order))
 }
 
-/// A source band's values as the reader gave them (rows from the south), and whether
-/// the file's rows ran from the north, as the VRT's windows count them.
+/// A source band's values as the reader gave them (rows from the south, columns from
+/// the west), and the order the file stored them in, as the VRT's windows count them.
 struct SourceCells<'a> {
     values: &'a [f32],
     width: usize,
     height: usize,
-    north_up: bool,
+    order: FileOrder,
 }
 
 impl SourceCells<'_> {
     /// The value at the file's column `col`, row `row` (counted as the file counts).
     fn at(&self, col: usize, row: usize) -> f32 {
-        let ours = if self.north_up {
-            self.height - 1 - row
-        } else {
-            row
-        };
-        self.values[ours * self.width + col]
+        let (ours_row, ours_col) = self.order.file_cell(row, col, self.width, self.height);
+        self.values[ours_row * self.width + ours_col]
     }
 }
 
@@ -1220,7 +1218,7 @@ mod tests {
             values,
             width: 2,
             height: 2,
-            north_up: true,
+            order: FileOrder::NORTH_UP,
         }
     }
 
@@ -1288,7 +1286,7 @@ mod tests {
             values: &values,
             width: 3,
             height: 2,
-            north_up: true,
+            order: FileOrder::NORTH_UP,
         };
         // Three columns onto two cells of one row: 1.5 source cells each.
         let onto = |averaging| {
@@ -1330,7 +1328,7 @@ mod tests {
             values: &values,
             width: 2,
             height: 1,
-            north_up: false,
+            order: FileOrder::rows(false),
         };
         let onto = |resampling: &str, file: &SourceCells| {
             let source = Source {

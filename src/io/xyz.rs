@@ -8,6 +8,7 @@
 
 use std::path::Path;
 
+use super::FileOrder;
 use super::ascii_grid::crs_keys;
 use super::geotiff::{Georeferencing, georeference};
 use crate::error::{Error, Result, read_input};
@@ -32,7 +33,7 @@ const Z_NAMES: [&str; 8] = [
 ];
 
 /// The XYZ grid at `path` as map `name`, with whether its rows ran from the north.
-pub fn read_xyz_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_xyz_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let bytes = read_input(path)?;
     let text = std::str::from_utf8(&bytes)
@@ -77,7 +78,7 @@ pub fn read_xyz_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
         geo,
         layers: vec![Layer::new("band1", values)],
     };
-    Ok((map, north_first))
+    Ok((map, FileOrder::rows(north_first)))
 }
 
 /// The points of an XYZ text: the columns a header names (else the first three), one

@@ -26,6 +26,7 @@ use base64::Engine as _;
 use rayon::prelude::*;
 use serde_json::{Map as JsonMap, Value};
 
+use super::FileOrder;
 use super::MAX_MAP_CELLS;
 use super::ascii_grid::crs_keys;
 use super::blosc;
@@ -742,7 +743,7 @@ fn in_degrees(array: &Array) -> bool {
 }
 
 /// The Zarr store at `path` as map `name`, with whether its rows ran from the north.
-pub fn read_zarr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
+pub fn read_zarr_rows(path: &Path, name: &str) -> Result<(Map, FileOrder)> {
     let problem = |message: String| Error::input(path, message);
     let all = arrays(path)?;
     let coordinate = |dimension: &str, length: usize| {
@@ -860,12 +861,12 @@ pub fn read_zarr_rows(path: &Path, name: &str) -> Result<(Map, bool)> {
             }));
         }
     }
-    let north_up = y.step < 0.0;
+    let order = FileOrder::rows(y.step < 0.0);
     let samples = Samples {
         width: width as u32,
         height: height as u32,
         bands: layers.len(),
-        north_up,
+        order,
         heights,
         sample: |band: usize, cell: usize| layers[band][cell],
     };
