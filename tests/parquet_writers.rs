@@ -148,6 +148,42 @@ fn a_track_exported_to_csv_is_one_episode() {
     assert_eq!(demos[0].poses.len(), 20);
     assert_eq!((demos[0].poses[3].t, demos[0].poses[3].x), (103.25, 8.0));
 
+    // Semicolons behind Excel's UTF-8 byte-order mark, and tabs: the same episode.
+    let rows: Vec<String> = demos[0]
+        .poses
+        .iter()
+        .map(|p| format!("{};{};{}", p.t, p.x, p.y))
+        .collect();
+    let semicolons = format!("\u{feff}Time;X;Y\n{}\n", rows.join("\n"));
+    std::fs::write(ws.path().join("odom.csv"), &semicolons).unwrap();
+    std::fs::write(ws.path().join("tabs.csv"), semicolons.replace(';', "\t")).unwrap();
+    for (file, out) in [("odom.csv", "semicolons"), ("tabs.csv", "tabs")] {
+        let result = imitate(
+            ws.path(),
+            &[
+                "ingest",
+                "--demonstrations",
+                file,
+                "--column",
+                "t=Time",
+                "--column",
+                "x=X",
+                "--column",
+                "y=Y",
+                "--map",
+                "testdata/world/maps/terrain-000.parquet",
+                "--out",
+                out,
+            ],
+        );
+        assert!(result.status.success(), "{file}: {}", stderr(&result));
+        let again = imitate::io::demo_tables::read_demonstrations(
+            &ws.path().join(out).join("demonstrations.parquet"),
+        )
+        .unwrap();
+        assert_eq!(again[0].poses, demos[0].poses, "{file}");
+    }
+
     std::fs::write(
         ws.path().join("ragged.csv"),
         "episode,t,x,y\na,0,1,1\na,1,2\n",

@@ -567,12 +567,25 @@ pub fn read_demonstrations_table(
 /// A CSV file with a header row (as pandas' `to_csv`, polars' `write_csv`, spreadsheets
 /// and ROS bag exporters write them) as one record batch, each column's type inferred
 /// from its values as Arrow infers them (integers, floats, text; empty fields null).
+/// The delimiter is the header's commonest of comma, semicolon and tab (a spreadsheet
+/// in a locale whose decimal mark is a comma saves semicolons); a UTF-8 byte-order
+/// mark (Excel's "CSV UTF-8") is passed over.
 fn read_csv(path: &Path) -> Result<RecordBatch> {
     use arrow::csv::reader::{Format, ReaderBuilder};
     let problem =
         |e: arrow::error::ArrowError| Error::input(path, format!("not a readable CSV file: {e}"));
-    let bytes = read_input(path)?;
-    let format = Format::default().with_header(true);
+    let mut bytes = read_input(path)?;
+    if bytes.starts_with(b"\xEF\xBB\xBF") {
+        bytes.drain(..3);
+    }
+    let header = bytes.split(|&b| b == b'\n').next().unwrap_or_default();
+    let delimiter = [b',', b';', b'\t']
+        .into_iter()
+        .max_by_key(|&d| (header.iter().filter(|&&b| b == d).count(), d == b','))
+        .unwrap_or(b',');
+    let format = Format::default()
+        .with_header(true)
+        .with_delimiter(delimiter);
     let (schema, _) = format
         .infer_schema(std::io::Cursor::new(&bytes), None)
         .map_err(problem)?;
