@@ -209,8 +209,33 @@ fn renamed_columns_and_a_default_map_read_other_peoples_tables() {
         &out,
         &[
             "theirs.parquet",
-            "no column 'episode'",
+            "no column 't'",
             "trajectory, time_s, px, py",
+        ],
+    );
+    // Without an episode column the table is one episode: its trajectories' times
+    // restart, and the error says which column to name.
+    let out = ingest(
+        dir.path(),
+        &[
+            "--demonstrations",
+            table,
+            "--column",
+            "t=time_s",
+            "--column",
+            "x=px",
+            "--column",
+            "y=py",
+            "--out",
+            "ds",
+        ],
+    );
+    assert_input_error(
+        &out,
+        &[
+            "theirs.parquet",
+            "goes back in time",
+            "--column episode=COLUMN",
         ],
     );
 
@@ -512,8 +537,9 @@ fn gps_tracks_in_gpx_files_land_on_a_utm_dem() {
 
 /// Routes an expert drew over a map in QGIS, saved as GeoJSON by GDAL's OGR: in the
 /// layer's UTM CRS (a legacy crs member) and as RFC 7946 longitude and latitude, a
-/// MultiLineString among them; and as GeoPackage line layers (QGIS's default), in UTM
-/// and in WGS 84, with Z. All give the same episodes on the same cells.
+/// MultiLineString among them; as GeoPackage line layers (QGIS's default), in UTM
+/// and in WGS 84, with Z; and as KML and KMZ from GDAL's KML and LIBKML drivers. All
+/// give the same episodes on the same cells.
 #[test]
 fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
     let dir = tempfile::tempdir().unwrap();
@@ -548,10 +574,19 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
         );
         assert!(out.status.success(), "{kind}: {}", stderr(&out));
     }
+    // And as Google Earth keeps them: KML from GDAL's two drivers, and a KMZ.
+    for kind in ["kml", "libkml", "kmz"] {
+        let file = text(kind);
+        let out = imitate(
+            dir.path(),
+            &["ingest", "--map", &raster, "--kml", &file, "--out", kind],
+        );
+        assert!(out.status.success(), "{kind}: {}", stderr(&out));
+    }
     let paths = |kind: &str| std::fs::read(dir.path().join(kind).join("paths.parquet")).unwrap();
-    assert_eq!(paths("utm"), paths("wgs84"));
-    assert_eq!(paths("utm"), paths("gpkg_utm"));
-    assert_eq!(paths("utm"), paths("gpkg_wgs84"));
+    for kind in ["wgs84", "gpkg_utm", "gpkg_wgs84", "kml", "libkml", "kmz"] {
+        assert_eq!(paths("utm"), paths(kind), "{kind}");
+    }
     let read = imitate::io::tables::read_paths(&dir.path().join("utm/paths.parquet")).unwrap();
     let names: Vec<&str> = read.iter().map(|p| p.episode.as_str()).collect();
     let episodes: Vec<String> = serde_json::from_value(info["episodes"].clone()).unwrap();
@@ -600,6 +635,7 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
             "holds no LineString or MultiLineString",
         ),
         ("--gpkg", &PathBuf::from(&raster), "not a GeoPackage"),
+        ("--kml", &points, "not KML"),
     ] {
         let out = imitate(
             dir.path(),

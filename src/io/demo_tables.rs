@@ -515,10 +515,17 @@ pub fn demonstrations_from_rows(
                 }
                 let last_t = d.poses.last().map_or(f64::NEG_INFINITY, |p| p.t);
                 if pose.t <= last_t {
+                    let hint = if whole_file {
+                        ": with no episode column the table is one episode; name the column \
+                         that tells episodes apart (--column episode=COLUMN)"
+                    } else {
+                        ""
+                    };
                     return Err(Error::input(
                         path,
                         format!(
-                            "record {i}: episode '{}' goes back in time (t {} after {last_t})",
+                            "record {i}: episode '{}' goes back in time (t {} after \
+                             {last_t}){hint}",
                             d.episode, pose.t
                         ),
                     ));

@@ -100,16 +100,38 @@ pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<Draw
         };
         demonstrations.extend(feature.episodes(&lines, default_map).map_err(&problem)?);
     }
-    warn_of_passed_over(path, passed_over);
-    if demonstrations.is_empty() {
-        return Err(problem(
-            "holds no LineString or MultiLineString: paths are lines".into(),
-        ));
-    }
-    Ok(DrawnPaths {
+    DrawnPaths::of_file(
+        path,
         demonstrations,
+        passed_over,
         crs,
-    })
+        "LineString or MultiLineString",
+    )
+}
+
+impl DrawnPaths {
+    /// The paths read from the file at `path`, `passed_over` features that were not
+    /// lines said in a warning; an error where it held no `lines` (what a path is in its
+    /// format).
+    pub(super) fn of_file(
+        path: &Path,
+        demonstrations: Vec<Demonstration>,
+        passed_over: usize,
+        crs: String,
+        lines: &str,
+    ) -> Result<DrawnPaths> {
+        warn_of_passed_over(path, passed_over);
+        if demonstrations.is_empty() {
+            return Err(Error::input(
+                path,
+                format!("holds no {lines}: paths are lines"),
+            ));
+        }
+        Ok(DrawnPaths {
+            demonstrations,
+            crs,
+        })
+    }
 }
 
 /// A line's positions [x, y] (any further coordinate dropped).

@@ -17,11 +17,11 @@ use crate::grid::{Demonstration, Pose};
 /// The CRS of every GPX file's coordinates (the GPX schema fixes WGS84).
 pub const GPX_CRS: &str = "EPSG:4326";
 
-/// One `<trkpt>`: where, and when if the file says.
-struct Fix {
-    lon: f64,
-    lat: f64,
-    time: Option<f64>,
+/// One `<trkpt>` (or a KML track's position): where, and when if the file says.
+pub(super) struct Fix {
+    pub lon: f64,
+    pub lat: f64,
+    pub time: Option<f64>,
 }
 
 /// The segments of each track of a GPX document, in file order.
@@ -55,21 +55,12 @@ pub fn read_gpx(path: &Path, map: &str) -> Result<Vec<Demonstration>> {
                 );
                 continue;
             }
-            let times = segment_times(fixes)
+            let poses = timed_poses(fixes)
                 .map_err(|why| Error::input(path, format!("track {t} segment {s}: {why}")))?;
             demos.push(Demonstration {
                 episode,
                 map: map.to_string(),
-                poses: fixes
-                    .iter()
-                    .zip(times)
-                    .map(|(fix, t)| Pose {
-                        t,
-                        x: fix.lon,
-                        y: fix.lat,
-                        yaw: None,
-                    })
-                    .collect(),
+                poses,
             });
         }
     }
@@ -81,6 +72,22 @@ pub fn read_gpx(path: &Path, map: &str) -> Result<Vec<Demonstration>> {
         ));
     }
     Ok(demos)
+}
+
+/// A segment's fixes as poses (x the longitude, y the latitude), timed as
+/// [`segment_times`] times them.
+pub(super) fn timed_poses(fixes: &[Fix]) -> std::result::Result<Vec<Pose>, String> {
+    let times = segment_times(fixes)?;
+    Ok(fixes
+        .iter()
+        .zip(times)
+        .map(|(fix, t)| Pose {
+            t,
+            x: fix.lon,
+            y: fix.lat,
+            yaw: None,
+        })
+        .collect())
 }
 
 /// Seconds from a segment's first point: its times where every point has one, else the
@@ -258,7 +265,7 @@ fn read_fix(tag: &BytesStart) -> std::result::Result<Fix, String> {
 
 /// Seconds since the Unix epoch of an xsd:dateTime (`2024-05-01T10:00:00Z`, with
 /// fractions or an offset; without an offset, UTC, as GPX says its times are).
-fn parse_time(text: &str) -> std::result::Result<f64, String> {
+pub(super) fn parse_time(text: &str) -> std::result::Result<f64, String> {
     let parsed = OffsetDateTime::parse(text, &Iso8601::PARSING).or_else(|_| {
         time::PrimitiveDateTime::parse(text, &Iso8601::PARSING).map(|t| t.assume_utc())
     });

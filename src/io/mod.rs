@@ -16,6 +16,7 @@ pub mod gpx;
 pub mod hfa;
 pub mod hgt;
 pub mod jp2;
+pub mod kml;
 pub mod leftovers;
 pub mod mbtiles;
 pub mod mcap;

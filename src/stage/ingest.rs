@@ -1,8 +1,8 @@
 //! `ingest`: maps and demonstrations in, a dataset out: the maps, the demonstrations,
 //! and each demonstration rasterised into a connected 8-neighbour cell path. Maps come
 //! from Parquet tables, GeoTIFF rasters, MovingAI `.map` files or the logs' map topic;
-//! demonstrations from a Parquet table, LeRobot datasets, GPS tracks (GPX), drawn paths
-//! (GeoJSON, GeoPackage) or robot logs (MCAP).
+//! demonstrations from a Parquet or CSV table, LeRobot datasets, GPS tracks (GPX), drawn
+//! paths (GeoJSON, GeoPackage, KML) or robot logs (MCAP).
 
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
@@ -21,6 +21,7 @@ use crate::io::demo_tables::{Columns, read_demonstrations_table, read_lerobot};
 use crate::io::geojson::{DrawnPaths, read_geojson_paths};
 use crate::io::geopackage_paths::read_geopackage_paths;
 use crate::io::gpx::{GPX_CRS, read_gpx};
+use crate::io::kml::read_kml_paths;
 use crate::io::mcap::episodes::{Split, TopicMapping, read_log};
 use crate::io::mcap::frames::Planar;
 use crate::io::movingai;
@@ -125,6 +126,14 @@ pub struct IngestParams {
     #[arg(long = "gpkg", value_name = "FILE", num_args = 1..)]
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub gpkg: Vec<PathBuf>,
+    /// Paths as KML or KMZ (routes drawn in Google Earth or My Maps, tracks recorded as
+    /// gx:Track): every LineString of a Placemark an episode timed by its vertices'
+    /// order, every gx:Track one timed by its <when>s, named by the placemark's <name>,
+    /// on the map its ExtendedData field `map` names or the default map; WGS 84
+    /// longitude and latitude moved into the map's CRS. Several after one --kml.
+    #[arg(long = "kml", value_name = "FILE", num_args = 1..)]
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub kml: Vec<PathBuf>,
     /// LeRobot v2/v3 dataset folders (meta/info.json, data/chunk-*/...parquet); the pose
     /// is read from observation.state elements named x, y (yaw) unless --column says.
     #[arg(long = "lerobot", value_name = "DIR", num_args = 1..)]
@@ -530,7 +539,11 @@ impl IngestParams {
                 read_geopackage_paths(path, default_map)?,
             ))
         });
-        for read in geojson.chain(gpkg) {
+        let kml = self
+            .kml
+            .iter()
+            .map(|path| Ok((path, "KML", vec![read_kml_paths(path, default_map)?])));
+        for read in geojson.chain(gpkg).chain(kml) {
             let (path, format, layers): (&PathBuf, &str, Vec<DrawnPaths>) = read?;
             for drawn in layers {
                 let mut paths: Vec<_> = drawn
@@ -606,6 +619,7 @@ impl StageParams for IngestParams {
         deps.extend(self.gpx.iter().cloned());
         deps.extend(self.geojson.iter().cloned());
         deps.extend(self.gpkg.iter().cloned());
+        deps.extend(self.kml.iter().cloned());
         deps
     }
 
@@ -638,10 +652,11 @@ impl IngestParams {
             && self.gpx.is_empty()
             && self.geojson.is_empty()
             && self.gpkg.is_empty()
+            && self.kml.is_empty()
         {
             return Err(Error::Usage(
-                "ingest needs demonstrations: a Parquet table, LeRobot datasets, GPS tracks \
-                 (GPX), paths (GeoJSON, GeoPackage) or logs (MCAP)"
+                "ingest needs demonstrations: a Parquet or CSV table, LeRobot datasets, GPS \
+                 tracks (GPX), paths (GeoJSON, GeoPackage, KML) or logs (MCAP)"
                     .into(),
             ));
         }

@@ -2,7 +2,8 @@
 by GDAL's OGR (pyogrio), once in the layer's CRS (UTM 32N, with the legacy crs member
 OGR writes) and once as RFC 7946 asks (WGS 84 longitude and latitude, 7 decimals), the
 last route a MultiLineString of two strokes; the same routes as GeoPackage line layers
-(as QGIS saves a new layer), in UTM and in WGS 84, with Z; a GeoPackage of points alone.
+(as QGIS saves a new layer), in UTM and in WGS 84, with Z; as KML from GDAL's KML and
+LIBKML drivers and as LIBKML's KMZ; a GeoPackage of points alone.
 Beside them a DEM in the same UTM zone (rasterio). Prints one JSON line: the files and
 the routes' names in order."""
 
@@ -59,6 +60,17 @@ for kind, crs in [("utm", "EPSG:32632"), ("wgs84", "EPSG:4326")]:
                       field_data=[names], fields=["name"], crs=crs, driver="GPKG",
                       geometry_type="Unknown", layer="routes")
     files[f"gpkg_{kind}"] = path
+# The same routes as Google Earth keeps them: KML from GDAL's KML and LIBKML drivers,
+# and LIBKML's zipped KMZ (WGS 84, as KML fixes it; the MultiLineString a
+# MultiGeometry of two LineStrings).
+_, _, wkb, _ = pyogrio.raw.read(files["wgs84"])
+for kind, driver, name in [("kml", "KML", "routes.kml"), ("libkml", "LIBKML", "routes_libkml.kml"),
+                           ("kmz", "LIBKML", "routes.kmz")]:
+    path = os.path.join(out, name)
+    pyogrio.raw.write(path, geometry=np.array(wkb, dtype=object), field_data=[names],
+                      fields=["Name"], crs="EPSG:4326", driver=driver, geometry_type="Unknown",
+                      layer="routes")
+    files[kind] = path
 points = os.path.join(out, "points.gpkg")
 pyogrio.raw.write(points, geometry=np.array([shapely.to_wkb(shapely.Point(at(3, 3)))],
                                             dtype=object),
