@@ -266,13 +266,13 @@ fn files_that_are_not_mcap_are_input_errors() {
         let out = imitate(dir.path(), &[command, "missing.mcap"]);
         assert_input_error(&out, &["missing.mcap", "no such file"]);
     }
-    // A file of a format `inspect` does not read (an ER Mapper grid) is named as such,
+    // A file of a format `inspect` does not read (a NITF image) is named as such,
     // with what it does read, not taken for a damaged log.
-    std::fs::write(dir.path().join("grid.ers"), b"DatasetHeader Begin").unwrap();
-    let out = imitate(dir.path(), &["inspect", "grid.ers"]);
+    std::fs::write(dir.path().join("scene.ntf"), b"NITF02.10").unwrap();
+    let out = imitate(dir.path(), &["inspect", "scene.ntf"]);
     assert_input_error(
         &out,
-        &["grid.ers", "not a file `inspect` reads", ".tif", ".zarr"],
+        &["scene.ntf", "not a file `inspect` reads", ".tif", ".zarr"],
     );
     // A log under another name is still read as a log.
     let log = std::fs::read(mcap_crate_test_data().join("compressed.mcap")).unwrap();
