@@ -588,6 +588,33 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
         assert_eq!(paths("utm"), paths(kind), "{kind}");
     }
     let read = imitate::io::tables::read_paths(&dir.path().join("utm/paths.parquet")).unwrap();
+    // The first two routes as a recorded track's points (GDAL's GeoJSON of a GPX
+    // file's track_points): tracks named by their track_fid, on the same cells.
+    let out = imitate(
+        dir.path(),
+        &[
+            "ingest",
+            "--map",
+            &raster,
+            "--geojson",
+            &text("track_points"),
+            "--out",
+            "track_points",
+        ],
+    );
+    assert!(out.status.success(), "track points: {}", stderr(&out));
+    let tracks =
+        imitate::io::tables::read_paths(&dir.path().join("track_points/paths.parquet")).unwrap();
+    let names: Vec<&str> = tracks.iter().map(|p| p.episode.as_str()).collect();
+    assert_eq!(names, ["track_points-track-000", "track_points-track-001"]);
+    assert_eq!(tracks[0].cells, read[0].cells);
+    assert_eq!(tracks[1].cells, read[1].cells);
+    let timed = imitate::io::demo_tables::read_demonstrations(
+        &dir.path().join("track_points/demonstrations.parquet"),
+    )
+    .unwrap();
+    let times: Vec<f64> = timed[0].poses.iter().map(|p| p.t).collect();
+    assert_eq!(times, [0.0, 3.0, 6.0], "timed by the fixes' time");
     let names: Vec<&str> = read.iter().map(|p| p.episode.as_str()).collect();
     let episodes: Vec<String> = serde_json::from_value(info["episodes"].clone()).unwrap();
     assert_eq!(names, episodes);
@@ -627,7 +654,7 @@ fn routes_drawn_in_qgis_as_geojson_are_demonstrations() {
     .unwrap();
     let points_gpkg = PathBuf::from(text("points_gpkg"));
     for (flag, file, says) in [
-        ("--geojson", &points, "holds no LineString"),
+        ("--geojson", &points, "has 1 point(s); a path needs 2"),
         ("--geojson", &odd, "names 'my local grid', not an EPSG code"),
         (
             "--gpkg",

@@ -7,8 +7,9 @@
 //!
 //! Read: the routes an expert drew over imagery in QGIS or geojson.io, or recorded, as
 //! demonstrations: every LineString, and every part of a MultiLineString, an episode
-//! from its first vertex to its last. Coordinates are WGS 84 longitude and latitude, or
-//! the CRS a legacy `crs` member names (QGIS writes one for layers in other CRSs).
+//! from its first vertex to its last; a file of Points alone, a track recorded fix by
+//! fix. Coordinates are WGS 84 longitude and latitude, or the CRS a legacy `crs` member
+//! names (QGIS writes one for layers in other CRSs).
 
 use std::path::Path;
 
@@ -31,7 +32,8 @@ pub struct DrawnPaths {
 /// The paths of the GeoJSON file at `path`, on the map its features' `map` property
 /// names or else `default_map`. Episodes are named by a feature's `episode` or `name`
 /// property, else `<stem>-NNN` (its index), with `-K` for the parts of a
-/// MultiLineString; they are timed by their vertices' order.
+/// MultiLineString; they are timed by their vertices' order. A file of Points alone is
+/// a recorded track ([`point_tracks`]).
 pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<DrawnPaths> {
     let problem = |message: String| Error::input(path, message);
     let document: Value = serde_json::from_slice(&read_input(path)?)
@@ -59,6 +61,7 @@ pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<Draw
         .unwrap_or_default();
     let mut demonstrations = Vec::new();
     let mut passed_over = 0;
+    let mut points = Vec::new();
     for (index, feature) in features.iter().enumerate() {
         let (geometry, properties) = if feature["type"] == "Feature" {
             (&feature["geometry"], &feature["properties"])
@@ -71,16 +74,17 @@ pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<Draw
                 .as_array()
                 .map(|parts| parts.iter().collect())
                 .unwrap_or_default(),
+            Some("Point") => {
+                points.push((index, &geometry["coordinates"], properties));
+                passed_over += 1;
+                continue;
+            }
             _ => {
                 passed_over += 1;
                 continue;
             }
         };
-        let label = |key: &str| match &properties[key] {
-            Value::String(s) if !s.trim().is_empty() => Some(s.trim().to_string()),
-            Value::Number(n) => Some(n.to_string()),
-            _ => None,
-        };
+        let label = |key: &str| label(properties, key);
         let name = label("episode")
             .or_else(|| label("name"))
             .unwrap_or_else(|| format!("{stem}-{index:03}"));
@@ -100,13 +104,95 @@ pub fn read_geojson_paths(path: &Path, default_map: Option<&str>) -> Result<Draw
         };
         demonstrations.extend(feature.episodes(&lines, default_map).map_err(&problem)?);
     }
+    // A file of points alone is a recorded track (a GPS logger's export, GDAL's GPX
+    // `track_points` layer): its points in file order.
+    if demonstrations.is_empty() && !points.is_empty() {
+        demonstrations = point_tracks(&stem, &points, default_map).map_err(&problem)?;
+        passed_over -= points.len();
+    }
     DrawnPaths::of_file(
         path,
         demonstrations,
         passed_over,
         crs,
-        "LineString or MultiLineString",
+        "LineString, MultiLineString or track of Points",
     )
+}
+
+/// A feature's property `key` as text (a string, or a number's decimal text).
+fn label(properties: &Value, key: &str) -> Option<String> {
+    match &properties[key] {
+        Value::String(s) if !s.trim().is_empty() => Some(s.trim().to_string()),
+        Value::Number(n) => Some(n.to_string()),
+        _ => None,
+    }
+}
+
+/// Point features (index, coordinates, properties) as tracks: grouped by their
+/// `episode` property, else GDAL's `track_fid` and `track_seg_id` (`<stem>-track-NNN`,
+/// `-MMM` for a segment after the first), else one track named after the file; each in
+/// file order, timed by every point's `time` (or `timestamp`) as a GPX segment by its
+/// times, else by their order; on the map the first point's `map` names or `default_map`.
+fn point_tracks(
+    stem: &str,
+    points: &[(usize, &Value, &Value)],
+    default_map: Option<&str>,
+) -> std::result::Result<Vec<Demonstration>, String> {
+    let mut tracks: Vec<(String, Option<String>, Vec<super::gpx::Fix>)> = Vec::new();
+    for &(index, coordinates, properties) in points {
+        let name = label(properties, "episode").unwrap_or_else(|| {
+            match (
+                label(properties, "track_fid"),
+                label(properties, "track_seg_id"),
+            ) {
+                (Some(track), Some(segment)) if segment != "0" => {
+                    format!("{stem}-track-{track:0>3}-{segment:0>3}")
+                }
+                (Some(track), _) => format!("{stem}-track-{track:0>3}"),
+                (None, _) => stem.to_string(),
+            }
+        });
+        let [lon, lat] = positions(&Value::Array(vec![coordinates.clone()]))
+            .map_err(|why| format!("feature {index}: {why}"))?[0];
+        let time = label(properties, "time")
+            .or_else(|| label(properties, "timestamp"))
+            .map(|text| {
+                super::gpx::parse_time(&text)
+                    .map_err(|why| format!("feature {index}: its time '{text}' {why}"))
+            })
+            .transpose()?;
+        let fix = super::gpx::Fix { lon, lat, time };
+        match tracks.iter_mut().find(|(n, ..)| *n == name) {
+            Some((.., fixes)) => fixes.push(fix),
+            None => tracks.push((name, label(properties, "map"), vec![fix])),
+        }
+    }
+    tracks
+        .into_iter()
+        .map(|(episode, map, fixes)| {
+            let map = map
+                .or_else(|| default_map.map(String::from))
+                .ok_or_else(|| {
+                    format!(
+                        "track '{episode}' names no map (a 'map' property) and no default map \
+                         is given (--default-map)"
+                    )
+                })?;
+            if fixes.len() < 2 {
+                return Err(format!(
+                    "track '{episode}' has {} point(s); a path needs 2",
+                    fixes.len()
+                ));
+            }
+            let poses = super::gpx::timed_poses(&fixes)
+                .map_err(|why| format!("track '{episode}': {why}"))?;
+            Ok(Demonstration {
+                episode,
+                map,
+                poses,
+            })
+        })
+        .collect()
 }
 
 impl DrawnPaths {
@@ -318,6 +404,60 @@ mod tests {
         assert_eq!(crs("urn:ogc:def:crs:OGC:1.3:CRS84").unwrap(), GEOJSON_CRS);
         assert_eq!(legacy_crs(&json!({})).unwrap(), GEOJSON_CRS);
         assert!(crs("urn:ogc:def:crs:EPSG::").is_err());
+    }
+
+    #[test]
+    fn points_alone_become_tracks_grouped_by_their_properties() {
+        let point = |x: f64, properties: Value| {
+            (
+                json!({"type": "Point", "coordinates": [x, 1.0]}),
+                properties,
+            )
+        };
+        let collection = |features: Vec<(Value, Value)>| -> Vec<(usize, Value, Value)> {
+            features
+                .into_iter()
+                .enumerate()
+                .map(|(i, (g, p))| (i, g["coordinates"].clone(), p))
+                .collect()
+        };
+        let read = |features: &[(usize, Value, Value)]| {
+            let refs: Vec<(usize, &Value, &Value)> =
+                features.iter().map(|(i, c, p)| (*i, c, p)).collect();
+            point_tracks("fixes", &refs, Some("site"))
+        };
+        // Untimed points of no group: one track named after the file, timed by order.
+        let plain = collection((0..3).map(|i| point(f64::from(i), json!({}))).collect());
+        let tracks = read(&plain).unwrap();
+        assert_eq!(tracks.len(), 1);
+        assert_eq!(
+            (tracks[0].episode.as_str(), tracks[0].map.as_str()),
+            ("fixes", "site")
+        );
+        assert_eq!(tracks[0].poses[2].t, 2.0);
+        // Grouped by `episode`, interleaved in the file.
+        let grouped = collection(vec![
+            point(0.0, json!({"episode": "a"})),
+            point(1.0, json!({"episode": "b"})),
+            point(2.0, json!({"episode": "a", "map": "elsewhere"})),
+            point(3.0, json!({"episode": "b"})),
+        ]);
+        let tracks = read(&grouped).unwrap();
+        let names: Vec<&str> = tracks.iter().map(|t| t.episode.as_str()).collect();
+        assert_eq!(names, ["a", "b"]);
+        assert_eq!(tracks[0].poses[1].x, 2.0);
+        // A track of one point, and a time that is not one, say which.
+        let lonely = collection(vec![point(0.0, json!({"episode": "a"}))]);
+        assert!(read(&lonely).unwrap_err().contains("'a' has 1 point(s)"));
+        let untimely = collection(vec![
+            point(0.0, json!({"time": "soon"})),
+            point(1.0, json!({"time": "later"})),
+        ]);
+        assert!(
+            read(&untimely)
+                .unwrap_err()
+                .contains("feature 0: its time 'soon'")
+        );
     }
 
     #[test]

@@ -3,7 +3,8 @@ by GDAL's OGR (pyogrio), once in the layer's CRS (UTM 32N, with the legacy crs m
 OGR writes) and once as RFC 7946 asks (WGS 84 longitude and latitude, 7 decimals), the
 last route a MultiLineString of two strokes; the same routes as GeoPackage line layers
 (as QGIS saves a new layer), in UTM and in WGS 84, with Z; as KML from GDAL's KML and
-LIBKML drivers and as LIBKML's KMZ; a GeoPackage of points alone.
+LIBKML drivers and as LIBKML's KMZ; the first two as a GPX track's points converted
+to GeoJSON by GDAL; a GeoPackage of points alone.
 Beside them a DEM in the same UTM zone (rasterio). Prints one JSON line: the files and
 the routes' names in order."""
 
@@ -71,6 +72,22 @@ for kind, driver, name in [("kml", "KML", "routes.kml"), ("libkml", "LIBKML", "r
                       fields=["Name"], crs="EPSG:4326", driver=driver, geometry_type="Unknown",
                       layer="routes")
     files[kind] = path
+# The two single-stroke routes as a recorded track's points, as GDAL converts a GPX
+# file's `track_points` layer to GeoJSON (ogr2ogr ... track_points): one Point a fix,
+# with `track_fid`, `track_seg_id` and `time`.
+fids, segments, times, vertices = [], [], [], []
+for fid, (name, line) in enumerate(routes[:2]):
+    for k, (x, y) in enumerate(line.coords):
+        fids.append(fid)
+        segments.append(0)
+        times.append(f"2024-05-01T10:{fid:02d}:{3 * k:02d}Z")
+        vertices.append(shapely.to_wkb(shapely.Point(x, y)))
+track_points = os.path.join(out, "track_points.geojson")
+pyogrio.raw.write(track_points, geometry=np.array(vertices, dtype=object),
+                  field_data=[np.array(fids), np.array(segments), np.array(times, dtype=object)],
+                  fields=["track_fid", "track_seg_id", "time"], crs="EPSG:32632",
+                  driver="GeoJSON", geometry_type="Point")
+files["track_points"] = track_points
 points = os.path.join(out, "points.gpkg")
 pyogrio.raw.write(points, geometry=np.array([shapely.to_wkb(shapely.Point(at(3, 3)))],
                                             dtype=object),
